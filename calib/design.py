@@ -1,0 +1,160 @@
+"""The design-matrix view: named terms, per-axis design matrices, weighted least squares.
+
+Every accelerometer model here is linear in its parameters once the nominal
+specific force, the temperature and the time of each step are known:
+
+    a_j = sum_i p_ji * column_i(f, T, t)          for output axis j
+
+A :class:`Term` is one named column with its unit; a :class:`LinearModel`
+lists the terms that enter each output axis. The seed's triangular model,
+the 12-parameter model, the thermal bias polynomial and any term the
+discrepancy workflow adds are all just term lists; one solver serves them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from calib.data import StepMeans
+from calib.errors import ObservabilityError
+
+AXES = "xyz"
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """What the columns are functions of (one row per step)."""
+
+    f_g: np.ndarray  # (K, 3) nominal specific force, g
+    temp_c: np.ndarray | None  # (K,)
+    t_s: np.ndarray  # (K,)
+    t0_c: float = 25.0
+
+    @classmethod
+    def from_steps(cls, steps: StepMeans, t0_c: float | None = None) -> "Inputs":
+        t0 = t0_c if t0_c is not None else (float(np.mean(steps.temp_c)) if steps.temp_c is not None else 25.0)
+        return cls(np.asarray(steps.f_nominal_g, float), steps.temp_c, np.asarray(steps.t_s, float), t0)
+
+
+@dataclass(frozen=True)
+class Term:
+    """One named column of a design matrix.
+
+    Attributes
+    ----------
+    name : parameter name (e.g. ``b_x``, ``k_x``, ``m_xy``, ``c1_x``).
+    unit : unit of the parameter (counts, counts/g, counts/C, ...).
+    column : function of :class:`Inputs` -> (K,) column.
+    needs : which inputs it needs ("temp", "time"), for observability messages.
+    hint : what coverage determines it, for observability messages.
+    """
+
+    name: str
+    unit: str
+    column: Callable[[Inputs], np.ndarray]
+    needs: tuple[str, ...] = ()
+    hint: str = ""
+
+
+def const_term(axis: str) -> Term:
+    return Term(f"b_{axis}", "counts", lambda x: np.ones(len(x.f_g)), hint="any pose")
+
+
+def force_term(name: str, component: int) -> Term:
+    ax = AXES[component]
+    return Term(name, "counts/g", lambda x, c=component: x.f_g[:, c],
+                hint=f"poses with gravity along +{ax.upper()} and -{ax.upper()}")
+
+
+def temp_term(axis: str, order: int) -> Term:
+    return Term(f"c{order}_{axis}", f"counts/C^{order}" if order > 1 else "counts/C",
+                lambda x, s=order: (x.temp_c - x.t0_c) ** s, needs=("temp",),
+                hint="steps at several temperatures")
+
+
+@dataclass
+class LinearModel:
+    """Terms per output axis (x, y, z)."""
+
+    terms: dict[str, list[Term]] = field(default_factory=dict)
+
+    def with_terms(self, axis: str, extra: list[Term]) -> "LinearModel":
+        t = {a: list(v) for a, v in self.terms.items()}
+        t[axis] = t.get(axis, []) + list(extra)
+        return LinearModel(t)
+
+    def design(self, axis: str, x: Inputs) -> np.ndarray:
+        cols = [np.asarray(term.column(x), float) for term in self.terms[axis]]
+        return np.stack(cols, axis=1)
+
+    def names(self, axis: str) -> list[str]:
+        return [t.name for t in self.terms[axis]]
+
+
+@dataclass
+class AxisFit:
+    """Weighted least-squares result for one output axis."""
+
+    names: list[str]
+    params: np.ndarray  # (P,)
+    cov: np.ndarray  # (P, P), 1-sigma^2, after the misfit rule
+    cov_noise: np.ndarray  # (P, P) from the within-step scatter alone
+    residuals: np.ndarray  # (K,) counts
+    chi2: float
+    dof: int
+    inflated: bool  # covariance scaled by chi2/dof (significant misfit)
+
+
+def check_rank(g: np.ndarray, names: list[str], terms: list[Term], axis: str, cond_max: float = 1e10) -> None:
+    """Raise ObservabilityError naming the parameters the design leaves undetermined."""
+    k, p = g.shape
+    if k == 0:
+        raise ObservabilityError(f"axis {axis}: no steps to solve from")
+    scale = np.linalg.norm(g, axis=0)
+    scale[scale == 0] = 1.0
+    gs = g / scale
+    s = np.linalg.svd(gs, compute_uv=False)
+    rank_ok = k >= p and s[-1] > s[0] / cond_max
+    if rank_ok:
+        return
+    if k < p:
+        bad = names
+    else:
+        _, sv, vt = np.linalg.svd(gs)
+        null = vt[sv < sv[0] / cond_max] if np.any(sv < sv[0] / cond_max) else vt[-1:]
+        bad = [n for n, v in zip(names, np.abs(null).max(axis=0)) if v > 1e-6]
+    hints = sorted({t.hint for t in terms if t.name in bad and t.hint})
+    raise ObservabilityError(
+        f"the pose set leaves {', '.join(bad)} undetermined (axis {axis}: {k} steps, {p} parameters"
+        + (f"; needs {'; '.join(hints)}" if hints else "") + ")")
+
+
+def solve_wls(g: np.ndarray, y: np.ndarray, sem: np.ndarray, names: list[str],
+              misfit_p: float = 0.01) -> AxisFit:
+    """Weighted least squares with 1/sem^2 weights.
+
+    Covariance: ``(G^T W G)^-1`` from the within-step scatter; when the residuals'
+    chi-square is significant at level ``misfit_p`` (the model misses something),
+    it is scaled by chi2/dof so sigmas reflect the misfit too.
+    """
+    w = 1.0 / sem
+    gw = g * w[:, None]
+    yw = y * w
+    q, r = np.linalg.qr(gw)
+    params = np.linalg.solve(r, q.T @ yw)
+    rinv = np.linalg.inv(r)
+    cov0 = rinv @ rinv.T
+    res = y - g @ params
+    chi2 = float(np.sum((res * w) ** 2))
+    dof = g.shape[0] - g.shape[1]
+    inflated = False
+    cov = cov0
+    if dof > 0:
+        from scipy.stats import chi2 as chi2_dist
+        if chi2_dist.sf(chi2, dof) < misfit_p:
+            cov = cov0 * (chi2 / dof)
+            inflated = True
+    return AxisFit(list(names), params, cov, cov0, res, chi2, dof, inflated)

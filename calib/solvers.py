@@ -1,0 +1,291 @@
+"""Solvers: the seed's six-position pseudo-inverse (with its thermal bias model) and the peers' methods.
+
+- ``method="pinv"``: the seed's per-axis pseudo-solution p_j = G_j^+ a_j, here with
+  1/sem^2 weights (equal weights give exactly the paper's G_j^+ a_j when every step
+  has the same scatter); ``model="triangular"`` (the paper) or ``"full"`` (12 parameters).
+- ``method="flip"``: the two-position (test-rotation) method: bias and scale from +/- pairs.
+- ``method="combinations"``: the average of the exactly-determined solutions over all
+  C(m, N) subsets of the m poses (the 12- and 6-position schemes of the paper's references).
+- ``thermal``: "auto" | "off" | S adds the bias polynomial of order S in (T - t0) (eq. 4/5),
+  solved jointly with the static model (the overdetermined least squares of eq. 7).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from calib.data import StepMeans
+from calib.design import (AXES, Inputs, LinearModel, check_rank, const_term, force_term, solve_wls,
+                          temp_term)
+from calib.errors import CalibError, ObservabilityError
+from calib.models import AccelCalibration, FitSummary, ThermalModel
+
+THERMAL_AUTO_MIN_SPAN_C = 2.0
+
+TRIANGULAR_NAMES = {"x": ["b_x", "k_x", "kx_ayz", "kx_azy"], "y": ["b_y", "k_y", "ky_azx"], "z": ["b_z", "k_z"]}
+
+
+def triangular_model() -> LinearModel:
+    """The seed's model: G_x = [1, gx, gy, gz], G_y = [1, gy, gz], G_z = [1, gz]."""
+    return LinearModel({
+        "x": [const_term("x"), force_term("k_x", 0), force_term("kx_ayz", 1), force_term("kx_azy", 2)],
+        "y": [const_term("y"), force_term("k_y", 1), force_term("ky_azx", 2)],
+        "z": [const_term("z"), force_term("k_z", 2)],
+    })
+
+
+def full_model() -> LinearModel:
+    """Bias + full 3x3 matrix (12 parameters)."""
+    return LinearModel({a: [const_term(a)] + [force_term(f"m_{a}{c}", i) for i, c in enumerate(AXES)] for a in AXES})
+
+
+def base_model(model: str) -> LinearModel:
+    if model == "triangular":
+        return triangular_model()
+    if model == "full":
+        return full_model()
+    raise CalibError(f"unknown model {model!r} (allowed: triangular, full)")
+
+
+def thermal_order(steps: StepMeans, thermal) -> int:
+    """Resolve thermal='auto'|'off'|S to an order (0 = no temperature terms)."""
+    if thermal in ("off", None, 0, False):
+        return 0
+    if thermal == "auto":
+        if steps.temp_c is None:
+            return 0
+        return 1 if np.ptp(steps.temp_c) >= THERMAL_AUTO_MIN_SPAN_C else 0
+    if isinstance(thermal, (int, np.integer)) and not isinstance(thermal, bool) and 1 <= thermal <= 3:
+        if steps.temp_c is None:
+            raise ObservabilityError("thermal model requested but the session has no temperatures "
+                                     "(the sensor has no thermometer): use thermal off")
+        return int(thermal)
+    raise CalibError(f"thermal must be auto, off or an order 1..3, got {thermal!r}")
+
+
+def solve(steps: StepMeans, *, model: str = "triangular", method: str = "pinv", thermal="auto",
+          t0_c: float | None = None) -> AccelCalibration:
+    """Solve a calibration from per-step means. See the module docstring for the choices."""
+    if method == "pinv":
+        return _solve_linear(steps, model, thermal, t0_c, "pinv")
+    if method == "flip":
+        return solve_flip(steps, thermal=thermal)
+    if method == "combinations":
+        return solve_combinations(steps, model=model, thermal=thermal, t0_c=t0_c)
+    if method == "magnitude":
+        try:
+            from calib.magnitude import solve_magnitude
+        except ImportError:
+            raise CalibError("method 'magnitude' is not available in this version") from None
+        return solve_magnitude(steps)
+    raise CalibError(f"unknown method {method!r} (allowed: pinv, flip, combinations, magnitude)")
+
+
+def _model_with_thermal(steps, model, thermal, t0_c):
+    order = thermal_order(steps, thermal)
+    lm = base_model(model)
+    if order:
+        for a in AXES:
+            lm = lm.with_terms(a, [temp_term(a, s) for s in range(1, order + 1)])
+    x = Inputs.from_steps(steps, t0_c)
+    return lm, x, order
+
+
+def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> AccelCalibration:
+    lm, x, order = _model_with_thermal(steps, model, thermal, t0_c)
+    fits = {}
+    for j, a in enumerate(AXES):
+        g = lm.design(a, x)
+        check_rank(g, lm.names(a), lm.terms[a], a)
+        fits[a] = solve_wls(g, steps.mean_counts[:, j], steps.sem_counts[:, j], lm.names(a))
+    return assemble(steps, model, fits, order, x.t0_c, method)
+
+
+def assemble(steps: StepMeans, model: str, fits: dict, order: int, t0_c: float, method: str,
+             effects: list | None = None) -> AccelCalibration:
+    """Map per-axis fitted parameters to the calibration's named quantities (with sigmas)."""
+    m = np.zeros((3, 3))
+    sm = np.zeros((3, 3))
+    b = np.zeros(3)
+    sb = np.zeros(3)
+    coef = np.zeros((3, max(order, 1)))
+    scoef = np.zeros((3, max(order, 1)))
+    for j, a in enumerate(AXES):
+        fit = fits[a]
+        p = dict(zip(fit.names, fit.params))
+        s = dict(zip(fit.names, np.sqrt(np.diag(fit.cov))))
+        b[j], sb[j] = p[f"b_{a}"], s[f"b_{a}"]
+        for s_ in range(1, order + 1):
+            coef[j, s_ - 1], scoef[j, s_ - 1] = p[f"c{s_}_{a}"], s[f"c{s_}_{a}"]
+        if model == "triangular":
+            names = TRIANGULAR_NAMES[a]
+            cols = {"x": [0, 1, 2], "y": [1, 2], "z": [2]}[a]
+            for name, c in zip(names[1:], cols):
+                m[j, c], sm[j, c] = p[name], s[name]
+        elif model == "full":
+            for c, cc in enumerate(AXES):
+                m[j, c], sm[j, c] = p[f"m_{a}{cc}"], s[f"m_{a}{cc}"]
+        else:  # diagonal
+            m[j, j], sm[j, j] = p[f"k_{a}"], s[f"k_{a}"]
+    if np.any(np.diag(m) <= 0):
+        raise CalibError("solved scale factor is not positive: the poses' f_nominal do not match the data "
+                         "(wrong pose labels or sensor axes?)")
+    misalignment = smis = None
+    if model == "triangular":
+        misalignment, smis = _angles(fits)
+    res = np.concatenate([fits[a].residuals for a in AXES])
+    chi2 = sum(fits[a].chi2 for a in AXES)
+    dof = sum(fits[a].dof for a in AXES)
+    sigma = {"bias_counts": sb.tolist(), "scale_counts_per_g": np.diag(sm).tolist(),
+             "matrix_counts_per_g": sm.tolist(), "misalignment": smis,
+             "temperature": {"coefficients": scoef[:, :order].tolist()} if order else None}
+    thermal = ThermalModel(float(t0_c), order, coef[:, :order]) if order else None
+    fit = FitSummary(steps=len(steps), samples=int(np.sum(steps.n_samples)),
+                     residual_rms_g=float(np.sqrt(np.mean(res**2)) / steps.lsb_per_g),
+                     chi2_per_dof=float(chi2 / dof) if dof > 0 else float("nan"), method=method)
+    return AccelCalibration(model=model, lsb_per_g=float(steps.lsb_per_g), bias_counts=b,
+                            scale_counts_per_g=np.diag(m).copy(), misalignment=misalignment,
+                            matrix_counts_per_g=m, temperature=thermal, sigma=sigma, fit=fit,
+                            effects=list(effects or []))
+
+
+def _angles(fits) -> tuple[dict, dict]:
+    """The paper's angles from the pseudo-solution, with delta-method sigmas.
+
+    With T = [[1, -a_yz, a_zy], [0, 1, -a_zx], [0, 0, 1]] and a = k T^-1 g + b:
+    p_x = [b_x, k_x, k_x a_yz, -k_x (a_zy - a_yz a_zx)], p_y = [b_y, k_y, k_y a_zx], p_z = [b_z, k_z], so
+    a_yz = p_x3/p_x2, a_zx = p_y3/p_y2, a_zy = -p_x4/p_x2 + a_yz a_zx (radians).
+    """
+    px, py = fits["x"].params, fits["y"].params
+    cx, cy = fits["x"].cov, fits["y"].cov
+    a_yz = px[2] / px[1]
+    a_zx = py[2] / py[1]
+    a_zy = -px[3] / px[1] + a_yz * a_zx
+    # Jacobians (first 4 params of x, first 3 of y)
+    j_yz = np.zeros(4); j_yz[1] = -px[2] / px[1] ** 2; j_yz[2] = 1 / px[1]
+    j_zx = np.zeros(3); j_zx[1] = -py[2] / py[1] ** 2; j_zx[2] = 1 / py[1]
+    jx = np.zeros(4)
+    jx[1] = px[3] / px[1] ** 2 + a_zx * j_yz[1]
+    jx[2] = a_zx * j_yz[2]
+    jx[3] = -1 / px[1]
+    jy = a_yz * j_zx
+    s_yz = float(np.sqrt(j_yz @ cx[:4, :4] @ j_yz))
+    s_zx = float(np.sqrt(j_zx @ cy[:3, :3] @ j_zx))
+    s_zy = float(np.sqrt(jx @ cx[:4, :4] @ jx + jy @ cy[:3, :3] @ jy))
+    return ({"alpha_yz": float(a_yz), "alpha_zy": float(a_zy), "alpha_zx": float(a_zx)},
+            {"alpha_yz": s_yz, "alpha_zy": s_zy, "alpha_zx": s_zx})
+
+
+def solve_flip(steps: StepMeans, *, thermal="off", tol: float = 0.05) -> AccelCalibration:
+    """Two-position flip method: bias = (u+ + u-)/2, scale = (u+ - u-)/2 per axis.
+
+    Needs, for each axis, a step with gravity along +axis and one along -axis
+    (within ``tol`` g of the unit vector). Off-diagonal terms are not estimated.
+    """
+    if thermal not in ("off", "auto", None):
+        raise CalibError("the flip method has no thermal model: use thermal off")
+    f = steps.f_nominal_g
+    fits = {}
+    from calib.design import AxisFit
+    for j, a in enumerate(AXES):
+        e = np.zeros(3); e[j] = 1
+        plus = np.flatnonzero(np.linalg.norm(f - e, axis=1) < tol)
+        minus = np.flatnonzero(np.linalg.norm(f + e, axis=1) < tol)
+        if len(plus) == 0 or len(minus) == 0:
+            raise ObservabilityError(f"the flip method needs poses with gravity along +{a.upper()} and "
+                                     f"-{a.upper()}; the session has {len(plus)} and {len(minus)}")
+        up, um = steps.mean_counts[plus, j], steps.mean_counts[minus, j]
+        sp, smn = steps.sem_counts[plus, j], steps.sem_counts[minus, j]
+        # weighted means of the + and - groups
+        wp, wm = 1 / sp**2, 1 / smn**2
+        mp, mm = np.sum(wp * up) / np.sum(wp), np.sum(wm * um) / np.sum(wm)
+        vp, vm = 1 / np.sum(wp), 1 / np.sum(wm)
+        params = np.array([(mp + mm) / 2, (mp - mm) / 2])
+        cov = np.array([[vp + vm, vp - vm], [vp - vm, vp + vm]]) / 4
+        res = np.concatenate([up - mp, um - mm])
+        w = np.concatenate([1 / sp, 1 / smn])
+        chi2 = float(np.sum((res * w) ** 2))
+        fits[a] = AxisFit([f"b_{a}", f"k_{a}"], params, cov, cov, res, chi2, len(res) - 2, False)
+    return assemble(steps, "diagonal", fits, 0, 25.0, "flip")
+
+
+def solve_combinations(steps: StepMeans, *, model: str = "triangular", thermal="auto",
+                       t0_c: float | None = None, max_subsets: int = 20000) -> AccelCalibration:
+    """Average of the exactly-determined solutions over C(m, N) pose subsets.
+
+    N is the largest parameter count of any axis; subsets whose design is singular
+    on some axis are skipped. The average is a fixed linear map of the step means,
+    so its covariance is exact: cov = A diag(sem^2) A^T.
+    """
+    lm, x, order = _model_with_thermal(steps, model, thermal, t0_c)
+    k = len(steps)
+    n = max(len(lm.terms[a]) for a in AXES)
+    if k < n:
+        raise ObservabilityError(f"combinations need at least {n} poses, the session has {k}")
+    designs = {a: lm.design(a, x) for a in AXES}
+    for a in AXES:
+        check_rank(designs[a], lm.names(a), lm.terms[a], a)
+    maps = {a: np.zeros((designs[a].shape[1], k)) for a in AXES}
+    count = 0
+    for subset in itertools.combinations(range(k), n):
+        idx = list(subset)
+        local = {}
+        ok = True
+        for a in AXES:
+            g = designs[a][idx]
+            p = g.shape[1]
+            sv = np.linalg.svd(g, compute_uv=False)
+            if sv[-1] < 1e-9 * sv[0] or len(sv) < p:
+                ok = False
+                break
+            local[a] = np.linalg.pinv(g)  # exact solution (least squares when N > P for this axis)
+        if not ok:
+            continue
+        for a in AXES:
+            maps[a][:, idx] += local[a]
+        count += 1
+        if count >= max_subsets:
+            break
+    if count == 0:
+        raise ObservabilityError("no subset of the poses determines the model exactly")
+    from calib.design import AxisFit
+    fits = {}
+    for j, a in enumerate(AXES):
+        amap = maps[a] / count
+        y = steps.mean_counts[:, j]
+        params = amap @ y
+        cov = amap @ np.diag(steps.sem_counts[:, j] ** 2) @ amap.T
+        res = y - designs[a] @ params
+        chi2 = float(np.sum((res / steps.sem_counts[:, j]) ** 2))
+        fits[a] = AxisFit(lm.names(a), params, cov, cov, res, chi2, k - len(params), False)
+    return assemble(steps, model, fits, order, x.t0_c, f"combinations({count} subsets of {n})")
+
+
+def solve_batch(mean_counts: np.ndarray, f_nominal_g: np.ndarray, model: str = "triangular") -> dict:
+    """Solve many sessions with the same poses at once (equal weights: the paper's G_j^+ a_j).
+
+    Parameters
+    ----------
+    mean_counts : (B, K, 3) step means of B sessions.
+    f_nominal_g : (K, 3) the common poses.
+
+    Returns
+    -------
+    dict with ``bias_counts`` (B, 3) and ``matrix_counts_per_g`` (B, 3, 3).
+    """
+    y = np.asarray(mean_counts, float)
+    lm = base_model(model)
+    x = Inputs(np.asarray(f_nominal_g, float), None, np.zeros(len(f_nominal_g)))
+    bsz = y.shape[0]
+    bias = np.zeros((bsz, 3))
+    mat = np.zeros((bsz, 3, 3))
+    for j, a in enumerate(AXES):
+        g = lm.design(a, x)
+        check_rank(g, lm.names(a), lm.terms[a], a)
+        p = np.einsum("pk,bk->bp", np.linalg.pinv(g), y[:, :, j])
+        bias[:, j] = p[:, 0]
+        cols = {"x": [0, 1, 2], "y": [1, 2], "z": [2]}[a] if model == "triangular" else [0, 1, 2]
+        mat[:, j, cols] = p[:, 1:]
+    return {"bias_counts": bias, "matrix_counts_per_g": mat}

@@ -1,0 +1,56 @@
+"""A pure-numpy generator of step means from a known truth, for tests and benchmarks.
+
+Noise on each step mean is Gaussian with the standard error a white-noise
+sensor of the given noise density would give over the dwell; means are not
+quantised (averaging many samples of a noisy signal dithers the LSB away).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from calib.data import StepMeans
+
+
+def triangular_matrix(scale_counts_per_g, alpha_yz: float, alpha_zy: float, alpha_zx: float) -> np.ndarray:
+    """diag(k) T^-1 with T = [[1, -a_yz, a_zy], [0, 1, -a_zx], [0, 0, 1]] (the seed's model)."""
+    t = np.array([[1.0, -alpha_yz, alpha_zy], [0.0, 1.0, -alpha_zx], [0.0, 0.0, 1.0]])
+    return np.diag(np.asarray(scale_counts_per_g, float)) @ np.linalg.inv(t)
+
+
+@dataclass(frozen=True)
+class Truth:
+    matrix_counts_per_g: np.ndarray
+    bias_counts: np.ndarray
+    tempco_counts_per_c: np.ndarray  # (3,)
+    t_ref_c: float = 25.0
+
+
+def six_faces() -> np.ndarray:
+    return np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
+
+
+def f_from_roll_pitch(roll_deg, pitch_deg) -> np.ndarray:
+    """Specific force for the seed's roll (psi) and pitch (theta): f = (-sin r cos p, sin p, cos r cos p)."""
+    r, p = np.radians(np.asarray(roll_deg, float)), np.radians(np.asarray(pitch_deg, float))
+    return np.stack([-np.sin(r) * np.cos(p), np.sin(p), np.cos(r) * np.cos(p)], axis=-1)
+
+
+def make_steps(truth: Truth, f_g: np.ndarray, *, temp_c=None, rate_hz: float = 100.0, dwell_s: float = 10.0,
+               noise_g_per_rthz: float = 400e-6, lsb_per_g: float = 8192.0, rng=None,
+               with_temperature: bool = True) -> StepMeans:
+    rng = rng or np.random.default_rng()
+    f = np.atleast_2d(np.asarray(f_g, float))
+    k = len(f)
+    n = int(round(rate_hz * dwell_s))
+    temps = np.broadcast_to(np.asarray(truth.t_ref_c if temp_c is None else temp_c, float), (k,)).copy()
+    sample_sigma = noise_g_per_rthz * np.sqrt(rate_hz / 2.0) * lsb_per_g  # counts
+    sample_sigma = np.sqrt(sample_sigma**2 + 1 / 12.0)
+    sem = np.full((k, 3), sample_sigma / np.sqrt(n))
+    clean = f @ truth.matrix_counts_per_g.T + truth.bias_counts + np.outer(temps - truth.t_ref_c, truth.tempco_counts_per_c)
+    means = clean + rng.normal(0.0, 1.0, (k, 3)) * sem
+    return StepMeans(names=tuple(f"step{i + 1}" for i in range(k)), f_nominal_g=f, mean_counts=means, sem_counts=sem,
+                     n_samples=np.full(k, n), temp_c=temps if with_temperature else None,
+                     t_s=np.arange(k) * (dwell_s + 5.0), lsb_per_g=lsb_per_g)

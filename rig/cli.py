@@ -1,0 +1,291 @@
+"""The ``rig`` command. Stable contract (docs/cli.md): exit 0 ok, 2 bad input, 1 failure.
+
+Every error is one line on stderr: what went wrong, where (file, line or
+field), what was expected. No tracebacks (set ``RIG_DEBUG=1`` to see them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class UsageError(Exception):
+    """Bad command-line input (exit 2)."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="rig", description="Calibration rig controller: run procedures on a "
+                                "Standa turntable with a MEMS sensor, record sessions, solve calibrations.")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    r = sub.add_parser("run", help="run a procedure and record a session")
+    r.add_argument("procedure", nargs="?", help="procedure YAML (omit with --resume)")
+    r.add_argument("--rig", default=None, help="'sim' (default) or a rig file")
+    r.add_argument("--out", default="sessions", help="sessions directory (default: sessions/)")
+    r.add_argument("--seed", type=int, default=None, help="simulated rig: seed of the hidden sensor parameters")
+    r.add_argument("--resume", metavar="DIR", default=None, help="continue an interrupted session")
+    r.add_argument("--time-scale", type=float, default=None,
+                   help="simulated rig: clock speed-up (0 = virtual time, as fast as possible)")
+    r.add_argument("--yes", action="store_true", help="confirm every operator prompt")
+    r.add_argument("--quiet", action="store_true", help="print only warnings and the result")
+
+    s = sub.add_parser("solve", help="solve a recorded session into a calibration file")
+    s.add_argument("session")
+    s.add_argument("-o", "--output", default=None, help="calibration file (default SESSION/calibration.yaml)")
+    s.add_argument("--model", choices=["triangular", "full"], default=None)
+    s.add_argument("--method", choices=["pinv", "flip", "combinations", "magnitude"], default=None)
+    s.add_argument("--thermal", default=None, help="auto | off | ORDER")
+    s.add_argument("--json", action="store_true")
+
+    a = sub.add_parser("apply", help="apply a calibration to a session's samples")
+    a.add_argument("calibration")
+    a.add_argument("session")
+    a.add_argument("-o", "--output", required=True, help="output CSV: t_s,step,fx,fy,fz,temp_c")
+
+    e = sub.add_parser("evaluate", help="evaluate a calibration against a session's poses")
+    e.add_argument("calibration")
+    e.add_argument("session")
+    e.add_argument("--json", action="store_true")
+
+    rp = sub.add_parser("replay", help="re-run a recorded session through the replay rig")
+    rp.add_argument("session")
+    rp.add_argument("--out", default=None, help="where the replayed session goes (default: beside the original)")
+
+    d = sub.add_parser("discover", help="find effects the calibration model is missing, add them, show the gap shrink")
+    d.add_argument("session")
+    d.add_argument("--json", action="store_true")
+    d.add_argument("--plot", metavar="FILE.png", default=None)
+    d.add_argument("-o", "--output", metavar="CALIB.yaml", default=None)
+
+    im = sub.add_parser("import", help="import another tool's recording as a rig-session/1 session")
+    im.add_argument("--from", dest="source_kind", required=True, choices=["imucal", "imu_tk", "tofupilot", "csv"])
+    im.add_argument("src")
+    im.add_argument("-o", "--output", required=True, help="session directory to create")
+
+    sm = sub.add_parser("sim", help="start emulated controllers; show the simulated sensor")
+    sm.add_argument("--count", type=int, default=3)
+    sm.add_argument("--time-scale", type=float, default=1.0)
+    sm.add_argument("--seed", type=int, default=0)
+    sm.add_argument("--sensor", choices=["MPU-9150", "ADXL345"], default="MPU-9150")
+    sm.add_argument("--once", action="store_true", help="print and exit instead of serving until Ctrl-C")
+
+    sub.add_parser("ports", help="list serial ports and I2C buses and what answers on them")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse already printed its one-line usage error
+        return EXIT_BAD_INPUT if exc.code else EXIT_OK
+    if not args.command:
+        parser.print_help()
+        return EXIT_BAD_INPUT
+    handler = {"run": cmd_run, "solve": cmd_solve, "apply": cmd_apply, "evaluate": cmd_evaluate,
+               "replay": cmd_replay, "sim": cmd_sim, "ports": cmd_ports, "discover": cmd_discover,
+               "import": cmd_import}[args.command]
+    try:
+        return handler(args)
+    except BaseException as exc:  # noqa: BLE001 - the one place errors become exit codes
+        code, line = classify(exc)
+        if os.environ.get("RIG_DEBUG"):
+            raise
+        print(f"rig {args.command}: {line}", file=sys.stderr)
+        return code
+
+
+def classify(exc: BaseException) -> tuple[int, str]:
+    """Map an exception to (exit code, one line)."""
+    from calib.errors import CalibError
+    from drivers.sensors.base import SensorError
+    from drivers.ximc.stage import TurntableError
+    from rig.errors import RigInputError, SessionFormatError
+    from rig.runner import RunAborted, RunError
+    from rig.ui import OperatorAbsent
+
+    first = (str(exc).strip().splitlines() or [""])[0]
+    if isinstance(exc, KeyboardInterrupt):
+        return EXIT_FAILURE, "interrupted"
+    if isinstance(exc, (RigInputError, SessionFormatError, CalibError, UsageError, OperatorAbsent)):
+        return EXIT_BAD_INPUT, first
+    if isinstance(exc, FileNotFoundError):
+        return EXIT_BAD_INPUT, f"{exc.filename}: no such file or directory"
+    if isinstance(exc, IsADirectoryError):
+        return EXIT_BAD_INPUT, f"{exc.filename}: is a directory, expected a file"
+    if isinstance(exc, yaml.YAMLError):
+        return EXIT_BAD_INPUT, f"not valid YAML: {first}"
+    if isinstance(exc, RunAborted):
+        return EXIT_FAILURE, f"aborted: {first}"
+    if isinstance(exc, (TurntableError, SensorError, RunError)):
+        return EXIT_FAILURE, first
+    if isinstance(exc, OSError):
+        return EXIT_FAILURE, f"{exc.strerror or first}" + (f": {exc.filename}" if exc.filename else "")
+    return EXIT_FAILURE, f"internal error ({type(exc).__name__}: {first}); rerun with RIG_DEBUG=1 and report it"
+
+
+# -- commands ----------------------------------------------------------------------------
+def cmd_run(args) -> int:
+    from rig.run import run_procedure
+    from rig.runner import RunAborted
+    from rig.ui import ConsoleUI
+
+    if args.procedure is None and args.resume is None:
+        raise UsageError("give a procedure file, or --resume DIR")
+    ui = ConsoleUI(assume_yes=args.yes, quiet=args.quiet)
+    try:
+        result = run_procedure(args.procedure, rig_spec=args.rig, out_dir=args.out, seed=args.seed,
+                               resume_dir=args.resume, ui=ui, time_scale=args.time_scale)
+    except RunAborted as exc:
+        print(f"rig run: aborted: {exc}; motors stopped. Resume with: rig run --resume <session dir>",
+              file=sys.stderr)
+        return EXIT_FAILURE
+    flagged = [o for o in result.outcomes if o.status == "flagged"]
+    print(f"session: {result.session_dir}")
+    if flagged:
+        print(f"flagged steps (left out of the solve): {', '.join(str(o.index + 1) for o in flagged)}")
+    if result.calibration is not None:
+        print(f"calibration: {result.calibration_path}")
+        print(format_calibration(result.calibration))
+    return EXIT_OK
+
+
+def cmd_solve(args) -> int:
+    from rig.solving import solve_session
+
+    thermal = _parse_thermal(args.thermal)
+    cal, path = solve_session(args.session, model=args.model, method=args.method, thermal=thermal,
+                              out=args.output)
+    if args.json:
+        print(json.dumps({"calibration": str(path), **cal.to_dict()}, indent=2, default=_json_default))
+    else:
+        print(f"calibration: {path}")
+        print(format_calibration(cal))
+    return EXIT_OK
+
+
+def cmd_apply(args) -> int:
+    from calib import calfile
+    from rig.session import load_session
+
+    cal = calfile.read(args.calibration)
+    session = load_session(args.session)
+    d = session.samples
+    temp = d["temp_c"] if session.has_temperature else None
+    f = cal.accelerometer.apply(d["accel_counts"], temp_c=temp, t_s=d["t_s"])
+    out = Path(args.output)
+    with open(out, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["t_s", "step", "fx", "fy", "fz", "temp_c"])
+        for i in range(len(f)):
+            tc = "" if temp is None or not np.isfinite(temp[i]) else f"{temp[i]:.3f}"
+            w.writerow([f"{d['t_s'][i]:.4f}", int(d["step"][i]), f"{f[i, 0]:.7f}", f"{f[i, 1]:.7f}",
+                        f"{f[i, 2]:.7f}", tc])
+    print(f"wrote {len(f)} rows to {out}")
+    return EXIT_OK
+
+
+def cmd_evaluate(args) -> int:
+    import calib
+    from calib import calfile
+    from rig.session import load_session
+
+    cal = calfile.read(args.calibration)
+    session = load_session(args.session)
+    ev = calib.evaluate(cal.accelerometer, session.step_means())
+    if args.json:
+        print(json.dumps(ev.to_dict(), indent=2, default=_json_default))
+    else:
+        print(ev.format_table())
+    return EXIT_OK
+
+
+def cmd_replay(args) -> int:
+    from rig.replay import replay_session
+
+    result = replay_session(args.session, out_dir=args.out)
+    print(f"replayed session: {result.session_dir}")
+    if result.calibration is not None:
+        print(f"calibration: {result.calibration_path}")
+        print(format_calibration(result.calibration))
+    return EXIT_OK
+
+
+def cmd_discover(args) -> int:
+    from rig.discover import cmd_discover as run_discover
+
+    return run_discover(args)
+
+
+def cmd_import(args) -> int:
+    from rig.importers import cmd_import as run_import
+
+    return run_import(args)
+
+
+def cmd_sim(args) -> int:
+    from rig.simtools import serve_sim
+
+    return serve_sim(count=args.count, time_scale=args.time_scale, seed=args.seed, sensor_model=args.sensor,
+                     once=args.once)
+
+
+def cmd_ports(args) -> int:
+    from rig.ports import list_ports
+
+    for line in list_ports():
+        print(line)
+    return EXIT_OK
+
+
+# -- helpers -----------------------------------------------------------------------------
+def _parse_thermal(v):
+    if v is None:
+        return None
+    if v in ("auto", "off"):
+        return v
+    try:
+        order = int(v)
+    except ValueError:
+        raise UsageError(f"--thermal: expected auto, off or a polynomial order 1..3, got {v!r}") from None
+    if not 1 <= order <= 3:
+        raise UsageError(f"--thermal: expected auto, off or a polynomial order 1..3, got {v!r}")
+    return order
+
+
+def _json_default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    return str(o)
+
+
+def format_calibration(cal) -> str:
+    """A short human summary of a calibration file's accelerometer section."""
+    a = cal.accelerometer
+    lines = [f"  model: {a.model}   fit: {a.fit.steps} steps, residual {a.fit.residual_rms_g * 1e6:.1f} ug rms, "
+             f"chi2/dof {a.fit.chi2_per_dof:.2f}"]
+    sig = a.sigma
+    for j, axis in enumerate("xyz"):
+        lines.append(f"  {axis}: bias {a.bias_counts[j]:10.2f} +- {sig['bias_counts'][j]:.2f} counts   "
+                     f"scale {a.scale_counts_per_g[j]:10.2f} +- {sig['scale_counts_per_g'][j]:.2f} counts/g")
+    if a.misalignment:
+        m = a.misalignment
+        sm = sig.get("misalignment") or {}
+        lines.append("  misalignment (mrad): " + "  ".join(
+            f"{k} {m[k] * 1e3:.3f} +- {sm.get(k, float('nan')) * 1e3:.3f}" for k in ("alpha_yz", "alpha_zy", "alpha_zx")))
+    if a.temperature:
+        t = a.temperature
+        lines.append(f"  temperature: t0 {t.t0_c:.2f} C, order {t.order}")
+    return "\n".join(lines)
