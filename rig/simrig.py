@@ -12,7 +12,8 @@ solves or searches may read them.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+import dataclasses
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -48,12 +49,12 @@ class SimSettings:
     """The ``sim:`` section of a rig file, validated."""
 
     time_scale: float = 1.0  # 0 = virtual time
-    chamber: ChamberConfig = field(default_factory=ChamberConfig)
-    ringing: RingingConfig = field(default_factory=RingingConfig)
-    field: FieldConfig = field(default_factory=FieldConfig)
+    chamber: ChamberConfig = dataclasses.field(default_factory=ChamberConfig)
+    ringing: RingingConfig = dataclasses.field(default_factory=RingingConfig)
+    magnetic_field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
     table_tilt_deg: tuple[float, float] = (0.0, 0.0)
-    effects: dict[str, Any] = field(default_factory=dict)
-    errors: dict[str, Any] = field(default_factory=dict)  # AccelErrorModel overrides
+    effects: dict[str, Any] = dataclasses.field(default_factory=dict)
+    errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # AccelErrorModel overrides
     serial_base: int = 0x5A00
 
     @classmethod
@@ -68,7 +69,7 @@ class SimSettings:
         if "ringing" in m:
             out.ringing = _dataclass_from(RingingConfig, m["ringing"], f"{where}.ringing")
         if "field" in m:
-            out.field = _dataclass_from(FieldConfig, m["field"], f"{where}.field")
+            out.magnetic_field = _dataclass_from(FieldConfig, m["field"], f"{where}.field")
         if "table_tilt_deg" in m:
             v = m["table_tilt_deg"]
             if not (isinstance(v, list) and len(v) == 2):
@@ -133,7 +134,7 @@ class SimulatedRig:
                   for e, s, h in zip(self.emulators, axis_signs, home_offsets_deg)],
             chamber=self.chamber,
             table_tilt_deg=self._tilt(),
-            field=settings.field,
+            magnetic_field=settings.magnetic_field,
             ringing=settings.ringing,
         )
         self.bus = SimulatedI2CBus(1)
@@ -218,7 +219,7 @@ class SimulatedRig:
             "magnetometer": self.mag_errors.to_dict() if self.mag_errors else None,
             "table_tilt_deg": list(self.world.table_tilt_deg),
             "chamber": dataclasses.asdict(self.settings.chamber),
-            "field": dataclasses.asdict(self.settings.field),
+            "field": dataclasses.asdict(self.settings.magnetic_field),
             "effects": {k: _plain(v) for k, v in self.settings.effects.items()},
             "time_scale": self.settings.time_scale,
         }

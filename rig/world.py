@@ -10,7 +10,8 @@ follows every stop (so settle detection has something to detect).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import dataclasses
+from dataclasses import dataclass
 from typing import Callable, Sequence
 
 import numpy as np
@@ -136,8 +137,8 @@ class WorldModel:
     axes: Sequence[AxisLink]
     chamber: SimChamber
     table_tilt_deg: tuple[float, float] = (0.0, 0.0)
-    field: FieldConfig = field(default_factory=FieldConfig)
-    ringing: RingingConfig = field(default_factory=RingingConfig)
+    magnetic_field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
+    ringing: RingingConfig = dataclasses.field(default_factory=RingingConfig)
     _last_moving_t: float = -np.inf
 
     def angles_deg_at(self, t_s: np.ndarray) -> np.ndarray:
@@ -174,7 +175,7 @@ class WorldModel:
         w += (ryt @ np.array([1.0, 0.0, 0.0])) * rates[:, 1:2]
         w += np.array([0.0, 1.0, 0.0]) * rates[:, 2:3]
         f = f + self._ringing(t, np.any(np.abs(rates) > 1e-9, axis=1))
-        m = rt @ self.field.world_vector_ut()
+        m = rt @ self.magnetic_field.world_vector_ut()
         return PhysicsBatch(specific_force_g=f, angular_rate_dps=np.degrees(w),
                             magnetic_field_ut=m, temp_c=self.chamber.temp_at(t))
 

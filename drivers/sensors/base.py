@@ -1,0 +1,93 @@
+"""Common types of the I2C sensor drivers (the ``AccelSensor`` interface the runner uses)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+
+class SensorError(Exception):
+    """A sensor failed; one line: chip, bus address, what went wrong."""
+
+
+@dataclass(frozen=True)
+class SensorSettings:
+    accel_range_g: int = 4
+    sample_rate_hz: float = 100.0
+    gyro_range_dps: int = 250
+
+
+@dataclass(frozen=True)
+class SensorIdentity:
+    model: str
+    address: int
+    identity_register: int | None
+    identity_value: int | None
+    bus: str = ""
+
+    def to_dict(self) -> dict:
+        return {"model": self.model, "address": self.address, "identity_register": self.identity_register,
+                "identity_value": self.identity_value, "bus": self.bus}
+
+
+@dataclass
+class CaptureStats:
+    """Counters of a capture (they stay 0 when nothing goes wrong)."""
+
+    received: int = 0
+    dropped: int = 0  # samples known lost (FIFO overflow)
+    duplicated: int = 0
+    overflows: int = 0
+    io_retries: int = 0
+
+
+@dataclass(frozen=True)
+class SampleBlock:
+    """Samples read in one go: times in clock seconds, raw counts."""
+
+    t_s: np.ndarray
+    accel_counts: np.ndarray
+    temp_c: np.ndarray
+    gyro_counts: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.t_s)
+
+
+class AccelSensor(Protocol):
+    model: str
+    address: int
+    has_temperature: bool
+    has_gyro: bool
+    accel_lsb_per_g: float
+    gyro_lsb_per_dps: float | None
+    sample_rate_hz: float
+    accel_range_g: int
+    stats: CaptureStats
+
+    def identify(self) -> SensorIdentity: ...
+    def configure(self, settings: SensorSettings) -> None: ...
+    def start(self) -> None: ...
+    def read(self) -> SampleBlock: ...
+    def stop(self) -> None: ...
+
+
+class BusRetry:
+    """Bounded retries of transient bus errors (EREMOTEIO bursts), counted in ``stats``."""
+
+    def __init__(self, bus, address: int, model: str, stats: CaptureStats, attempts: int = 4) -> None:
+        self.bus, self.address, self.model, self.stats, self.attempts = bus, address, model, stats, attempts
+
+    def __call__(self, method: str, *args):
+        last = None
+        for i in range(self.attempts):
+            try:
+                return getattr(self.bus, method)(self.address, *args)
+            except OSError as exc:
+                last = exc
+                if i + 1 < self.attempts:
+                    self.stats.io_retries += 1
+        raise SensorError(f"{self.model} at 0x{self.address:02x}: I2C {method} failed {self.attempts} times "
+                          f"({last.strerror or last})")
