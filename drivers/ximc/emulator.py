@@ -52,7 +52,7 @@ class XimcFaults:
     latency_s : delay every answer (wall seconds).
     error_answer_rate, error_answer : answer ``errc``/``errd``/``errv`` instead.
     vanish_at_s, vanish_for_s : at clock time vanish_at_s the port disappears (as if unplugged),
-        and a new one appears vanish_for_s clock seconds later (same ``stable_path``).
+        and a new one appears vanish_for_s wall seconds later (same ``stable_path``).
     stall_at_deg : motion stops dead at this physical angle (deg) with MVCMD_ERROR.
     limit_deg : a limit switch at this angle: stops there with MVCMD_ERROR and an edge flag.
     seed : seeds the random faults.
@@ -205,15 +205,14 @@ class ControllerEmulator:
         f = self.faults
         if f.vanish_at_s is None or self._vanish_done:
             return
-        now = self.clock.now()
-        if self._vanished_until is None and now >= f.vanish_at_s:
+        if self._vanished_until is None and self.clock.now() >= f.vanish_at_s:
             self._close_pty()
-            self._vanished_until = now + f.vanish_for_s
+            self._vanished_until = time.monotonic() + f.vanish_for_s  # a replug takes wall time
             try:
                 os.unlink(self.stable_path)
             except OSError:
                 pass
-        elif self._vanished_until is not None and now >= self._vanished_until:
+        elif self._vanished_until is not None and time.monotonic() >= self._vanished_until:
             self._open_pty()
             self._parser.clear()
             self._vanish_done = True
@@ -276,7 +275,7 @@ class ControllerEmulator:
                 prof = prof2
                 self._error_at = tc
                 if is_limit:
-                    self._gpio |= P.STATE_RIGHT_EDGE if prof.phases[0].v >= 0 else P.STATE_LEFT_EDGE
+                    self._gpio |= P.STATE_RIGHT_EDGE if limit_counter >= prof.phases[0].p else P.STATE_LEFT_EDGE
         self._profile = prof
 
     def _handle(self, cmd: bytes, obj) -> bytes:
