@@ -289,3 +289,7 @@ def format_calibration(cal) -> str:
         t = a.temperature
         lines.append(f"  temperature: t0 {t.t0_c:.2f} C, order {t.order}")
     return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

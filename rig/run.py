@@ -139,8 +139,19 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
 
     cal = cal_path = None
     if solve and procedure.solve is not None:
+        from calib.errors import CalibError
+        from rig.runner import RunError
         from rig.solving import solve_session
-        cal, cal_path = solve_session(writer.session_dir)
+        flagged = [o.index + 1 for o in outcomes if o.status == "flagged"]
+        try:
+            cal, cal_path = solve_session(writer.session_dir)
+        except CalibError as exc:
+            writer.event("error", message=f"cannot solve: {exc}")
+            writer.set_status("complete")
+            if flagged:
+                raise RunError(f"cannot solve: {exc} (steps {', '.join(map(str, flagged))} were flagged "
+                               f"for bad data; session {writer.session_dir})") from None
+            raise
         writer.event("solve", path=str(cal_path))
     writer.set_status("complete")
     return RunResult(writer.session_dir, "complete", outcomes, cal_path, cal)

@@ -73,6 +73,7 @@ class Runner:
         self.outcomes: list[StepOutcome] = []
         self._t0 = rig.clock.now() - time_offset_s
         self._wall0 = time.monotonic()
+        self._io_retries_seen = getattr(rig.sensor.stats, "io_retries", 0)
 
     # -- public -----------------------------------------------------------------------
     def session_time(self) -> float:
@@ -159,6 +160,11 @@ class Runner:
                               message=f"re-measuring step {step.index + 1} ({step.name}): " + "; ".join(problems),
                               attempt=attempts)
             self.ui.warn(f"step {step.index + 1} ({step.name}): {'; '.join(problems)}; measuring again")
+        if self.rig.sensor.stats.io_retries > self._io_retries_seen:
+            n = self.rig.sensor.stats.io_retries - self._io_retries_seen
+            self._io_retries_seen = self.rig.sensor.stats.io_retries
+            self.writer.event("warning", t_s=self.session_time(), step=step.index, source="sensor",
+                              message=f"{n} I2C transfer(s) failed and were retried")
         status = "complete" if not problems else "flagged"
         if problems:
             self.writer.event("warning", t_s=self.session_time(), step=step.index,
@@ -203,7 +209,7 @@ class Runner:
                 st.move_deg(target)
         for name in AXES:
             st = self.rig.stages[name]
-            st.command_wait_for_stop(10, timeout_s=self.options.move_timeout_s)
+            st.command_wait_for_stop(50, timeout_s=self.options.move_timeout_s)
             reached = st.get_position_deg()
             if abs(reached - targets[name]) > self.options.position_tolerance_deg:
                 from drivers.ximc.stage import TurntableError
@@ -216,6 +222,7 @@ class Runner:
 
     def _settle_and_capture(self, step):
         sensor = self.rig.sensor
+        overflows0 = sensor.stats.overflows
         clock = self.rig.clock
         rate = sensor.sample_rate_hz
         rule = self._settle_rule(step)
@@ -254,6 +261,8 @@ class Runner:
         else:
             settle_s = None
         t, a, temp, gyro = self._capture(step, det_keep, poll)
+        if sensor.stats.overflows > overflows0:
+            problems.append(f"sensor FIFO overflowed {sensor.stats.overflows - overflows0} time(s): samples lost")
         noise_g = a.std(axis=0, ddof=1) / sensor.accel_lsb_per_g if len(a) > 1 else np.full(3, np.nan)
         return t, a, temp, gyro, settle_s, noise_g, problems
 
@@ -323,26 +332,17 @@ class Runner:
             if not ok:
                 raise RunAborted(f"operator aborted at step {step.index + 1} ({step.name})")
         clock = self.rig.clock
-        poll = self._poll_s()
-        sensor.start()
         t_start = clock.now()
         in_band_since = None
-        window_t: list[np.ndarray] = []
-        window_c: list[np.ndarray] = []
+        readings: list[tuple[float, float]] = []
         mean_c = float("nan")
         while True:
-            clock.sleep(max(poll, 0.05))
-            blk = sensor.read()
+            clock.sleep(1.0)
             now = clock.now()
-            if len(blk.t_s):
-                window_t.append(blk.t_s)
-                window_c.append(blk.temp_c)
-                tt = np.concatenate(window_t)
-                cc = np.concatenate(window_c)
-                keep = tt >= tt[-1] - self.options.temp_window_s
-                window_t, window_c = [tt[keep]], [cc[keep]]
-                mean_c = float(np.mean(cc[keep]))
-            if mean_c == mean_c and abs(mean_c - target.target_c) <= target.tolerance_c:
+            readings.append((now, sensor.read_temperature_c()))
+            readings = [(t, c) for t, c in readings if t >= now - max(self.options.temp_window_s, 5.0)]
+            mean_c = float(np.mean([c for _, c in readings]))
+            if abs(mean_c - target.target_c) <= target.tolerance_c:
                 if in_band_since is None:
                     in_band_since = now
                 if now - in_band_since >= target.hold_s:
@@ -352,10 +352,8 @@ class Runner:
             remaining = (target.hold_s - (now - in_band_since)) if in_band_since is not None else None
             self._progress(step, "temperature", temp_c=mean_c, eta_s=remaining)
             if now - t_start > target.timeout_s:
-                sensor.stop()
                 raise RunError(f"step {step.index + 1} ({step.name}): sensor temperature {mean_c:.2f} C did not "
                                f"reach {target.target_c:g} +- {target.tolerance_c:g} C within {target.timeout_s:g} s")
-        sensor.stop()
         self.writer.event("temperature", t_s=self.session_time(), step=step.index, temp_c=mean_c,
                           waited_s=clock.now() - t_start)
         self.writer.complete_step(step.index, {"t_end_s": self.session_time(), "temp_c": mean_c,

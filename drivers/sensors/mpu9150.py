@@ -91,6 +91,13 @@ class Mpu9150:
         self.accel_lsb_per_g = ACCEL_LSB_PER_G[ACCEL_RANGES[settings.accel_range_g]]
         self.gyro_lsb_per_dps = GYRO_LSB_PER_DPS[GYRO_RANGES[settings.gyro_range_dps]]
 
+    def read_temperature_c(self) -> float:
+        """One thermometer reading (TEMP_OUT_H/L), C."""
+        hi, lo = self._io("read_i2c_block_data", 0x41, 2)
+        raw = (hi << 8) | lo
+        raw = raw - 65536 if raw & 0x8000 else raw
+        return raw / 340.0 + 35.0
+
     def start(self) -> None:
         """Reset and enable the FIFO; samples from now on are captured."""
         self._io("write_byte_data", FIFO_EN, 0)
