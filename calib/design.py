@@ -108,28 +108,46 @@ class AxisFit:
     inflated: bool  # covariance scaled by chi2/dof (significant misfit)
 
 
-def check_rank(g: np.ndarray, names: list[str], terms: list[Term], axis: str, cond_max: float = 1e10) -> None:
-    """Raise ObservabilityError naming the parameters the design leaves undetermined."""
+DISPLAY_NAMES = {"kx_ayz": "alpha_yz", "kx_azy": "alpha_zy", "ky_azx": "alpha_zx"}
+
+
+def undetermined(g: np.ndarray, names: list[str], cond_max: float = 1e10) -> list[str]:
+    """Parameters of one axis' design that the rows do not determine (empty when all are)."""
     k, p = g.shape
-    if k == 0:
-        raise ObservabilityError(f"axis {axis}: no steps to solve from")
+    if k < p:
+        return list(names) if k == 0 else _null_names(np.vstack([g, np.zeros((p - k, p))]), names, cond_max)
+    return _null_names(g, names, cond_max)
+
+
+def _null_names(g, names, cond_max):
     scale = np.linalg.norm(g, axis=0)
     scale[scale == 0] = 1.0
-    gs = g / scale
-    s = np.linalg.svd(gs, compute_uv=False)
-    rank_ok = k >= p and s[-1] > s[0] / cond_max
-    if rank_ok:
-        return
-    if k < p:
-        bad = names
-    else:
-        _, sv, vt = np.linalg.svd(gs)
-        null = vt[sv < sv[0] / cond_max] if np.any(sv < sv[0] / cond_max) else vt[-1:]
-        bad = [n for n, v in zip(names, np.abs(null).max(axis=0)) if v > 1e-6]
-    hints = sorted({t.hint for t in terms if t.name in bad and t.hint})
-    raise ObservabilityError(
-        f"the pose set leaves {', '.join(bad)} undetermined (axis {axis}: {k} steps, {p} parameters"
-        + (f"; needs {'; '.join(hints)}" if hints else "") + ")")
+    _, sv, vt = np.linalg.svd(g / scale)
+    small = sv < sv[0] * (1.0 / cond_max) if sv[0] > 0 else np.ones_like(sv, bool)
+    if not small.any():
+        return []
+    null = vt[small]
+    return [n for n, v in zip(names, np.abs(null).max(axis=0)) if v > 1e-6]
+
+
+def check_rank(g: np.ndarray, names: list[str], terms: list[Term], axis: str, cond_max: float = 1e10) -> None:
+    """Raise ObservabilityError naming the parameters one axis' design leaves undetermined."""
+    check_model({axis: (g, names, terms)}, cond_max)
+
+
+def check_model(designs: dict, cond_max: float = 1e10) -> None:
+    """designs: axis -> (G, names, terms). One error naming every undetermined parameter."""
+    bad, hints, counts = [], [], []
+    for axis, (g, names, terms) in designs.items():
+        miss = undetermined(g, names, cond_max)
+        if miss:
+            bad += miss
+            hints += [t.hint for t in terms if t.name in miss and t.hint and t.hint not in hints]
+            counts.append(f"axis {axis}: {g.shape[0]} steps, {g.shape[1]} parameters")
+    if bad:
+        shown = ", ".join(DISPLAY_NAMES.get(n, n) for n in bad)
+        raise ObservabilityError(f"the pose set leaves {shown} undetermined ({'; '.join(counts)}"
+                                 + (f"; needs {'; '.join(hints)}" if hints else "") + ")")
 
 
 def solve_wls(g: np.ndarray, y: np.ndarray, sem: np.ndarray, names: list[str],

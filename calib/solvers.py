@@ -17,7 +17,7 @@ import itertools
 import numpy as np
 
 from calib.data import StepMeans
-from calib.design import (AXES, Inputs, LinearModel, check_rank, const_term, force_term, solve_wls,
+from calib.design import (AXES, Inputs, LinearModel, check_model, check_rank, const_term, force_term, solve_wls,
                           temp_term)
 from calib.errors import CalibError, ObservabilityError
 from calib.models import AccelCalibration, FitSummary, ThermalModel
@@ -95,11 +95,11 @@ def _model_with_thermal(steps, model, thermal, t0_c):
 
 def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> AccelCalibration:
     lm, x, order = _model_with_thermal(steps, model, thermal, t0_c)
+    designs = {a: lm.design(a, x) for a in AXES}
+    check_model({a: (designs[a], lm.names(a), lm.terms[a]) for a in AXES})
     fits = {}
     for j, a in enumerate(AXES):
-        g = lm.design(a, x)
-        check_rank(g, lm.names(a), lm.terms[a], a)
-        fits[a] = solve_wls(g, steps.mean_counts[:, j], steps.sem_counts[:, j], lm.names(a))
+        fits[a] = solve_wls(designs[a], steps.mean_counts[:, j], steps.sem_counts[:, j], lm.names(a))
     return assemble(steps, model, fits, order, x.t0_c, method)
 
 
@@ -225,8 +225,7 @@ def solve_combinations(steps: StepMeans, *, model: str = "triangular", thermal="
     if k < n:
         raise ObservabilityError(f"combinations need at least {n} poses, the session has {k}")
     designs = {a: lm.design(a, x) for a in AXES}
-    for a in AXES:
-        check_rank(designs[a], lm.names(a), lm.terms[a], a)
+    check_model({a: (designs[a], lm.names(a), lm.terms[a]) for a in AXES})
     maps = {a: np.zeros((designs[a].shape[1], k)) for a in AXES}
     count = 0
     for subset in itertools.combinations(range(k), n):
