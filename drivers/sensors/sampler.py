@@ -65,7 +65,7 @@ class LazySampler:
         a = self.accel.output_g(ph.specific_force_g, ph.temp_c, t, heating)
         sigma = np.asarray(self.accel.noise_density_g_per_rthz) * np.sqrt(min(self.bandwidth_hz, self.rate_hz / 2) * np.pi / 2)
         a = a + self.rng.normal(0.0, 1.0, a.shape) * sigma
-        g = None
+        g = np.asarray(ph.angular_rate_dps, float)  # an ideal gyro unless an error model is given
         if self.gyro is not None:
             g = self.gyro.output_dps(ph.angular_rate_dps, ph.specific_force_g)
             gs = np.asarray(self.gyro.noise_density_dps_per_rthz) * np.sqrt(min(self.bandwidth_hz, self.rate_hz / 2) * np.pi / 2)
