@@ -43,6 +43,10 @@ def load_located(text: str, path: str):
     loader = yaml.SafeLoader("")
 
     def build(n):
+        if isinstance(n, (yaml.MappingNode, yaml.SequenceNode)) and n.tag not in (
+                "tag:yaml.org,2002:map", "tag:yaml.org,2002:seq", "tag:yaml.org,2002:omap"):
+            raise RigInputError(path, n.start_mark.line + 1, None,
+                                f"not valid YAML here: tag {n.tag!r} is not allowed (plain YAML only)")
         if isinstance(n, yaml.MappingNode):
             out: dict = {}
             lines: dict = {}
