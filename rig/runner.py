@@ -74,6 +74,7 @@ class Runner:
         self._t0 = rig.clock.now() - time_offset_s
         self._wall0 = time.monotonic()
         self._io_retries_seen = getattr(rig.sensor.stats, "io_retries", 0)
+        self._step_estimates = self._estimate_steps()
 
     # -- public -----------------------------------------------------------------------
     def session_time(self) -> float:
@@ -386,8 +387,27 @@ class Runner:
         # drain the FIFO well before it can overflow (ADXL345: 32 samples)
         return min(0.05, 8.0 / self.rig.sensor.sample_rate_hz)
 
+    def _estimate_steps(self) -> list[float]:
+        """Expected duration of each step (moves at the set speeds, 1 s settle, dwell), s."""
+        out, prev = [], np.zeros(3)
+        rate = self.rig.sensor.sample_rate_hz
+        for s in self.steps:
+            if s.kind != "static":
+                out.append(300.0 if s.kind == "thermal" else 0.0)
+                continue
+            ang = np.asarray(s.angles_deg, float)
+            move = max(planning.move_time_s(abs(b - a), self.rig.axes[n].speed_deg_s, self.rig.axes[n].accel_deg_s2)
+                       for n, a, b in zip(AXES, prev, ang))
+            d = s.dwell
+            dwell = d.seconds if d.seconds is not None else (d.samples / rate if d.samples else d.max_seconds)
+            out.append(move + 1.0 + dwell)
+            prev = ang
+        return out
+
     def _progress(self, step, phase: str, **kw) -> None:
-        self.ui.progress(StepProgress(index=step.index, total=len(self.steps), name=step.name, phase=phase, **kw))
+        run_eta = sum(self._step_estimates[step.index + 1:]) + (kw.get("eta_s") or 0.0)
+        self.ui.progress(StepProgress(index=step.index, total=len(self.steps), name=step.name, phase=phase,
+                                      run_eta_s=run_eta, **kw))
 
 
 def _noise_ug(acc: list[np.ndarray], lsb: float) -> float | None:

@@ -24,6 +24,7 @@ class StepProgress:
     eta_s: float | None = None
     noise_ug: float | None = None
     temp_c: float | None = None
+    run_eta_s: float | None = None  # whole run, remaining
 
 
 class ConsoleUI:
@@ -71,7 +72,8 @@ class ConsoleUI:
         eta = f"  ETA {_fmt_s(p.eta_s)}" if p.eta_s is not None else ""
         noise = f"  noise {p.noise_ug:.0f} ug" if p.noise_ug is not None and p.noise_ug == p.noise_ug else ""
         temp = f"  {p.temp_c:.2f} C" if p.temp_c is not None and p.temp_c == p.temp_c else ""
-        text = f"[{p.index + 1}/{p.total}] {p.name}: {p.phase}{temp}{noise}{eta}"
+        run_eta = f"  run ETA {_fmt_s(p.run_eta_s)}" if p.run_eta_s is not None else ""
+        text = f"[{p.index + 1}/{p.total}] {p.name}: {p.phase}{temp}{noise}{eta}{run_eta}"
         if self._console is not None:
             self._console.print(text, end="\r", highlight=False)
             return

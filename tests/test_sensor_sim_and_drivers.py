@@ -227,3 +227,16 @@ def test_third_party_adafruit_adxl345_driver_reads_the_simulated_chip():
     x, y, z = dev.read()
     # full resolution: 256 LSB/g (3.9 mg/LSB)
     assert np.array([x, y, z]) / 256.0 == pytest.approx(np.array(F), abs=2 / 256)
+
+
+def test_ak8975_driver_reads_the_field_with_its_sensitivity_adjustment():
+    from drivers.sensors.ak8975 import Ak8975
+
+    bus, clock = _bus()
+    mag = Ak8975(bus, clock=clock)
+    with pytest.raises(SensorError, match="bypass"):
+        mag.identify()
+    open_sensor("MPU-9150", bus, clock=clock).configure(SensorSettings())
+    mag.configure()
+    assert np.all(mag.asa_factor != 1.0)
+    np.testing.assert_allclose(mag.read_field_ut(), (20.0, 0.0, -45.0), atol=1.5)
