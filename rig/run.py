@@ -131,8 +131,11 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
             runner.prepare(resuming=resume_dir is not None)
             outcomes = runner.run()
         except BaseException as exc:
-            writer.event("abort", t_s=runner.session_time(), reason=_one_line(exc))
-            writer.set_status("aborted")
+            try:  # best effort: on a full disk even this may fail; what is on disk stays valid
+                writer.event("abort", t_s=runner.session_time(), reason=_one_line(exc))
+                writer.set_status("aborted")
+            except OSError:
+                pass
             raise
     finally:
         rig.close()

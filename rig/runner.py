@@ -17,7 +17,9 @@ import numpy as np
 
 from rig import planning
 from rig.backends import AXES, RigHandles
+from drivers.sensors.base import SensorError
 from rig.checks import CheckLimits, check_step
+from rig.errors import RigInputError
 from rig.settle import SettleDetector, SettleRule
 from rig.ui import ConsoleUI, StepProgress
 
@@ -81,8 +83,27 @@ class Runner:
         """Seconds since the session started (continues across resumes)."""
         return self.rig.clock.now() - self._t0
 
+    def preflight(self, start_deg: dict[str, float] | None = None) -> None:
+        """Plan every remaining move before anything moves: an unreachable pose (soft limits,
+        cable wrap) is refused up front, naming the step and the axis."""
+        cur = dict(start_deg or {n: 0.0 for n in AXES})
+        for step in self.steps[self.first_step:]:
+            if step.kind != "static":
+                continue
+            for i, name in enumerate(AXES):
+                ax = self.rig.axes[name]
+                wanted = self.rig.stage_angle_deg(name, float(step.angles_deg[i]))
+                try:
+                    cur[name] = planning.plan_axis_target(cur[name], wanted, ax.soft_limits_deg, ax.cable_wrap_deg,
+                                                          axis=name)
+                except RigInputError as exc:
+                    raise RigInputError(self.procedure.path, step.source_line, f"steps: {step.name}: {name}",
+                                        exc.message) from None
+
     def prepare(self, resuming: bool) -> None:
         """Apply the rig's home/zero policy and the move and sensor settings."""
+        start = {n: self.rig.stages[n].get_position_deg() for n in AXES} if resuming else None
+        self.preflight(start)
         for name in AXES:
             st = self.rig.stages[name]
             ax = self.rig.axes[name]
@@ -151,7 +172,16 @@ class Runner:
         attempts = 0
         while True:
             attempts += 1
-            t, a, temp, gyro, settle_s, noise_g, problems_pre = self._settle_and_capture(step)
+            try:
+                t, a, temp, gyro, settle_s, noise_g, problems_pre = self._settle_and_capture(step)
+            except SensorError as exc:
+                if attempts >= self.options.max_attempts:
+                    raise
+                self.writer.event("warning", t_s=self.session_time(), step=step.index, source="sensor",
+                                  message=f"sensor error, measuring step {step.index + 1} again: {exc}")
+                self.ui.warn(f"step {step.index + 1} ({step.name}): {exc}; measuring again")
+                self.rig.clock.sleep(1.0)
+                continue
             check = check_step(a, temp, self._n_expected(step), self.rig.sensor.has_temperature,
                                self.options.limits)
             problems = problems_pre + check.problems

@@ -92,7 +92,10 @@ def test_a_chip_that_stops_answering_aborts_with_one_line(tmp_path, capsys):
     rig = _rig_file(tmp_path, "faults:\n  sensor: {dead_after_s: 30}\n")
     assert main(["run", SIX, "--rig", str(rig), "--out", str(tmp_path / "s"), "--quiet"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "MPU-9150 at 0x68" in err[0]
+    errors = [line for line in err if line.startswith("rig run:")]
+    assert len(errors) == 1 and "MPU-9150 at 0x68" in errors[0] and errors[0] == err[-1]
+    # it was measured again before giving up, and said so
+    assert sum("measuring again" in line for line in err) == 2
     assert yaml.safe_load((_only_session(tmp_path / "s") / "session.yaml").read_text())["status"] == "aborted"
 
 
