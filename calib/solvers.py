@@ -74,13 +74,7 @@ def solve(steps: StepMeans, *, model: str = "triangular", method: str = "pinv", 
         return solve_flip(steps, thermal=thermal)
     if method == "combinations":
         return solve_combinations(steps, model=model, thermal=thermal, t0_c=t0_c)
-    if method == "magnitude":
-        try:
-            from calib.magnitude import solve_magnitude
-        except ImportError:
-            raise CalibError("method 'magnitude' is not available in this version") from None
-        return solve_magnitude(steps)
-    raise CalibError(f"unknown method {method!r} (allowed: pinv, flip, combinations, magnitude)")
+    raise CalibError(f"unknown method {method!r} (allowed: pinv, flip, combinations)")
 
 
 def _model_with_thermal(steps, model, thermal, t0_c):

@@ -43,7 +43,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("session")
     s.add_argument("-o", "--output", default=None, help="calibration file (default SESSION/calibration.yaml)")
     s.add_argument("--model", choices=["triangular", "full"], default=None)
-    s.add_argument("--method", choices=["pinv", "flip", "combinations", "magnitude"], default=None)
+    s.add_argument("--method", choices=["pinv", "flip", "combinations"], default=None)
     s.add_argument("--thermal", default=None, help="auto | off | ORDER")
     s.add_argument("--json", action="store_true")
 
@@ -60,17 +60,6 @@ def build_parser() -> argparse.ArgumentParser:
     rp = sub.add_parser("replay", help="re-run a recorded session through the replay rig")
     rp.add_argument("session")
     rp.add_argument("--out", default=None, help="where the replayed session goes (default: beside the original)")
-
-    d = sub.add_parser("discover", help="find effects the calibration model is missing, add them, show the gap shrink")
-    d.add_argument("session")
-    d.add_argument("--json", action="store_true")
-    d.add_argument("--plot", metavar="FILE.png", default=None)
-    d.add_argument("-o", "--output", metavar="CALIB.yaml", default=None)
-
-    im = sub.add_parser("import", help="import another tool's recording as a rig-session/1 session")
-    im.add_argument("--from", dest="source_kind", required=True, choices=["imucal", "imu_tk", "tofupilot", "csv"])
-    im.add_argument("src")
-    im.add_argument("-o", "--output", required=True, help="session directory to create")
 
     sm = sub.add_parser("sim", help="start emulated controllers; show the simulated sensor")
     sm.add_argument("--count", type=int, default=3)
@@ -93,8 +82,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return EXIT_BAD_INPUT
     handler = {"run": cmd_run, "solve": cmd_solve, "apply": cmd_apply, "evaluate": cmd_evaluate,
-               "replay": cmd_replay, "sim": cmd_sim, "ports": cmd_ports, "discover": cmd_discover,
-               "import": cmd_import}[args.command]
+               "replay": cmd_replay, "sim": cmd_sim, "ports": cmd_ports}[args.command]
     try:
         return handler(args)
     except BaseException as exc:  # noqa: BLE001 - the one place errors become exit codes
@@ -219,18 +207,6 @@ def cmd_replay(args) -> int:
         print(f"calibration: {result.calibration_path}")
         print(format_calibration(result.calibration))
     return EXIT_OK
-
-
-def cmd_discover(args) -> int:
-    from rig.discover import cmd_discover as run_discover
-
-    return run_discover(args)
-
-
-def cmd_import(args) -> int:
-    from rig.importers import cmd_import as run_import
-
-    return run_import(args)
 
 
 def cmd_sim(args) -> int:

@@ -23,7 +23,7 @@ ACCEL_RANGES_G = (2, 4, 8, 16)
 GYRO_RANGES_DPS = (250, 500, 1000, 2000)
 ADXL345_RATES_HZ = (6.25, 12.5, 25, 50, 100, 200, 400, 800, 1600, 3200)
 MODELS = ("triangular", "full")
-METHODS = ("pinv", "flip", "combinations", "magnitude")
+METHODS = ("pinv", "flip", "combinations")
 MAX_STEPS = 10000
 
 

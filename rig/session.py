@@ -377,6 +377,8 @@ def read_samples(path: Path, n_steps: int | None = None) -> tuple[dict, list[str
     if nl < 0:
         raise SessionFormatError(str(path), 1, None, "no header line")
     header = raw[:nl].decode("ascii", "replace").strip().split(",")
+    if any(not c.strip() for c in header) or len(set(header)) != len(header):
+        raise SessionFormatError(str(path), 1, None, f"header has empty or repeated column names: {','.join(header)}")
     for c in ("t_s", "step", "ax", "ay", "az"):
         if c not in header:
             raise SessionFormatError(str(path), 1, c, f"missing column (header: {','.join(header)})")
@@ -402,6 +404,9 @@ def read_samples(path: Path, n_steps: int | None = None) -> tuple[dict, list[str
             line = _bad_line(body, ncol)
             raise SessionFormatError(str(path), line, None,
                                      f"expected {ncol} comma-separated numbers per row ({str(exc).splitlines()[0]})") from None
+    if arr.shape[1] != ncol:
+        raise SessionFormatError(str(path), _bad_line(body, ncol) or 2, None,
+                                 f"rows have {arr.shape[1]} fields, the header names {ncol}")
     col = {c: arr[:, i] for i, c in enumerate(header)}
     for c in ("t_s", "step", "ax", "ay", "az"):
         bad = ~np.isfinite(col[c])
