@@ -84,5 +84,47 @@ def main_bench(n: int = 20) -> None:
           f"resumed to a complete session with every step exactly once and a matching calibration: {ok}/{n}")
 
 
+FAULTS = {
+    "1% corrupted CRC (a3)": "faults:\n  ximc:\n    a3: {crc_corrupt_rate: 0.01, seed: 1}\n",
+    "1% dropped answers (a2)": "faults:\n  ximc:\n    a2: {drop_rate: 0.01, seed: 2}\n",
+    "1% truncated answers (a3)": "faults:\n  ximc:\n    a3: {truncate_rate: 0.01, seed: 3}\n",
+    "1% errd answers (a3)": "faults:\n  ximc:\n    a3: {error_answer_rate: 0.01, error_answer: errd, seed: 4}\n",
+    "stall at 30 deg (a2)": "faults:\n  ximc:\n    a2: {stall_at_deg: 30}\n",
+    "limit switch at -45 deg (a3)": "faults:\n  ximc:\n    a3: {limit_deg: -45}\n",
+    "1% I2C remote-I/O errors": "faults:\n  sensor: {oserror_rate: 0.01, seed: 5}\n",
+    "0.5 s I2C error burst": "faults:\n  sensor: {oserror_window_s: [30.0, 30.5]}\n",
+    "chip dead after 30 s": "faults:\n  sensor: {dead_after_s: 30}\n",
+    "stuck readings after 40 s": "faults:\n  sensor: {stuck_after_s: 40}\n",
+    "saturation after 40 s": "faults:\n  sensor: {saturate_after_s: 40}\n",
+    "thermometer fails after 40 s": "faults:\n  sensor: {thermometer_fail_after_s: 40}\n",
+}
+
+
+def fault_tally() -> None:
+    import contextlib
+    import io
+    import json
+    print("\nInjected faults, six-position run on the simulated rig (virtual time):")
+    print(f"  {'fault':32s} {'exit':>4} {'status':>9} {'recovered':>9} {'flagged':>7} {'samples lost':>12}")
+    base = (REPO / "rigs" / "sim.yaml").read_text().replace("time_scale: 10", "time_scale: 0")
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, (name, extra) in enumerate(FAULTS.items()):
+            rig = Path(tmp) / f"rig{i}.yaml"
+            rig.write_text(base + extra)
+            out = Path(tmp) / f"s{i}"
+            with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+                code = main(["run", SIX, "--rig", str(rig), "--out", str(out), "--seed", "3", "--quiet"])
+            d = next(out.iterdir())
+            m = yaml.safe_load((d / "session.yaml").read_text())
+            events = [json.loads(x) for x in (d / "events.jsonl").read_text().splitlines()]
+            recovered = sum(e["kind"] == "warning" for e in events)
+            flagged = sum(s["status"] == "flagged" for s in m["steps"])
+            s = load_session(d)
+            lost = sum(1000 - len(s.step_samples(st["index"])["t_s"]) for st in m["steps"]
+                       if st["status"] in ("complete", "flagged"))
+            print(f"  {name:32s} {code:>4} {m['status']:>9} {recovered:>9} {flagged:>7} {lost:>12}")
+
+
 if __name__ == "__main__":
+    fault_tally()
     main_bench(int(sys.argv[1]) if len(sys.argv) > 1 else 20)
