@@ -362,6 +362,8 @@ class Runner:
                               text=f"set chamber to {target.target_c:g} C", answer="yes" if ok else "abort")
             if not ok:
                 raise RunAborted(f"operator aborted at step {step.index + 1} ({step.name})")
+            if self.rig.chamber is not None:  # simulated rig: the simulated operator sets the simulated chamber
+                self.rig.chamber.set_target_c(target.target_c)
         clock = self.rig.clock
         t_start = clock.now()
         in_band_since = None

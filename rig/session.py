@@ -346,7 +346,14 @@ class Session:
             means.append(a.mean(axis=0))
             sems.append(np.maximum(a.std(axis=0, ddof=1), 1.0 / np.sqrt(12.0)) / np.sqrt(n))
             ns.append(n)
-            temps.append(float(np.nanmean(self.samples["temp_c"][rows])) if self.has_temperature else np.nan)
+            if self.has_temperature:
+                tc = self.samples["temp_c"][rows]
+                if not np.all(np.isfinite(tc)):
+                    raise SessionFormatError(str(self.path / "samples.csv"), int(rows[~np.isfinite(tc)][0]) + 2,
+                                             "temp_c", f"step {i + 1} has rows without a temperature")
+                temps.append(float(np.mean(tc)))
+            else:
+                temps.append(np.nan)
             tt = self.samples["t_s"][rows]
             ts.append(0.5 * (tt.min() + tt.max()))
         if not idx:
@@ -362,6 +369,11 @@ def load_session(path) -> Session:
     d = Path(path)
     m = _read_manifest(d)
     samples, warnings = read_samples(d / "samples.csv", n_steps=len(m["steps"]))
+    if m["rig"]["sensor"].get("has_temperature"):
+        t = samples["temp_c"]
+        if len(t) and not np.any(np.isfinite(t)):
+            raise SessionFormatError(str(d / "samples.csv"), 1, "temp_c",
+                                     "the manifest says the sensor has a thermometer, but there are no temperatures")
     return Session(d, m, samples, warnings)
 
 
@@ -389,8 +401,10 @@ def read_samples(path: Path, n_steps: int | None = None) -> tuple[dict, list[str
         body = body[:cut + 1] if cut >= 0 else b""
         warnings.append(f"{path}:{torn_line}: dropped a torn last line (the run stopped while writing it)")
     ncol = len(header)
+    known = [c for c in header if c in BASE_COLUMNS + OPTIONAL_COLUMNS]
+    use = [header.index(c) for c in known]  # extra columns (any type) are ignored
     if not body.strip():
-        arr = np.empty((0, ncol))
+        arr = np.empty((0, len(use)))
     else:
         # empty fields (no thermometer, absent optional columns) become NaN
         text = body.replace(b",,", b",nan,").replace(b",,", b",nan,")
@@ -399,15 +413,16 @@ def read_samples(path: Path, n_steps: int | None = None) -> tuple[dict, list[str
             text = b"nan" + text
         text = text.replace(b"\n,", b"\nnan,")
         try:
-            arr = np.loadtxt(io.BytesIO(text), delimiter=",", dtype=float, ndmin=2)
+            arr = np.loadtxt(io.BytesIO(text), delimiter=",", dtype=float, ndmin=2, usecols=use,
+                             converters=None)
         except ValueError as exc:
             line = _bad_line(body, ncol)
             raise SessionFormatError(str(path), line, None,
                                      f"expected {ncol} comma-separated numbers per row ({str(exc).splitlines()[0]})") from None
-    if arr.shape[1] != ncol:
-        raise SessionFormatError(str(path), _bad_line(body, ncol) or 2, None,
-                                 f"rows have {arr.shape[1]} fields, the header names {ncol}")
-    col = {c: arr[:, i] for i, c in enumerate(header)}
+    ragged = _ragged_line(body, ncol)
+    if ragged is not None:
+        raise SessionFormatError(str(path), ragged, None, f"expected {ncol} comma-separated fields as in the header")
+    col = {c: arr[:, i] for i, c in enumerate(known)}
     for c in ("t_s", "step", "ax", "ay", "az"):
         bad = ~np.isfinite(col[c])
         if bad.any():
@@ -429,6 +444,12 @@ def read_samples(path: Path, n_steps: int | None = None) -> tuple[dict, list[str
     if all(c in col for c in ("a1_deg", "a2_deg", "a3_deg")):
         out["angles_deg"] = np.stack([col["a1_deg"], col["a2_deg"], col["a3_deg"]], axis=1)
     return out, warnings
+
+
+def _ragged_line(body: bytes, ncol: int) -> int | None:
+    counts = np.array([line.count(b",") + 1 for line in body.split(b"\n") if line])
+    bad = np.flatnonzero(counts != ncol)
+    return int(bad[0]) + 2 if len(bad) else None
 
 
 def _bad_line(body: bytes, ncol: int) -> int | None:

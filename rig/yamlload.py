@@ -75,5 +75,9 @@ def load_located(text: str, path: str):
 
     try:
         return build(node), loc
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise RigInputError(path, mark.line + 1 if mark else None, None, f"not valid YAML: {problem}") from None
     finally:
         loader.dispose()
