@@ -6,7 +6,7 @@ import numpy as np
 
 from drivers.clock import Clock, MonotonicClock
 from drivers.sensors.adxl345_model import BW_RATE, DATA_FORMAT, DATAX0, DEVID, FIFO_CTL, FIFO_STATUS, INT_SOURCE, POWER_CTL
-from drivers.sensors.base import BusRetry, CaptureStats, SampleBlock, SensorError, SensorIdentity, SensorSettings
+from drivers.sensors.base import BusRetry, check_identity, CaptureStats, SampleBlock, SensorError, SensorIdentity, SensorSettings
 
 RANGE_BITS = {2: 0, 4: 1, 8: 2, 16: 3}
 RATE_CODES = {3200 / 2 ** (15 - c): c for c in range(6, 16)}  # 6.25 .. 3200 Hz
@@ -31,15 +31,7 @@ class Adxl345:
         self._t0 = 0.0
 
     def identify(self) -> SensorIdentity:
-        try:
-            devid = self.bus.read_byte_data(self.address, DEVID)
-        except OSError as exc:
-            raise SensorError(f"{self.model} at 0x{self.address:02x}: no answer on the I2C bus "
-                              f"({exc.strerror or exc}); check wiring and address") from None
-        if devid != 0xE5:
-            raise SensorError(f"{self.model} at 0x{self.address:02x}: DEVID reads 0x{devid:02x}, expected 0xE5 "
-                              "(wrong chip at this address?)")
-        return SensorIdentity(self.model, self.address, DEVID, devid, str(getattr(self.bus, "bus", "")))
+        return check_identity(self.bus, self.address, self.model, DEVID, "DEVID", 0xE5)
 
     def configure(self, settings: SensorSettings = SensorSettings()) -> None:
         if settings.accel_range_g not in RANGE_BITS:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from drivers.clock import Clock, MonotonicClock
-from drivers.sensors.base import BusRetry, CaptureStats, SensorError, SensorIdentity
+from drivers.sensors.base import BusRetry, CaptureStats, SensorError, SensorIdentity, check_identity
 
 UT_PER_LSB = 0.3
 
@@ -27,14 +27,8 @@ class Ak8975:
         self.asa_factor = np.ones(3)
 
     def identify(self) -> SensorIdentity:
-        try:
-            wia = self.bus.read_byte_data(self.address, 0x00)
-        except OSError as exc:
-            raise SensorError(f"AK8975 at 0x{self.address:02x}: no answer ({exc.strerror or exc}); "
-                              "is the MPU-9150's I2C bypass enabled?") from None
-        if wia != 0x48:
-            raise SensorError(f"AK8975 at 0x{self.address:02x}: WIA reads 0x{wia:02x}, expected 0x48")
-        return SensorIdentity(self.model, self.address, 0x00, wia, str(getattr(self.bus, "bus", "")))
+        return check_identity(self.bus, self.address, self.model, 0x00, "WIA", 0x48,
+                              hint="is the MPU-9150's I2C bypass enabled?")
 
     def configure(self) -> None:
         """Identify and read the fuse-ROM sensitivity adjustment."""

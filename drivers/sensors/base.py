@@ -74,6 +74,20 @@ class AccelSensor(Protocol):
     def stop(self) -> None: ...
 
 
+def check_identity(bus, address: int, model: str, register: int, register_name: str, expected: int,
+                   hint: str = "check wiring and address") -> SensorIdentity:
+    """Read an identity register; SensorError (one line) on no answer or a wrong value."""
+    try:
+        value = bus.read_byte_data(address, register)
+    except OSError as exc:
+        raise SensorError(f"{model} at 0x{address:02x}: no answer on the I2C bus ({exc.strerror or exc}); "
+                          f"{hint}") from None
+    if value != expected:
+        raise SensorError(f"{model} at 0x{address:02x}: {register_name} reads 0x{value:02x}, expected "
+                          f"0x{expected:02x} (wrong chip at this address?)")
+    return SensorIdentity(model, address, register, value, str(getattr(bus, "bus", "")))
+
+
 class BusRetry:
     """Bounded retries of transient bus errors (EREMOTEIO bursts), counted in ``stats``."""
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from drivers.clock import Clock, MonotonicClock
-from drivers.sensors.base import BusRetry, CaptureStats, SampleBlock, SensorError, SensorIdentity, SensorSettings
+from drivers.sensors.base import BusRetry, check_identity, CaptureStats, SampleBlock, SensorError, SensorIdentity, SensorSettings
 from drivers.sensors.mpu9150_model import (ACCEL_CONFIG, ACCEL_LSB_PER_G, CONFIG, FIFO_COUNTH, FIFO_EN, FIFO_R_W,
                                            GYRO_CONFIG, GYRO_LSB_PER_DPS, INT_ENABLE, INT_PIN_CFG, INT_STATUS,
                                            PWR_MGMT_1, SMPLRT_DIV, USER_CTRL, WHO_AM_I)
@@ -53,15 +53,7 @@ class Mpu9150:
         self._pending = bytearray()
 
     def identify(self) -> SensorIdentity:
-        try:
-            who = self.bus.read_byte_data(self.address, WHO_AM_I)
-        except OSError as exc:
-            raise SensorError(f"{self.model} at 0x{self.address:02x}: no answer on the I2C bus "
-                              f"({exc.strerror or exc}); check wiring and address") from None
-        if who != 0x68:
-            raise SensorError(f"{self.model} at 0x{self.address:02x}: WHO_AM_I reads 0x{who:02x}, expected 0x68 "
-                              "(wrong chip at this address?)")
-        return SensorIdentity(self.model, self.address, WHO_AM_I, who, str(getattr(self.bus, "bus", "")))
+        return check_identity(self.bus, self.address, self.model, WHO_AM_I, "WHO_AM_I", 0x68)
 
     def configure(self, settings: SensorSettings = SensorSettings()) -> None:
         """Wake, set ranges, output rate (SMPLRT_DIV with DLPF on: 1 kHz base) and low-pass."""
