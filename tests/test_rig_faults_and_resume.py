@@ -101,7 +101,7 @@ def test_a_chip_that_stops_answering_aborts_with_one_line(tmp_path, capsys):
 
 def _spawn(args, **kw):
     env = dict(os.environ, PYTHONPATH=str(REPO))
-    return subprocess.Popen([sys.executable, "-m", "rig.cli", *args], cwd=REPO, env=env,
+    return subprocess.Popen([sys.executable, "-X", "faulthandler", "-m", "rig.cli", *args], cwd=REPO, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
 
 
@@ -153,7 +153,12 @@ def test_ctrl_c_stops_promptly_marks_aborted_and_the_run_resumes(tmp_path):
     d = _wait_for_steps(out, 1, proc)
     t0 = time.monotonic()
     proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=20)
+    try:
+        _, err = proc.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGABRT)  # faulthandler dumps every thread's stack to stderr
+        _, err = proc.communicate()
+        raise AssertionError(f"rig run did not stop after Ctrl-C; its stacks:\n{err[-6000:]}") from None
     assert time.monotonic() - t0 < 5.0
     assert proc.returncode == 1
     assert "aborted" in err and "--resume" in err and len(err.strip().splitlines()) == 1
