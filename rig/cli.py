@@ -130,6 +130,7 @@ def cmd_run(args) -> int:
 
     if args.procedure is None and args.resume is None:
         raise UsageError("give a procedure file, or --resume DIR")
+    _stop_on_signals()
     ui = ConsoleUI(assume_yes=args.yes, quiet=args.quiet)
     try:
         result = run_procedure(args.procedure, rig_spec=args.rig, out_dir=args.out, seed=args.seed,
@@ -146,6 +147,18 @@ def cmd_run(args) -> int:
         print(f"calibration: {result.calibration_path}")
         print(format_calibration(result.calibration))
     return EXIT_OK
+
+
+def _stop_on_signals() -> None:
+    """Ctrl-C (SIGINT) and SIGTERM stop the motors and abort the run, even when the shell that started
+    us ignores SIGINT (a background job does): the turntable must stop whoever asks."""
+    import signal
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, interrupt)
+    signal.signal(signal.SIGTERM, interrupt)
 
 
 def cmd_solve(args) -> int:

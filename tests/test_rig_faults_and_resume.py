@@ -99,8 +99,10 @@ def test_a_chip_that_stops_answering_aborts_with_one_line(tmp_path, capsys):
     assert yaml.safe_load((_only_session(tmp_path / "s") / "session.yaml").read_text())["status"] == "aborted"
 
 
-def _spawn(args, **kw):
+def _spawn(args, ignore_sigint=False, **kw):
     env = dict(os.environ, PYTHONPATH=str(REPO))
+    if ignore_sigint:  # as a background job of a non-interactive shell starts
+        kw["preexec_fn"] = lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)
     return subprocess.Popen([sys.executable, "-X", "faulthandler", "-m", "rig.cli", *args], cwd=REPO, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
 
@@ -147,12 +149,14 @@ def test_kill_9_then_resume_keeps_every_step_once_and_solves(tmp_path, after_ste
     assert np.all(np.abs(np.asarray(cal.scale_counts_per_g) - ref.scale_counts_per_g) < 5 * sig)
 
 
-def test_ctrl_c_stops_promptly_marks_aborted_and_the_run_resumes(tmp_path):
+@pytest.mark.parametrize("how", ["ctrl-c", "ctrl-c, started with SIGINT ignored", "sigterm"])
+def test_ctrl_c_stops_promptly_marks_aborted_and_the_run_resumes(tmp_path, how):
     out = tmp_path / "s"
-    proc = _spawn(["run", SIX, "--out", str(out), "--seed", "5", "--time-scale", "4", "--quiet"])
+    proc = _spawn(["run", SIX, "--out", str(out), "--seed", "5", "--time-scale", "4", "--quiet"],
+                  ignore_sigint="ignored" in how)
     d = _wait_for_steps(out, 1, proc)
     t0 = time.monotonic()
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(signal.SIGTERM if how == "sigterm" else signal.SIGINT)
     try:
         _, err = proc.communicate(timeout=30)
     except subprocess.TimeoutExpired:
