@@ -18,7 +18,6 @@ import io
 import json
 import os
 import re
-import tempfile
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -26,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from calib.calfile import atomic_write_text
 from rig.errors import SessionFormatError
 
 FORMAT = "rig-session/1"
@@ -42,27 +42,6 @@ def validate_session_id(session_id: str) -> str:
         raise SessionFormatError(None, None, "id", f"invalid session id {session_id!r} "
                                  "(letters, digits, '_', '-', '.'; no path separators or '..')")
     return session_id
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    dfd = os.open(path.parent, os.O_RDONLY)
-    try:
-        os.fsync(dfd)
-    finally:
-        os.close(dfd)
 
 
 def _utc() -> str:
@@ -103,7 +82,7 @@ class SessionWriter:
             os.fsync(fh.fileno())
         m["samples_committed_bytes"] = len(header.encode())
         (d / "events.jsonl").touch()
-        _atomic_write(d / "session.yaml", yaml.safe_dump(m, sort_keys=False))
+        atomic_write_text(d / "session.yaml", yaml.safe_dump(m, sort_keys=False))
         w = cls(d, m, tuple(columns))
         w.event("start", session=session_id)
         return w
@@ -217,7 +196,7 @@ class SessionWriter:
                 fh.close()
 
     def _write_manifest(self) -> None:
-        _atomic_write(self.session_dir / "session.yaml", yaml.safe_dump(_plain(self.manifest), sort_keys=False))
+        atomic_write_text(self.session_dir / "session.yaml", yaml.safe_dump(_plain(self.manifest), sort_keys=False))
 
 
 def _plain(v):
