@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -87,7 +88,9 @@ def print_seed(cls: str, verify_c: float):
     target = 0.03 if cls == "MPU-9150" else 0.1
     print(f"\n{cls} class, verified at {verify_c} C ({'thermal model from 6 points' if CLASS[cls]['thermometer'] else 'no thermometer: no thermal model'}); 300 simulated sensors")
     print(f"  {'pose roll/pitch':>16} | {'paper err roll/pitch':>21} | {'ours: RMS err roll/pitch over sensors':>38}")
-    rms = np.sqrt(np.nanmean(pp**2, axis=0))
+    with warnings.catch_warnings():  # roll is undefined at pitch 90 deg: that column is all NaN ("n/a")
+        warnings.simplefilter("ignore", RuntimeWarning)
+        rms = np.sqrt(np.nanmean(pp**2, axis=0))
     for (r, p), (pr, pp_), (er, ep) in zip(SEED_POSES, PAPER[cls], rms):
         ers = "  n/a" if np.isnan(er) else f"{er:.4f}"
         print(f"  {r:>7}/{p:<8} | {pr:>10}/{pp_:<10} | {ers:>18}/{ep:.4f}")
