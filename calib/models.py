@@ -88,7 +88,7 @@ class AccelCalibration:
         out = f @ np.asarray(self.matrix_counts_per_g, float).T + self.bias_at(temp_c, len(f))
         if self.effects:
             from calib.effects import effect_counts
-            out = out + effect_counts(self.effects, f, temp_c, t_s, self.lsb_per_g)
+            out = out + effect_counts(self.effects, f, temp_c, t_s, self.lsb_per_g, self.matrix_counts_per_g)
         return out
 
     def apply(self, counts, temp_c=None, t_s=None) -> np.ndarray:
@@ -105,7 +105,7 @@ class AccelCalibration:
         if self.effects:
             from calib.effects import effect_counts
             for _ in range(50):
-                extra = effect_counts(self.effects, f, temp_c, t_s, self.lsb_per_g)
+                extra = effect_counts(self.effects, f, temp_c, t_s, self.lsb_per_g, self.matrix_counts_per_g)
                 f_new = np.linalg.solve(m, (y - extra).T).T
                 if np.max(np.abs(f_new - f)) < 1e-12:
                     f = f_new

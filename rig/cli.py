@@ -57,6 +57,15 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("session")
     e.add_argument("--json", action="store_true")
 
+    dc = sub.add_parser("discover", help="find where the model and the data disagree; name the missing effect")
+    dc.add_argument("session")
+    dc.add_argument("--json", action="store_true", help="print the rig-discover/1 JSON instead of the report")
+    dc.add_argument("--plot", metavar="FILE.png", default=None, help="residuals before/after, by pose and temperature")
+    dc.add_argument("-o", "--output", metavar="CALIB.yaml", default=None,
+                    help="write the augmented calibration (effects filled in)")
+    dc.add_argument("--false-alarm", type=float, default=0.01,
+                    help="probability of naming an effect in a session that has none (default 0.01)")
+
     rp = sub.add_parser("replay", help="re-run a recorded session through the replay rig")
     rp.add_argument("session")
     rp.add_argument("--out", default=None, help="where the replayed session goes (default: beside the original)")
@@ -82,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return EXIT_BAD_INPUT
     handler = {"run": cmd_run, "solve": cmd_solve, "apply": cmd_apply, "evaluate": cmd_evaluate,
-               "replay": cmd_replay, "sim": cmd_sim, "ports": cmd_ports}[args.command]
+               "replay": cmd_replay, "discover": cmd_discover, "sim": cmd_sim, "ports": cmd_ports}[args.command]
     try:
         return handler(args)
     except BaseException as exc:  # noqa: BLE001 - the one place errors become exit codes
@@ -193,6 +202,26 @@ def cmd_apply(args) -> int:
             w.writerow([f"{d['t_s'][i]:.4f}", int(d["step"][i]), f"{f[i, 0]:.7f}", f"{f[i, 1]:.7f}",
                         f"{f[i, 2]:.7f}", tc])
     print(f"wrote {len(f)} rows to {out}")
+    return EXIT_OK
+
+
+def cmd_discover(args) -> int:
+    from rig import discover as dsc
+
+    if not 0 < args.false_alarm < 0.5:
+        raise UsageError(f"--false-alarm: expected a probability in (0, 0.5), got {args.false_alarm:g}")
+    session, d = dsc.discover_session(args.session, false_alarm=args.false_alarm)
+    extra = {}
+    if args.plot:
+        extra["plot"] = str(dsc.write_plot(d, args.plot))
+    if args.output:
+        extra["calibration"] = str(dsc.write_calibration(session, d, args.output))
+    if args.json:
+        print(json.dumps({**d.to_json(), **extra}, indent=2, default=_json_default))
+    else:
+        print(dsc.format_report(session, d))
+        for k, v in extra.items():
+            print(f"{k}: {v}")
     return EXIT_OK
 
 

@@ -238,6 +238,7 @@ class Runner:
                 self.writer.event("move", t_s=self.session_time(), step=step.index, axis=name,
                                   from_deg=current, to_deg=target)
                 st.move_deg(target)
+        self._coarse_wait(targets)
         for name in AXES:
             st = self.rig.stages[name]
             st.command_wait_for_stop(50, timeout_s=self.options.move_timeout_s)
@@ -247,6 +248,21 @@ class Runner:
                 raise TurntableError(st.port, "move",
                                      f"{name} stopped at {reached:.4f} deg, short of target {targets[name]:.4f} deg",
                                      name=name)
+
+    def _coarse_wait(self, targets: dict) -> None:
+        """Wait out the bulk of a long move polling every 0.5 s (errors still seen within 0.5 s),
+        leaving the last 0.3 s to the 50 ms poll of ``command_wait_for_stop``."""
+        t_end = self.rig.clock.now()
+        for name, target in targets.items():
+            ax = self.rig.axes[name]
+            dist = abs(target - self.rig.stages[name].get_position_deg())
+            t_end = max(t_end, self.rig.clock.now() + planning.move_time_s(dist, ax.speed_deg_s, ax.accel_deg_s2))
+        while t_end - self.rig.clock.now() > 0.8:
+            self.rig.clock.sleep(0.5)
+            for name in targets:
+                st = self.rig.stages[name].get_status()
+                if not st.running and st.command_error:
+                    return  # command_wait_for_stop raises with the details
 
     def _angles_now(self) -> np.ndarray:
         return np.array([self.rig.kinematic_angle_deg(n, self.rig.stages[n].get_position_deg()) for n in AXES])
@@ -368,11 +384,14 @@ class Runner:
         t_start = clock.now()
         in_band_since = None
         readings: list[tuple[float, float]] = []
+        first_c: float | None = None  # the leg's starting temperature (heating or cooling, for discover)
         mean_c = float("nan")
         while True:
             clock.sleep(1.0)
             now = clock.now()
             readings.append((now, sensor.read_temperature_c()))
+            if first_c is None:
+                first_c = readings[-1][1]
             readings = [(t, c) for t, c in readings if t >= now - max(self.options.temp_window_s, 5.0)]
             mean_c = float(np.mean([c for _, c in readings]))
             if abs(mean_c - target.target_c) <= target.tolerance_c:
@@ -388,7 +407,7 @@ class Runner:
                 raise RunError(f"step {step.index + 1} ({step.name}): sensor temperature {mean_c:.2f} C did not "
                                f"reach {target.target_c:g} +- {target.tolerance_c:g} C within {target.timeout_s:g} s")
         self.writer.event("temperature", t_s=self.session_time(), step=step.index, temp_c=mean_c,
-                          waited_s=clock.now() - t_start)
+                          start_c=first_c, waited_s=clock.now() - t_start)
         self.writer.complete_step(step.index, {"t_end_s": self.session_time(), "temp_c": mean_c,
                                                "waited_s": clock.now() - t_start})
         self.outcomes.append(StepOutcome(step.index, "complete", 0))

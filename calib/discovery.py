@@ -1,0 +1,549 @@
+"""Discrepancy search: where does the seed's model disagree with the data, and which effect is missing?
+
+1. **Baseline.** Fit the seed's model (bias, scale, triangular misalignment, no
+   temperature terms) to the step means; its prediction at every step's pose,
+   temperature and time is what the simulator, given that model, would produce
+   (the simulator's error model is the same equation plus white noise). Each
+   step-axis residual is judged against the scatter of that step's own samples
+   (``z = r / sem``).
+2. **Localise** the disagreement: poses, axes, temperatures, heating or cooling
+   leg, time span (:func:`localise`).
+3. **Name** the missing effect from :data:`calib.effects.LIBRARY` by forward
+   stepwise selection. At each pass every observable candidate not yet in the
+   model is tested with a nested-model F test (weights 1/sem^2; the F form keeps
+   the test valid when the sems are off by a common factor); the most significant
+   enters if its p-value is below ``false_alarm / (candidates left)``
+   (Bonferroni), so a clean session names a spurious effect with probability at
+   most ``false_alarm``. A backward pass then drops any effect no longer
+   significant. Two candidates that are each significant alone, but neither once
+   the other is in, are reported together as **aliases** (the data cannot tell
+   them apart). A candidate whose terms the session cannot determine at all
+   (the coverage rule in the library, or a design column that the baseline
+   already spans) is listed as **unobservable** and never named.
+4. **Refit** with every named effect (the M-dependent terms re-linearised at the
+   new M) and report the residual RMS after each addition.
+
+Pure numpy/scipy; the session-side context (pose rotations, heating legs) is
+computed by the caller (``rig.discover``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from calib.data import StepMeans
+from calib.design import AxisFit
+from calib.effects import LIBRARY, EffectInputs
+from calib.errors import CalibError
+
+AXES = ("x", "y", "z")
+#: baseline columns: which force components enter each output axis (the seed's triangular model)
+TRIANGULAR_COLUMNS = {"x": [0, 1, 2], "y": [1, 2], "z": [2]}
+MIN_TEMP_SPAN_C = 2.0
+MISFIT_P = 0.01
+COLUMN_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class StepContext:
+    """Per-step facts the session knows beyond :class:`StepMeans`.
+
+    heating : (K,) +1 after heating, -1 after cooling, 0 unknown; or None.
+    base_to_sensor : (K, 3, 3) rotation taking turntable-base vectors into the sensor frame; or None.
+    pose_group : (K,) integer pose labels, used when the poses are unknown (f_nominal NaN):
+        the baseline is then one constant per pose group and axis.
+    band_c : hysteresis dead band used for ``heating``, C.
+    """
+
+    heating: np.ndarray | None = None
+    base_to_sensor: np.ndarray | None = None
+    pose_group: np.ndarray | None = None
+    band_c: float = 0.5
+
+
+@dataclass
+class FoundEffect:
+    name: str
+    axes: list
+    unit: str
+    estimate: list
+    sigma: list
+    rms_after_g: float
+    p_value: float
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "axes": list(self.axes), "estimate": _nan_none(self.estimate),
+                "sigma": _nan_none(self.sigma), "unit": self.unit, "rms_after_g": self.rms_after_g,
+                "p_value": self.p_value}
+
+
+@dataclass
+class StepRow:
+    name: str
+    temp_c: float | None
+    heating: int | None
+    t_s: float
+    f_nominal_g: list | None
+    residual_before_g: list
+    residual_after_g: list
+    z_before: list
+    z_after: list
+
+    def to_json(self) -> dict:
+        return {k: _nan_none(v) if isinstance(v, list) else v for k, v in self.__dict__.items()}
+
+
+@dataclass
+class Discovery:
+    """The outcome of :func:`discover`. ``to_json`` is the documented ``--json`` contract."""
+
+    rms_before_g: float
+    rms_after_g: float
+    noise_rms_g: float
+    chi2_per_dof_before: float
+    chi2_per_dof_after: float
+    effects: list[FoundEffect]
+    aliases: list[list[str]]
+    unobservable: list[str]
+    unobservable_why: dict
+    steps: list[StepRow]
+    where: dict
+    history: list = field(default_factory=list)  # (label, rms_g, chi2_per_dof)
+    false_alarm: float = 0.01
+    calibration: object = None  # AccelCalibration or None (unknown poses)
+
+    def to_json(self) -> dict:
+        return {"format": "rig-discover/1", "rms_before_g": self.rms_before_g, "rms_after_g": self.rms_after_g,
+                "noise_rms_g": self.noise_rms_g, "chi2_per_dof_before": self.chi2_per_dof_before,
+                "chi2_per_dof_after": self.chi2_per_dof_after, "false_alarm": self.false_alarm,
+                "effects": [e.to_json() for e in self.effects], "aliases": [list(a) for a in self.aliases],
+                "unobservable": list(self.unobservable),
+                "unobservable_why": dict(self.unobservable_why), "where": self.where,
+                "steps": [s.to_json() for s in self.steps]}
+
+
+def _nan_none(v):
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return [_nan_none(x) for x in v]
+    v = float(v)
+    return None if not np.isfinite(v) else v
+
+
+# -- the linear problem ---------------------------------------------------------------------
+@dataclass
+class _Fit:
+    theta: np.ndarray
+    cov0: np.ndarray
+    rss: float  # weighted (chi-square)
+    dof: int
+    resid: np.ndarray  # (3K,) counts
+    names: list  # (block, index) per column
+
+
+class _Problem:
+    """Stacked weighted least squares over all steps and output axes (axis-major rows)."""
+
+    def __init__(self, steps: StepMeans, ctx: StepContext, t0_c: float, t_ref_s: float) -> None:
+        self.steps = steps
+        self.ctx = ctx
+        self.k = len(steps)
+        self.lsb = float(steps.lsb_per_g)
+        self.y = np.asarray(steps.mean_counts, float).T.ravel()
+        self.w = 1.0 / np.asarray(steps.sem_counts, float).T.ravel()
+        f = np.asarray(steps.f_nominal_g, float)
+        self.pose_free = not np.all(np.isfinite(f))
+        self.f = np.where(np.isfinite(f), f, 0.0)
+        self.t0_c = t0_c
+        self.t_ref_s = t_ref_s
+        self.base, self.base_names = self._baseline()
+        self.matrix_g = np.eye(3)
+        self.cols: dict[str, np.ndarray] = {}
+        self.keep: dict[str, np.ndarray] = {}
+
+    def _baseline(self):
+        k = self.k
+        blocks, names = [], []
+        for j, a in enumerate(AXES):
+            if self.pose_free:
+                groups = np.unique(self.ctx.pose_group) if self.ctx.pose_group is not None else np.array([0])
+                labels = self.ctx.pose_group if self.ctx.pose_group is not None else np.zeros(k, int)
+                cols = [(labels == g).astype(float) for g in groups]
+                nm = [f"b_{a}[{g}]" for g in groups]
+            else:
+                cols = [np.ones(k)] + [self.f[:, c] for c in TRIANGULAR_COLUMNS[a]]
+                nm = [f"b_{a}"] + [f"m_{a}{AXES[c]}" for c in TRIANGULAR_COLUMNS[a]]
+            for c, n in zip(cols, nm):
+                full = np.zeros(3 * k)
+                full[j * k:(j + 1) * k] = c
+                blocks.append(full)
+                names.append(n)
+        return np.stack(blocks, axis=1), names
+
+    def inputs(self) -> EffectInputs:
+        s = self.steps
+        return EffectInputs(f_g=self.f, temp_c=None if s.temp_c is None else np.asarray(s.temp_c, float),
+                            t_s=np.asarray(s.t_s, float), heating=self.ctx.heating,
+                            base_to_sensor=self.ctx.base_to_sensor, matrix_g=self.matrix_g, t0_c=self.t0_c,
+                            t_ref_s=self.t_ref_s)
+
+    def build_columns(self, names) -> None:
+        x = self.inputs()
+        for n in names:
+            c = LIBRARY[n].columns_g(x)  # (K, 3, P)
+            self.cols[n] = np.transpose(c, (1, 0, 2)).reshape(3 * self.k, -1) * self.lsb
+
+    def design(self, effects) -> tuple[np.ndarray, list]:
+        mats, names = [self.base], [("base", n) for n in self.base_names]
+        for e in effects:
+            keep = self.keep[e]
+            mats.append(self.cols[e][:, keep])
+            names += [(e, i) for i in np.flatnonzero(keep)]
+        return np.concatenate(mats, axis=1), names
+
+    def fit(self, effects) -> _Fit:
+        g, names = self.design(effects)
+        gw = g * self.w[:, None]
+        q, r = np.linalg.qr(gw)
+        theta = np.linalg.solve(r, q.T @ (self.y * self.w))
+        rinv = np.linalg.inv(r)
+        resid = self.y - g @ theta
+        return _Fit(theta, rinv @ rinv.T, float(np.sum((resid * self.w) ** 2)), g.shape[0] - g.shape[1],
+                    resid, names)
+
+    def observable_columns(self, name: str) -> np.ndarray:
+        """Mask of the effect's parameters the design determines (beyond the baseline)."""
+        bw = self.base * self.w[:, None]
+        q, _ = np.linalg.qr(bw)
+        cw = self.cols[name] * self.w[:, None]
+        keep = np.zeros(cw.shape[1], bool)
+        basis = q
+        for i in range(cw.shape[1]):
+            c = cw[:, i]
+            norm = np.linalg.norm(c)
+            if norm == 0:
+                continue
+            r = c - basis @ (basis.T @ c)
+            if np.linalg.norm(r) > COLUMN_TOL * norm:
+                keep[i] = True
+                basis = np.concatenate([basis, (r / np.linalg.norm(r))[:, None]], axis=1)
+        return keep
+
+
+def f_test(small: _Fit, big: _Fit) -> tuple[float, float]:
+    """Nested-model F statistic and p-value (``big`` adds columns to ``small``)."""
+    q = small.dof - big.dof
+    if q <= 0 or big.dof <= 0:
+        return 0.0, 1.0
+    f = max(small.rss - big.rss, 0.0) / q / (big.rss / big.dof)
+    return float(f), float(stats.f.sf(f, q, big.dof))
+
+
+# -- coverage -------------------------------------------------------------------------------
+def coverage_problem(name: str, steps: StepMeans, ctx: StepContext, pose_free: bool) -> str | None:
+    """Why the session cannot observe effect ``name`` by design (None when it can)."""
+    lib = LIBRARY[name]
+    temps = None if steps.temp_c is None else np.asarray(steps.temp_c, float)
+    if "temp" in lib.needs:
+        if temps is None:
+            return "no temperature readings"
+        span = float(np.ptp(temps)) if len(temps) else 0.0
+        if span < MIN_TEMP_SPAN_C:
+            return f"temperature span {span:.2f} C < {MIN_TEMP_SPAN_C:g} C"
+        if name == "bias_tempco_quadratic" and len(np.unique(np.round(temps))) < 3:
+            return "fewer than 3 distinct temperatures"
+    if "legs" in lib.needs:
+        h = ctx.heating
+        if h is None or not (np.any(h > 0) and np.any(h < 0)):
+            return "no heating and cooling legs"
+        hot = {int(round(t)) for t in temps[h > 0]}
+        cold = {int(round(t)) for t in temps[h < 0]}
+        if not any(abs(a - b) <= 1 for a in hot for b in cold):
+            return "no temperature visited on both a heating and a cooling leg"
+    if "rotation" in lib.needs and ctx.base_to_sensor is None:
+        return "pose rotations unknown"
+    if pose_free and name in FORCE_EFFECTS:
+        return "poses unknown (f_nominal null)"
+    return None
+
+
+FORCE_EFFECTS = {"scale_tempco", "scale_nonlinearity", "cross_axis_nonlinearity", "full_misalignment",
+                 "table_tilt"}
+
+
+# -- the search -----------------------------------------------------------------------------
+def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: float = 0.01,
+             candidates=None, t0_c: float | None = None) -> Discovery:
+    """Run the discrepancy search on a session's step means.
+
+    Parameters
+    ----------
+    steps : static step means (counts); ``f_nominal_g`` may be NaN for unknown poses.
+    ctx : heating legs, pose rotations, pose groups (see :class:`StepContext`).
+    false_alarm : probability of naming any effect in a session that has none (Bonferroni-split
+        over the candidates at each forward pass).
+    candidates : effect names to consider (default: the whole library).
+    t0_c : reference temperature (default: the mean step temperature).
+    """
+    ctx = ctx or StepContext()
+    k = len(steps)
+    if k < 2:
+        raise CalibError("discover needs at least 2 static steps")
+    temps = None if steps.temp_c is None else np.asarray(steps.temp_c, float)
+    t0 = float(t0_c) if t0_c is not None else (float(np.mean(temps)) if temps is not None else 25.0)
+    t_ref = float(np.mean(steps.t_s))
+    prob = _Problem(steps, ctx, t0, t_ref)
+    if prob.base.shape[1] >= 3 * k:
+        raise CalibError(f"discover: {k} steps cannot determine the baseline model ({prob.base.shape[1]} parameters)")
+    names = list(candidates) if candidates is not None else list(LIBRARY)
+    unknown = [n for n in names if n not in LIBRARY]
+    if unknown:
+        raise CalibError(f"unknown effect(s): {', '.join(unknown)} (known: {', '.join(LIBRARY)})")
+
+    base_fit = prob.fit([])
+    if not prob.pose_free:
+        prob.matrix_g = _matrix_from(prob, base_fit) / prob.lsb
+    unobservable, why = [], {}
+    observable = []
+    prob.build_columns(names)
+    for n in names:
+        problem = coverage_problem(n, steps, ctx, prob.pose_free)
+        if problem is None:
+            keep = prob.observable_columns(n)
+            if not keep.any():
+                problem = "every term is zero or already in the baseline model at these poses"
+            else:
+                prob.keep[n] = keep
+        if problem:
+            unobservable.append(n)
+            why[n] = problem
+        else:
+            observable.append(n)
+
+    selected, aliases = _select(prob, observable, false_alarm)
+
+    # re-linearise the M-dependent terms at the final M and refit
+    final = prob.fit(selected)
+    if not prob.pose_free:
+        prob.matrix_g = _matrix_from(prob, final) / prob.lsb
+        prob.build_columns(selected)
+        final = prob.fit(selected)
+    cov = final.cov0 * _inflation(final)
+    sig = np.sqrt(np.diag(cov))
+    effects = []
+    for i, n in enumerate(selected):
+        lib = LIBRARY[n]
+        est = np.full(len(lib.params), np.nan)
+        sd = np.full(len(lib.params), np.nan)
+        for col, (blk, idx) in enumerate(final.names):
+            if blk == n:
+                est[idx], sd[idx] = final.theta[col], sig[col]
+        partial = prob.fit(selected[:i + 1])
+        effects.append(FoundEffect(n, list(lib.params), lib.unit, est.tolist(), sd.tolist(),
+                                   _rms_g(prob, partial), f_test(prob.fit(selected[:i]), partial)[1]))
+
+    z0 = (base_fit.resid * prob.w).reshape(3, k).T
+    z1 = (final.resid * prob.w).reshape(3, k).T
+    r0 = base_fit.resid.reshape(3, k).T / prob.lsb
+    r1 = final.resid.reshape(3, k).T / prob.lsb
+    rows = [StepRow(str(steps.names[i]), None if temps is None else float(temps[i]),
+                    None if ctx.heating is None else int(ctx.heating[i]), float(steps.t_s[i]),
+                    None if prob.pose_free else prob.f[i].tolist(), r0[i].tolist(), r1[i].tolist(),
+                    z0[i].tolist(), z1[i].tolist()) for i in range(k)]
+    history = [("baseline", _rms_g(prob, base_fit), base_fit.rss / base_fit.dof)]
+    history += [(e.name, e.rms_after_g, prob.fit(selected[:i + 1]).rss / prob.fit(selected[:i + 1]).dof)
+                for i, e in enumerate(effects)]
+    noise = float(np.sqrt(np.mean(np.asarray(steps.sem_counts, float) ** 2)) / prob.lsb)
+    cal = None if prob.pose_free else _calibration(steps, prob, final, cov, selected, t0, t_ref, ctx)
+    return Discovery(rms_before_g=_rms_g(prob, base_fit), rms_after_g=_rms_g(prob, final), noise_rms_g=noise,
+                     chi2_per_dof_before=base_fit.rss / base_fit.dof, chi2_per_dof_after=final.rss / final.dof,
+                     effects=effects, aliases=aliases, unobservable=unobservable, unobservable_why=why,
+                     steps=rows, where=localise(steps, ctx, z0), history=history, false_alarm=false_alarm,
+                     calibration=cal)
+
+
+def _select(prob: _Problem, observable: list, alpha: float) -> tuple[list, list]:
+    selected: list[str] = []
+    aliases: list[list[str]] = []
+    cache: dict = {}
+
+    def fit(names):
+        key = tuple(names)
+        if key not in cache:
+            cache[key] = prob.fit(list(names))
+        return cache[key]
+
+    while True:
+        remaining = [n for n in observable if n not in selected
+                     and (n != "bias_tempco_quadratic" or "bias_tempco" in selected)]
+        if not remaining:
+            break
+        cur = fit(selected)
+        pvals = {n: f_test(cur, fit(selected + [n])) for n in remaining}
+        thr = alpha / len(remaining)
+        best = min(remaining, key=lambda n: (pvals[n][1], -pvals[n][0]))
+        if pvals[best][1] >= thr:
+            break
+        group = [best]
+        for n in remaining:
+            if n == best or pvals[n][1] >= thr:
+                continue
+            p_n = f_test(fit(selected + [best]), fit(selected + [best, n]))[1]
+            p_b = f_test(fit(selected + [n]), fit(selected + [n, best]))[1]
+            if p_n >= thr and p_b >= thr:
+                group.append(n)
+        if len(group) > 1:
+            aliases.append(group)
+        selected.append(best)
+    # backward pass: drop what is no longer significant given the rest
+    while selected:
+        full = fit(selected)
+        drops = {}
+        for n in selected:
+            if n == "bias_tempco" and "bias_tempco_quadratic" in selected:
+                continue
+            drops[n] = f_test(fit([s for s in selected if s != n]), full)[1]
+        if not drops:
+            break
+        worst = max(drops, key=drops.get)
+        if drops[worst] <= alpha:
+            break
+        selected.remove(worst)
+    return selected, aliases
+
+
+def _inflation(fit: _Fit) -> float:
+    if fit.dof > 0 and stats.chi2.sf(fit.rss, fit.dof) < MISFIT_P:
+        return fit.rss / fit.dof
+    return 1.0
+
+
+def _rms_g(prob: _Problem, fit: _Fit) -> float:
+    return float(np.sqrt(np.mean(fit.resid ** 2)) / prob.lsb)
+
+
+def _matrix_from(prob: _Problem, fit: _Fit) -> np.ndarray:
+    m = np.zeros((3, 3))
+    for col, (blk, n) in enumerate(fit.names):
+        if blk == "base" and n.startswith("m_"):
+            m[AXES.index(n[2]), AXES.index(n[3])] = fit.theta[col]
+    return m
+
+
+def _calibration(steps, prob, final, cov, selected, t0, t_ref, ctx):
+    """The augmented calibration: the seed's model, its thermal polynomial and the other effects."""
+    from calib.solvers import TRIANGULAR_NAMES, assemble
+    order = 2 if "bias_tempco_quadratic" in selected else (1 if "bias_tempco" in selected else 0)
+    k = prob.k
+    fits = {}
+    for j, a in enumerate(AXES):
+        cols, names = [], []
+        for col, (blk, n) in enumerate(final.names):
+            if blk == "base" and n[2] == a and n.startswith(("b_", "m_")):
+                cols.append(col)
+                names.append(_seed_name(n))
+        for s_, eff in ((1, "bias_tempco"), (2, "bias_tempco_quadratic")):
+            if s_ <= order:
+                col = final.names.index((eff, j)) if (eff, j) in final.names else None
+                if col is None:
+                    raise CalibError(f"{eff} on axis {a} was not determined")
+                cols.append(col)
+                names.append(f"c{s_}_{a}")
+        idx = np.array(cols)
+        params = final.theta[idx].copy()
+        c = cov[np.ix_(idx, idx)].copy()
+        for i, n in enumerate(names):
+            if n.startswith("c"):
+                params[i] *= prob.lsb  # g/C^s -> counts/C^s
+                c[i, :] *= prob.lsb
+                c[:, i] *= prob.lsb
+        res = final.resid[j * k:(j + 1) * k]
+        w = prob.w[j * k:(j + 1) * k]
+        fits[a] = AxisFit(names, params, c, c, res, float(np.sum((res * w) ** 2)), max(final.dof // 3, 1), False)
+    assert set(TRIANGULAR_NAMES["x"]) <= set(fits["x"].names)
+    sig = np.sqrt(np.diag(cov))
+    extra = []
+    for n in selected:
+        if n in ("bias_tempco", "bias_tempco_quadratic"):
+            continue
+        lib = LIBRARY[n]
+        est = np.zeros(len(lib.params))
+        sd = np.zeros(len(lib.params))
+        for col, (blk, idx) in enumerate(final.names):
+            if blk == n:
+                est[idx], sd[idx] = final.theta[col], sig[col]
+        entry = {"name": n, "unit": lib.unit, "axes": list(lib.params), "estimate": est.tolist(),
+                 "sigma": sd.tolist()}
+        if n == "scale_tempco":
+            entry["t0_c"] = t0
+        if n == "bias_drift":
+            entry["t_ref_s"] = t_ref
+        if n == "thermal_hysteresis":
+            entry["band_c"] = ctx.band_c
+        extra.append(entry)
+    return assemble(steps, "triangular", fits, order, t0, "discover", effects=extra)
+
+
+def _seed_name(n: str) -> str:
+    """Baseline column name -> the seed solver's parameter name."""
+    return {"m_xx": "k_x", "m_xy": "kx_ayz", "m_xz": "kx_azy", "m_yy": "k_y", "m_yz": "ky_azx",
+            "m_zz": "k_z"}.get(n, n)
+
+
+# -- localisation ---------------------------------------------------------------------------
+def localise(steps: StepMeans, ctx: StepContext, z: np.ndarray, false_alarm: float = 0.01) -> dict:
+    """Where the baseline disagrees: significant step-axis cells and their poses, axes,
+    temperature range, legs and time span; RMS of z by group."""
+    k = len(steps)
+    zc = float(stats.norm.isf(false_alarm / (2 * 3 * k)))
+    sig = np.abs(z) > zc
+    temps = None if steps.temp_c is None else np.asarray(steps.temp_c, float)
+    t = np.asarray(steps.t_s, float)
+    out: dict = {"z_threshold": zc, "cells": int(sig.sum()), "cells_total": int(3 * k)}
+    out["by_axis"] = {a: {"significant": int(sig[:, j].sum()), "rms_z": float(np.sqrt(np.mean(z[:, j] ** 2)))}
+                      for j, a in enumerate(AXES)}
+    rows = np.flatnonzero(sig.any(axis=1))
+    out["steps"] = [str(steps.names[i]) for i in rows]
+    if len(rows):
+        out["time_span_s"] = [float(t[rows].min()), float(t[rows].max())]
+        if temps is not None:
+            out["temp_range_c"] = [float(temps[rows].min()), float(temps[rows].max())]
+    zr = np.sqrt(np.mean(z ** 2, axis=1))
+    if temps is not None:
+        levels = np.round(temps).astype(int)
+        out["by_temperature"] = {f"{lv}": float(np.sqrt(np.mean(zr[levels == lv] ** 2)))
+                                 for lv in sorted(set(levels.tolist()))}
+    if ctx.heating is not None:
+        out["by_leg"] = {lab: float(np.sqrt(np.mean(zr[ctx.heating == v] ** 2)))
+                         for lab, v in (("heating", 1), ("cooling", -1), ("unknown", 0)) if np.any(ctx.heating == v)}
+    halves = t <= np.median(t)
+    out["by_time"] = {"first_half": float(np.sqrt(np.mean(zr[halves] ** 2))),
+                      "second_half": float(np.sqrt(np.mean(zr[~halves] ** 2))) if np.any(~halves) else None}
+    names = np.asarray(steps.names, dtype=object)
+    by_pose = {}
+    for n in dict.fromkeys(names.tolist()):
+        by_pose[str(n)] = float(np.sqrt(np.mean(zr[names == n] ** 2)))
+    out["worst_poses"] = sorted(by_pose, key=by_pose.get, reverse=True)[:5]
+    return out
+
+
+def summary_lines(d: dict) -> list[str]:
+    """Plain sentences from :func:`localise`'s dict."""
+    lines = [f"{d['cells']} of {d['cells_total']} step-axis means disagree beyond |z| > {d['z_threshold']:.1f} "
+             f"(about {0.01:g} expected by chance)"]
+    ax = ", ".join(f"{a}: {v['significant']} (rms z {v['rms_z']:.1f})" for a, v in d["by_axis"].items())
+    lines.append(f"by axis: {ax}")
+    if "temp_range_c" in d:
+        lines.append(f"temperatures of the disagreeing steps: {d['temp_range_c'][0]:.1f} .. {d['temp_range_c'][1]:.1f} C")
+    if "by_temperature" in d and len(d["by_temperature"]) > 1:
+        lines.append("rms z by temperature: " + ", ".join(f"{k} C {v:.1f}" for k, v in d["by_temperature"].items()))
+    if "by_leg" in d:
+        lines.append("rms z by leg: " + ", ".join(f"{k} {v:.1f}" for k, v in d["by_leg"].items()))
+    if "time_span_s" in d:
+        lines.append(f"time span of the disagreeing steps: {d['time_span_s'][0]:.0f} .. {d['time_span_s'][1]:.0f} s"
+                     f" (rms z first half {d['by_time']['first_half']:.1f}, second half "
+                     f"{(d['by_time']['second_half'] or 0):.1f})")
+    lines.append("worst poses: " + ", ".join(d["worst_poses"]))
+    return lines

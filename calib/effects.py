@@ -1,0 +1,266 @@
+"""The library of candidate physical effects beyond the seed's accelerometer model.
+
+The seed's model is ``a = M f + b`` (counts). Each effect here adds a term to
+the sensor output, written in g of output (multiplied by ``lsb_per_g`` to give
+counts) and *linear in its parameters*, so the discrepancy search can test it
+with the same weighted least squares as the baseline::
+
+    a = M f + b + lsb_per_g * sum_effects contribution_g(params, inputs)
+
+The equations match the simulator's error model (drivers/sensors/error_model.py
+and rig/world.py; docs/discrepancy.md), so a hidden effect's estimate compares
+directly with the value switched on in a rig file.
+
+=========================  =========  ===========================================================
+name                       unit       output term (axis j; dT = T - t0_c, Mn = M / lsb_per_g)
+=========================  =========  ===========================================================
+bias_tempco                g/C        p_j dT
+bias_tempco_quadratic      g/C^2      p_j dT^2
+scale_tempco               1/C        p_j dT (Mn f)_j
+scale_nonlinearity         1/g        p_j f_j^2
+cross_axis_nonlinearity    1/g        sum_k P_jk q_k,  q = (fx fy, fy fz, fz fx)
+full_misalignment          rad        couplings below the diagonal: y += p_yx Mn_yy fx,
+                                      z += p_zx Mn_zz fx + p_zy Mn_zz fy
+table_tilt                 deg        f -> f + (tx * B e_y - ty * B e_x), B = base -> sensor rotation
+bias_drift                 g/s        p_j (t - t_ref_s)
+thermal_hysteresis         g          p_j / 2 * h,  h = +1 after heating, -1 after cooling, 0 unknown
+=========================  =========  ===========================================================
+
+``table_tilt`` belongs to the turntable, not the sensor: it changes the true
+specific force of each pose, so :func:`effect_counts` (used by ``apply``) leaves
+it out. Everything else is honoured by ``AccelCalibration.apply``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+AXES = ("x", "y", "z")
+
+
+@dataclass(frozen=True)
+class EffectInputs:
+    """What effect terms are functions of, one row per step (or sample).
+
+    f_g : (K, 3) specific force in the sensor frame, g.
+    temp_c : (K,) sensor temperature, C, or None.
+    t_s : (K,) time from session start, s.
+    heating : (K,) +1 after heating, -1 after cooling, 0 unknown; or None.
+    base_to_sensor : (K, 3, 3) rotation taking turntable-base vectors into the sensor frame, or None.
+    matrix_g : (3, 3) the fitted M divided by lsb_per_g (dimensionless).
+    t0_c : reference temperature of the temperature terms, C.
+    t_ref_s : reference time of the drift term, s.
+    """
+
+    f_g: np.ndarray
+    temp_c: np.ndarray | None
+    t_s: np.ndarray
+    heating: np.ndarray | None = None
+    base_to_sensor: np.ndarray | None = None
+    matrix_g: np.ndarray | None = None
+    t0_c: float = 25.0
+    t_ref_s: float = 0.0
+
+    def mn(self) -> np.ndarray:
+        return np.eye(3) if self.matrix_g is None else np.asarray(self.matrix_g, float)
+
+    def dt_c(self) -> np.ndarray:
+        return np.asarray(self.temp_c, float) - self.t0_c
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One candidate effect.
+
+    Attributes
+    ----------
+    name : canonical name.
+    description : one line for reports.
+    unit : unit of every parameter.
+    params : parameter labels (their order in ``estimate``).
+    needs : input the effect needs beyond poses: "temp", "legs", "rotation" (pose rotations), or "".
+    coverage : the pose / temperature coverage that makes it observable (for reports).
+    on_sensor : False for properties of the rig (applied by nobody at ``apply`` time).
+    contribution : (params (P,), EffectInputs) -> (K, 3) output term, g.
+    """
+
+    name: str
+    description: str
+    unit: str
+    params: tuple[str, ...]
+    needs: tuple[str, ...]
+    coverage: str
+    on_sensor: bool
+    contribution: Callable[[np.ndarray, EffectInputs], np.ndarray]
+
+    def columns_g(self, x: EffectInputs) -> np.ndarray:
+        """Design columns (K, 3, P): the output term per unit of each parameter, g."""
+        k = len(x.f_g)
+        out = np.zeros((k, 3, len(self.params)))
+        for i in range(len(self.params)):
+            e = np.zeros(len(self.params))
+            e[i] = 1.0
+            out[:, :, i] = self.contribution(e, x)
+        return out
+
+
+def _per_axis(col: Callable[[EffectInputs], np.ndarray]):
+    def contribution(p, x):
+        return np.asarray(p, float)[None, :] * col(x)
+    return contribution
+
+
+def _scale_tempco(p, x):
+    return np.asarray(p, float)[None, :] * x.dt_c()[:, None] * (x.f_g @ x.mn().T)
+
+
+def _products(f):
+    return np.stack([f[:, 0] * f[:, 1], f[:, 1] * f[:, 2], f[:, 2] * f[:, 0]], axis=1)
+
+
+def _cross(p, x):
+    return _products(x.f_g) @ np.asarray(p, float).reshape(3, 3).T
+
+
+def _full_mis(p, x):
+    f, mn = x.f_g, x.mn()
+    out = np.zeros_like(f)
+    out[:, 1] = p[0] * mn[1, 1] * f[:, 0]
+    out[:, 2] = mn[2, 2] * (p[1] * f[:, 0] + p[2] * f[:, 1])
+    return out
+
+
+def _tilt(p, x):
+    if x.base_to_sensor is None:
+        return np.zeros_like(x.f_g)
+    b = np.asarray(x.base_to_sensor, float)
+    tx, ty = np.radians(np.asarray(p, float))
+    df = tx * b[:, :, 1] - ty * b[:, :, 0]  # B e_y, B e_x: columns of B
+    return df @ x.mn().T
+
+
+def _heating(x):
+    return np.zeros(len(x.f_g)) if x.heating is None else np.asarray(x.heating, float)
+
+
+LIBRARY: dict[str, Effect] = {e.name: e for e in [
+    Effect("bias_tempco", "bias linear in temperature", "g/C", AXES, ("temp",),
+           "steps spread over at least 2 C", True, _per_axis(lambda x: x.dt_c()[:, None])),
+    Effect("bias_tempco_quadratic", "bias quadratic in temperature", "g/C^2", AXES, ("temp",),
+           "steps at 3 or more temperatures spread over at least 2 C", True,
+           _per_axis(lambda x: x.dt_c()[:, None] ** 2)),
+    Effect("scale_tempco", "scale factor linear in temperature", "1/C", AXES, ("temp",),
+           "+ and - poses of each axis at 2 or more temperatures", True, _scale_tempco),
+    Effect("scale_nonlinearity", "output quadratic in the input along the same axis", "1/g", AXES, (),
+           "three or more levels of each axis' input (e.g. -1, 0, +1 g)", True,
+           _per_axis(lambda x: x.f_g ** 2)),
+    Effect("cross_axis_nonlinearity", "output depending on products of two input components", "1/g",
+           tuple(f"{o}_{q}" for o in AXES for q in ("xy", "yz", "zx")), (),
+           "edge or corner poses (two input components non-zero at once)", True, _cross),
+    Effect("full_misalignment", "couplings below the triangular model's diagonal (mounting rotation)", "rad",
+           ("yx", "zx", "zy"), (), "poses along all three axes", True, _full_mis),
+    Effect("table_tilt", "turntable base out of level (about base x, base y)", "deg", ("x", "y"),
+           ("rotation",), "the outer axis turned between poses", False, _tilt),
+    Effect("bias_drift", "bias changing linearly with time", "g/s", AXES, (),
+           "steps spread in time, not in step with temperature", True,
+           _per_axis(lambda x: (np.asarray(x.t_s, float) - x.t_ref_s)[:, None])),
+    Effect("thermal_hysteresis", "bias offset after heating versus after cooling (+h/2, -h/2)", "g", AXES,
+           ("temp", "legs"), "the same temperatures visited on a heating and a cooling leg", True,
+           _per_axis(lambda x: 0.5 * _heating(x)[:, None])),
+]}
+
+#: extra fields an effect entry of a calibration file carries, per effect
+EXTRA_FIELDS = {"bias_tempco": ("t0_c",), "bias_tempco_quadratic": ("t0_c",), "scale_tempco": ("t0_c",),
+                "bias_drift": ("t_ref_s",), "thermal_hysteresis": ("band_c",)}
+
+
+def heating_state(temp_c, band_c: float = 0.5, initial: int = 0) -> np.ndarray:
+    """Whether each temperature in a time-ordered series was reached after heating (+1) or cooling (-1).
+
+    The state changes once the temperature moves more than ``band_c`` (C) away from the extreme of
+    the current leg; 0 until the first such move. Same rule as the simulator's hysteresis.
+    """
+    t = np.asarray(temp_c, float)
+    out = np.zeros(len(t))
+    state, ref = initial, None
+    for i, v in enumerate(t):
+        if not np.isfinite(v):
+            out[i] = state
+            continue
+        if ref is None:
+            ref = v
+        if state >= 0 and v < ref - band_c:
+            state, ref = -1, v
+        elif state <= 0 and v > ref + band_c:
+            state, ref = 1, v
+        elif (state > 0 and v > ref) or (state < 0 and v < ref):
+            ref = v
+        out[i] = state
+    return out
+
+
+def effect_counts(effects: list, f_g, temp_c, t_s, lsb_per_g: float, matrix_counts_per_g=None) -> np.ndarray:
+    """Output (N, 3) in counts of a calibration file's ``effects`` at specific force ``f_g`` (N, 3), g.
+
+    ``temp_c`` (N,) and ``t_s`` (N,) are needed by the temperature and time effects
+    (a clear error otherwise). Hysteresis follows the temperature series given.
+    ``table_tilt`` (a property of the rig) contributes nothing here.
+    """
+    from calib.errors import CalibError
+    f = np.atleast_2d(np.asarray(f_g, float))
+    n = len(f)
+    out = np.zeros((n, 3))
+    mg = None if matrix_counts_per_g is None else np.asarray(matrix_counts_per_g, float) / lsb_per_g
+    for e in effects:
+        lib = LIBRARY[e["name"]]
+        if not lib.on_sensor:
+            continue
+        temp = None
+        if "temp" in lib.needs:
+            if temp_c is None:
+                raise CalibError(f"this calibration has the effect {lib.name}: apply() needs temp_c")
+            temp = np.broadcast_to(np.asarray(temp_c, float), (n,))
+            if not np.all(np.isfinite(temp)):
+                raise CalibError(f"apply(): temp_c has NaN values but the calibration has the effect {lib.name}")
+        t = None
+        if lib.name == "bias_drift":
+            if t_s is None:
+                raise CalibError("this calibration has the effect bias_drift: apply() needs t_s")
+            t = np.broadcast_to(np.asarray(t_s, float), (n,))
+        heating = heating_state(temp, float(e.get("band_c", 0.5))) if lib.name == "thermal_hysteresis" else None
+        x = EffectInputs(f_g=f, temp_c=temp, t_s=t if t is not None else np.zeros(n), heating=heating,
+                         matrix_g=mg, t0_c=float(e.get("t0_c", 25.0)), t_ref_s=float(e.get("t_ref_s", 0.0)))
+        p = np.nan_to_num(np.asarray(e["estimate"], float).ravel())
+        out += lib.contribution(p, x)
+    return out * lsb_per_g
+
+
+def validate_effect(e) -> str | None:
+    """What is wrong with one ``effects`` entry of a calibration file, or None."""
+    if not isinstance(e, dict):
+        return "expected a mapping"
+    name = e.get("name")
+    if name not in LIBRARY:
+        return f"unknown effect {name!r} (known: {', '.join(LIBRARY)})"
+    lib = LIBRARY[name]
+    if e.get("unit") != lib.unit:
+        return f"unit: expected {lib.unit!r}, got {e.get('unit')!r}"
+    for key in ("estimate", "sigma"):
+        try:
+            v = np.asarray([np.nan if x is None else x for x in e.get(key) or []], float)
+        except (TypeError, ValueError):
+            return f"{key}: expected {len(lib.params)} numbers"
+        if v.shape != (len(lib.params),):
+            return f"{key}: expected {len(lib.params)} numbers ({', '.join(lib.params)}), got {v.shape}"
+        if key == "estimate" and not np.all(np.isfinite(v) | np.isnan(v)):
+            return "estimate: not finite"
+        if key == "sigma" and np.any(v[np.isfinite(v)] < 0):
+            return "sigma: must be >= 0"
+    for extra in EXTRA_FIELDS.get(name, ()):
+        x = e.get(extra)
+        if isinstance(x, bool) or not isinstance(x, (int, float)) or not np.isfinite(x):
+            return f"{extra}: expected a number"
+    return None
