@@ -212,6 +212,17 @@ def from_dict(doc, path: str = "<calibration>") -> CalibrationFile:
                              misalignment=None if mis is None else {k: float(x) for k, x in mis.items()},
                              matrix_counts_per_g=matrix, temperature=thermal, sigma=sigma_out, fit=fs,
                              effects=list(effects))
+    gyro, mag = doc.get("gyroscope"), doc.get("magnetometer")
+    if gyro is not None:
+        from calib.gyro import GyroCalibration
+        if not isinstance(gyro, dict):
+            v.fail("gyroscope", "expected a mapping or null")
+        GyroCalibration.from_dict(gyro, path)  # validates; raises CalibrationFileError naming the field
+    if mag is not None:
+        from calib.magnetometer import MagCalibration
+        if not isinstance(mag, dict):
+            v.fail("magnetometer", "expected a mapping or null")
+        MagCalibration.from_dict(mag, path)
     return CalibrationFile(created=str(doc["created"]), software=doc["software"], session=doc.get("session"),
                            sensor=doc["sensor"], accelerometer=accel, gyroscope=doc.get("gyroscope"),
                            magnetometer=doc.get("magnetometer"), format=FORMAT)

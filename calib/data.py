@@ -16,7 +16,7 @@ class StepMeans:
     Attributes
     ----------
     names : step names.
-    f_nominal_g : (K, 3) nominal specific force, sensor frame, g.
+    f_nominal_g : (K, 3) nominal specific force, sensor frame, g; a row of NaN where the pose is unknown.
     mean_counts : (K, 3) mean raw accelerometer counts.
     sem_counts : (K, 3) standard error of each mean (sample std / sqrt(n)), counts.
     n_samples : (K,) samples per step.
@@ -41,7 +41,10 @@ class StepMeans:
             v = np.asarray(getattr(self, name))
             if v.shape != shape:
                 raise CalibError(f"StepMeans.{name}: expected shape {shape}, got {v.shape}")
-            if not np.all(np.isfinite(v)):
+            finite = np.isfinite(v)
+            if name == "f_nominal_g":  # a step with an unknown pose has a whole row of NaN
+                finite = finite.all(axis=1) | np.isnan(v).all(axis=1)
+            if not np.all(finite):
                 raise CalibError(f"StepMeans.{name}: contains NaN or infinity")
         if self.temp_c is not None:
             t = np.asarray(self.temp_c)
@@ -51,6 +54,11 @@ class StepMeans:
             raise CalibError("StepMeans.sem_counts: every standard error must be > 0")
         if not self.lsb_per_g > 0:
             raise CalibError("StepMeans.lsb_per_g: must be > 0")
+
+    @property
+    def pose_known(self) -> np.ndarray:
+        """(K,) True where the step's nominal specific force is known."""
+        return np.isfinite(np.asarray(self.f_nominal_g, float)).all(axis=1)
 
     def __len__(self) -> int:
         return len(self.names)

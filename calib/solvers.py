@@ -68,13 +68,19 @@ def thermal_order(steps: StepMeans, thermal) -> int:
 def solve(steps: StepMeans, *, model: str = "triangular", method: str = "pinv", thermal="auto",
           t0_c: float | None = None) -> AccelCalibration:
     """Solve a calibration from per-step means. See the module docstring for the choices."""
+    if method == "magnitude":
+        return solve_magnitude(steps)
+    unknown = int(np.sum(~steps.pose_known))
+    if unknown:
+        raise ObservabilityError(f"{unknown} of {len(steps)} steps have unknown poses (f_nominal null): "
+                                 "use the magnitude method")
     if method == "pinv":
         return _solve_linear(steps, model, thermal, t0_c, "pinv")
     if method == "flip":
         return solve_flip(steps, thermal=thermal)
     if method == "combinations":
         return solve_combinations(steps, model=model, thermal=thermal, t0_c=t0_c)
-    raise CalibError(f"unknown method {method!r} (allowed: pinv, flip, combinations)")
+    raise CalibError(f"unknown method {method!r} (allowed: pinv, flip, combinations, magnitude)")
 
 
 def _model_with_thermal(steps, model, thermal, t0_c):
@@ -282,3 +288,34 @@ def solve_batch(mean_counts: np.ndarray, f_nominal_g: np.ndarray, model: str = "
         cols = {"x": [0, 1, 2], "y": [1, 2], "z": [2]}[a] if model == "triangular" else [0, 1, 2]
         mat[:, j, cols] = p[:, 1:]
     return {"bias_counts": bias, "matrix_counts_per_g": mat}
+
+
+def solve_magnitude(steps: StepMeans) -> AccelCalibration:
+    """Calibration without known poses: |f| = 1 g in every static step (imu_tk / ArduPilot approach).
+
+    Levenberg-Marquardt fit of bias and an upper-triangular U (``M = U^-1``, the seed's
+    triangular model) by :func:`calib.magnitude.fit_magnitude`; the poses (``f_nominal_g``)
+    are not used. No temperature terms. Needs at least 10 well-spread static steps.
+    """
+    from calib.magnitude import fit_magnitude
+
+    fit = fit_magnitude(steps.mean_counts, steps.sem_counts, radius=1.0)
+    m = np.asarray(fit.matrix, float)
+    m[np.tril_indices(3, -1)] = 0.0  # exactly upper triangular (U^-1 of an upper-triangular U)
+    if np.any(np.diag(m) <= 0):
+        # the fit is sign-ambiguous per axis only through U's diagonal; a negative one means a flipped axis
+        raise CalibError("the magnitude fit gave a negative scale factor: the data do not constrain the axes' signs")
+    k = np.diag(m)
+    t = np.linalg.inv(np.diag(1.0 / k) @ m)  # T of the seed's model: M = diag(k) T^-1
+    mis = {"alpha_yz": float(-t[0, 1]), "alpha_zy": float(t[0, 2]), "alpha_zx": float(-t[1, 2])}
+    sm = np.asarray(fit.sigma_matrix, float)
+    smis = {"alpha_yz": float(sm[0, 1] / k[0]), "alpha_zy": float(sm[0, 2] / k[0]),
+            "alpha_zx": float(sm[1, 2] / k[1])}
+    sigma = {"bias_counts": np.asarray(fit.sigma_bias, float).tolist(), "scale_counts_per_g": np.diag(sm).tolist(),
+             "matrix_counts_per_g": sm.tolist(), "misalignment": smis, "temperature": None}
+    summary = FitSummary(steps=len(steps), samples=int(np.sum(steps.n_samples)),
+                         residual_rms_g=float(fit.residual_rms), chi2_per_dof=float(fit.chi2_per_dof),
+                         method="magnitude")
+    return AccelCalibration(model="triangular", lsb_per_g=float(steps.lsb_per_g),
+                            bias_counts=np.asarray(fit.bias, float), scale_counts_per_g=k.copy(),
+                            misalignment=mis, matrix_counts_per_g=m, temperature=None, sigma=sigma, fit=summary)

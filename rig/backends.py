@@ -30,6 +30,7 @@ class AxisSetup:
     accel_deg_s2: float = 20.0
     soft_limits_deg: tuple[float, float] = (-720.0, 720.0)
     cable_wrap_deg: float = 720.0
+    slip_ring: bool = False
 
 
 @dataclass
@@ -49,6 +50,8 @@ class RigHandles:
     is_replay: bool = False
     on_step_begin: Callable[[int], None] | None = None
     rig_file: str | None = None
+    magnetometer: Any | None = None  # has read_field_ut() -> (3,) uT
+    site_field: dict | None = None  # {field_ut, inclination_deg, declination_deg}
     _closers: list[Callable[[], None]] = field(default_factory=list)
 
     def close(self) -> None:
@@ -98,7 +101,7 @@ def _axis_setup(rig_file, name: str) -> AxisSetup:
     return AxisSetup(name=name, port=ax.port, serial=ax.serial, sign=float(ax.sign),
                      home_offset_deg=float(ax.home_offset_deg), speed_deg_s=float(ax.speed_deg_s),
                      accel_deg_s2=float(ax.accel_deg_s2), soft_limits_deg=tuple(ax.soft_limits_deg),
-                     cable_wrap_deg=float(ax.cable_wrap_deg))
+                     cable_wrap_deg=float(ax.cable_wrap_deg), slip_ring=bool(ax.slip_ring))
 
 
 def _open_stages(ports: dict[str, str], clock: Clock, on_event) -> dict[str, Stage]:
@@ -130,6 +133,12 @@ def _open_hardware(rig_file, axes, on_event) -> RigHandles:
                    sensor_model=rig_file.sensor.model, sensor_address=rig_file.sensor.address,
                    home_policy=rig_file.home_policy, rig_file=str(rig_file.path))
     h._closers.append(bus.close)
+    if rig_file.sensor.model == "MPU-9150":
+        from drivers.sensors.ak8975 import Ak8975
+        h.magnetometer = Ak8975(bus, clock=clock)
+    if rig_file.site is not None:
+        h.site_field = {"field_ut": rig_file.site.field_ut, "inclination_deg": rig_file.site.inclination_deg,
+                        "declination_deg": rig_file.site.declination_deg}
     return h
 
 
@@ -160,5 +169,11 @@ def _open_sim(rig_file, axes, seed, time_scale, on_event) -> RigHandles:
                    home_policy=rig_file.home_policy, chamber=sim.chamber, truth=sim.truth(),
                    rig_file=str(rig_file.path))
     h._closers.append(sim.stop)
+    if rig_file.sensor.model == "MPU-9150":  # the AK8975 behind the MPU-9150's I2C bypass
+        from drivers.sensors.ak8975 import Ak8975
+        h.magnetometer = Ak8975(sim.bus, clock=sim.clock)
+    fc = settings.magnetic_field
+    h.site_field = {"field_ut": float(fc.magnitude_ut), "inclination_deg": float(fc.inclination_deg),
+                    "declination_deg": float(fc.declination_deg)}
     h.sim = sim  # type: ignore[attr-defined]  # for tests that inspect the world
     return h

@@ -43,7 +43,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("session")
     s.add_argument("-o", "--output", default=None, help="calibration file (default SESSION/calibration.yaml)")
     s.add_argument("--model", choices=["triangular", "full"], default=None)
-    s.add_argument("--method", choices=["pinv", "flip", "combinations"], default=None)
+    s.add_argument("--method", choices=["pinv", "flip", "combinations", "magnitude"], default=None,
+                   help="magnitude: |f| = 1 g in every static step, poses not needed (imported recordings)")
     s.add_argument("--thermal", default=None, help="auto | off | ORDER")
     s.add_argument("--json", action="store_true")
 

@@ -69,12 +69,18 @@ def step_context(session: Session, step_indices: list[int]) -> StepContext:
             if pos is not None:
                 heating[pos] = h
     groups = None
+    if any(steps[i].get("f_nominal") is None for i in step_indices):
+        # steps sharing one unknown pose carry the same pose_group; otherwise each is its own
+        groups = np.array([int(steps[i]["pose_group"]) if isinstance(steps[i].get("pose_group"), int)
+                           else 1_000_000 + i for i in step_indices])
     return StepContext(heating=heating, base_to_sensor=b2s, pose_group=groups, band_c=BAND_C)
 
 
 def discover_session(session_dir, *, false_alarm: float = 0.01) -> tuple[Session, Discovery]:
     session = load_session(session_dir)
     idx = session.static_step_indices()
+    if not idx:  # an imported recording without known poses: the pose-free baseline
+        idx = session.static_step_indices(unknown_pose=True)
     steps = session.step_means(idx)
     ctx = step_context(session, idx)
     return session, discover(steps, ctx, false_alarm=false_alarm)

@@ -63,6 +63,8 @@ class SensorSpec:
     accel_range_g: int = 4
     sample_rate_hz: float = 100.0
     gyro_range_dps: int = 250
+    magnetometer: bool = False  # read the AK8975 at every static step
+    mag_samples: int = 20  # magnetometer readings per static step
 
 
 @dataclass(frozen=True)
@@ -70,6 +72,7 @@ class SolveSpec:
     model: str = "triangular"
     method: str = "pinv"
     thermal: object = "auto"  # auto | off | int
+    magnetometer: str | None = None  # positions | ellipsoid (default: positions when the site field is known)
 
     def get(self, key, default=None):
         return getattr(self, key, default)
@@ -89,6 +92,9 @@ class PlannedStep:
     temperature: TemperatureTarget | None = None
     prompt: str | None = None
     source_line: int | None = None
+    rate_axis: str | None = None  # rate steps: the stage axis that spins
+    rate_deg_s: float | None = None  # its kinematic rate, deg/s
+    rate_nominal_dps: tuple[float, float, float] | None = None  # body rate in the sensor frame, deg/s
 
     def to_manifest(self) -> dict:
         d = {"index": self.index, "name": self.name, "kind": self.kind,
@@ -99,6 +105,9 @@ class PlannedStep:
             d["target_c"] = self.temperature.target_c
         if self.prompt is not None:
             d["prompt"] = self.prompt
+        if self.rate_axis is not None:
+            d.update(axis=self.rate_axis, rate_deg_s=self.rate_deg_s,
+                     rate_nominal_dps=[round(float(x), 12) for x in self.rate_nominal_dps])
         return d
 
 
@@ -222,7 +231,8 @@ class _Validator:
             return SensorSpec()
         if not isinstance(m, dict):
             self.fail(parent, "sensor", "expected a mapping (model, accel_range_g, sample_rate_hz, gyro_range_dps)")
-        self.keys(m, "sensor", {"model", "accel_range_g", "sample_rate_hz", "gyro_range_dps"})
+        self.keys(m, "sensor", {"model", "accel_range_g", "sample_rate_hz", "gyro_range_dps", "magnetometer",
+                                "mag_samples"})
         model = m.get("model")
         if model is not None and model not in ("MPU-9150", "ADXL345"):
             self.fail(m, "model", f"expected MPU-9150 or ADXL345, got {model!r}", "sensor.model")
@@ -242,7 +252,16 @@ class _Validator:
         if gyro not in GYRO_RANGES_DPS or isinstance(gyro, bool):
             self.fail(m, "gyro_range_dps", f"expected one of {', '.join(map(str, GYRO_RANGES_DPS))}, got {gyro!r}",
                       "sensor.gyro_range_dps")
-        return SensorSpec(model=model, accel_range_g=int(rng), sample_rate_hz=rate, gyro_range_dps=int(gyro))
+        mag = m.get("magnetometer", False)
+        if not isinstance(mag, bool):
+            self.fail(m, "magnetometer", f"expected true or false, got {mag!r}", "sensor.magnetometer")
+        if mag and model == "ADXL345":
+            self.fail(m, "magnetometer", "the ADXL345 has no magnetometer (the AK8975 sits behind the MPU-9150)",
+                      "sensor.magnetometer")
+        n_mag = int(self.number(m, "mag_samples", "sensor.mag_samples", positive=True, integer=True, maximum=1000)) \
+            if "mag_samples" in m else 20
+        return SensorSpec(model=model, accel_range_g=int(rng), sample_rate_hz=rate, gyro_range_dps=int(gyro),
+                          magnetometer=mag, mag_samples=n_mag)
 
     def dwell(self, m, where, parent) -> Dwell:
         if not isinstance(m, dict):
@@ -277,7 +296,7 @@ class _Validator:
             return None
         if not isinstance(m, dict):
             self.fail(parent, "solve", "expected a mapping (model, method, thermal) or null")
-        self.keys(m, "solve", {"model", "method", "thermal"})
+        self.keys(m, "solve", {"model", "method", "thermal", "magnetometer"})
         model = m.get("model", "triangular")
         if model not in MODELS:
             self.fail(m, "model", f"expected one of {', '.join(MODELS)}, got {model!r}", "solve.model")
@@ -290,7 +309,10 @@ class _Validator:
         if not (thermal in ("auto", "off") or (isinstance(thermal, int) and not isinstance(thermal, bool)
                                                and 1 <= thermal <= 3)):
             self.fail(m, "thermal", f"expected auto, off or an order 1..3, got {thermal!r}", "solve.thermal")
-        return SolveSpec(model=model, method=method, thermal=thermal)
+        mag = m.get("magnetometer")
+        if mag is not None and mag not in ("positions", "ellipsoid"):
+            self.fail(m, "magnetometer", f"expected positions or ellipsoid, got {mag!r}", "solve.magnetometer")
+        return SolveSpec(model=model, method=method, thermal=thermal, magnetometer=mag)
 
     def steps(self, items, where, dwell, settle, out, prefix, depth):
         if depth > 4:
@@ -299,9 +321,11 @@ class _Validator:
             w = f"{where}[{i}]"
             if not isinstance(item, dict):
                 self.fail(items, i, "expected a mapping: a pose, angles_deg, repeat, temperature or prompt step", w)
-            kinds = [k for k in ("pose", "angles_deg", "repeat", "temperature", "prompt") if k in item]
+            kinds = [k for k in ("pose", "angles_deg", "repeat", "temperature", "prompt", "rate") if k in item]
+            if "rate" in kinds and len(kinds) == 2 and ("pose" in kinds or "angles_deg" in kinds):
+                kinds = ["rate"]  # a rate step may give the pose it spins from
             if len(kinds) != 1:
-                self.fail(items, i, "each step needs exactly one of pose, angles_deg, repeat, temperature, prompt"
+                self.fail(items, i, "each step needs exactly one of pose, angles_deg, repeat, temperature, prompt, rate"
                           + (f" (got {', '.join(kinds)})" if kinds else ""), w)
             kind = kinds[0]
             line = self.loc.line_of(items, i)
@@ -333,6 +357,9 @@ class _Validator:
                 nm = item.get("name") or f"{prefix}temperature {target.target_c:g} C"
                 out.append(PlannedStep(len(out), str(nm), "thermal", temperature=target, source_line=line))
                 continue
+            if kind == "rate":
+                self.rate_step(item, w, line, dwell, out, prefix)
+                continue
             if kind == "prompt":
                 self.keys(item, w, {"prompt", "name"})
                 text = self.string(item, "prompt", f"{w}.prompt")
@@ -363,6 +390,63 @@ class _Validator:
             f = tuple(float(x) for x in f_nominal(np.array(angles)))
             out.append(PlannedStep(len(out), f"{prefix}{nm}", "static", angles_deg=angles, f_nominal=f, dwell=d,
                                    settle=s, source_line=line))
+
+
+    def rate_step(self, item, w, line, dwell, out, prefix) -> None:
+        """``{rate: {axis: a1|a2|a3, rate_deg_s: R, seconds: S}, pose | angles_deg (optional), name}``."""
+        self.keys(item, w, {"rate", "pose", "angles_deg", "a1_deg", "name"})
+        r = item["rate"]
+        rw = f"{w}.rate"
+        if not isinstance(r, dict):
+            self.fail(item, "rate", "expected a mapping {axis, rate_deg_s, seconds}", rw)
+        self.keys(r, rw, {"axis", "rate_deg_s", "seconds", "spin_up_s"}, required={"axis", "rate_deg_s"})
+        axis = r["axis"]
+        if axis not in ("a1", "a2", "a3"):
+            self.fail(r, "axis", f"expected a1, a2 or a3, got {axis!r}", f"{rw}.axis")
+        rate = self.number(r, "rate_deg_s", f"{rw}.rate_deg_s")
+        if rate == 0 or abs(rate) > RATE_MAX_DEG_S:
+            self.fail(r, "rate_deg_s", f"expected a non-zero rate within the 8MR191's limit of +-{RATE_MAX_DEG_S:g} "
+                      f"deg/s, got {rate:g}", f"{rw}.rate_deg_s")
+        seconds = self.number(r, "seconds", f"{rw}.seconds", positive=True, maximum=3600) if "seconds" in r \
+            else (dwell.seconds or 10.0)
+        spin_up = self.number(r, "spin_up_s", f"{rw}.spin_up_s", minimum=0, maximum=60) if "spin_up_s" in r else 0.5
+        if "pose" in item:
+            pose = item["pose"]
+            if pose not in POSE_NAMES:
+                self.fail(item, "pose", f"unknown pose {pose!r}", f"{w}.pose")
+            a1 = self.number(item, "a1_deg", f"{w}.a1_deg", minimum=-3600, maximum=3600) if "a1_deg" in item else 0.0
+            angles = tuple(float(x) for x in pose_angles_deg(pose, a1))
+        elif "angles_deg" in item:
+            ang = item["angles_deg"]
+            if not (isinstance(ang, list) and len(ang) == 3):
+                self.fail(item, "angles_deg", "expected [a1, a2, a3] in degrees", f"{w}.angles_deg")
+            angles = tuple(float(self.number(ang, j, f"{w}.angles_deg[{j}]", minimum=-3600, maximum=3600))
+                           for j in range(3))
+        else:
+            angles = (0.0, 0.0, 0.0)
+        w_body = body_rate_dps(angles, axis, rate)
+        nm = item.get("name") or f"{axis} {rate:+g} deg/s"
+        out.append(PlannedStep(len(out), f"{prefix}{nm}", "rate", angles_deg=angles, f_nominal=None,
+                               dwell=Dwell(seconds=seconds), settle=Settle(min_s=spin_up),
+                               source_line=line, rate_axis=axis, rate_deg_s=float(rate),
+                               rate_nominal_dps=tuple(float(x) for x in w_body)))
+
+
+RATE_MAX_DEG_S = 48.0  # 8MR191: 4800 full steps/s at 0.01 deg/step (docs/turntable.md)
+
+
+def body_rate_dps(angles_deg, axis: str, rate_deg_s: float) -> np.ndarray:
+    """Angular rate in the sensor frame (deg/s) when stage ``axis`` turns at ``rate_deg_s`` from ``angles_deg``.
+
+    ``R = Rz(a1) Rx(a2) Ry(a3)``: a1 turns about Ry^T Rx^T e_z, a2 about Ry^T e_x, a3 about e_y
+    (docs/kinematics.md); the other two axes hold still, so the body rate is constant.
+    """
+    from rig.kinematics import rot_x, rot_y
+    a = np.radians(np.asarray(angles_deg, float))
+    rx, ry = rot_x(a[1:2])[0], rot_y(a[2:3])[0]
+    e = {"a1": ry.T @ rx.T @ np.array([0.0, 0.0, 1.0]), "a2": ry.T @ np.array([1.0, 0.0, 0.0]),
+         "a3": np.array([0.0, 1.0, 0.0])}[axis]
+    return e * rate_deg_s
 
 
 def _join(where: str, key) -> str:

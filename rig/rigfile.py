@@ -16,7 +16,7 @@ FORMAT = "rig-file/1"
 STAGE_MAX_SPEED_DEG_S = 48.0  # 8MR191: NomSpeed 4800 full steps/s at 0.01 deg/step
 AXES = ("a1", "a2", "a3")
 AXIS_KEYS = {"port", "serial", "sign", "home_offset_deg", "speed_deg_s", "accel_deg_s2", "soft_limits_deg",
-             "cable_wrap_deg"}
+             "cable_wrap_deg", "slip_ring"}
 FAULT_KEYS = {"ximc", "sensor"}
 
 
@@ -30,6 +30,16 @@ class AxisConfig:
     accel_deg_s2: float = 40.0
     soft_limits_deg: tuple[float, float] = (-400.0, 400.0)
     cable_wrap_deg: float = 400.0
+    slip_ring: bool = False  # the axis may spin without limit (rate steps)
+
+
+@dataclass(frozen=True)
+class SiteConfig:
+    """The local geomagnetic field at the rig (for the magnetometer's position method)."""
+
+    field_ut: float = 50.0
+    inclination_deg: float = 65.0
+    declination_deg: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -49,6 +59,7 @@ class RigFile:
     sensor: SensorConfig
     sim: dict | None = None
     faults: dict | None = field(default=None)
+    site: SiteConfig | None = None
 
     @property
     def is_simulated(self) -> bool:
@@ -86,7 +97,8 @@ def parse_rig_file(text: str, path: str = "<rig>") -> RigFile:
 
     if not isinstance(doc, dict):
         raise RigInputError(path, 1, None, "expected a mapping with format, name, turntable, sensor")
-    check_fields(doc, {"format", "name", "kind", "home", "turntable", "sensor", "sim", "faults", "description"},
+    check_fields(doc, {"format", "name", "kind", "home", "turntable", "sensor", "sim", "faults", "description",
+                       "site"},
                  "", path, loc)
     for req in ("format", "turntable", "sensor"):
         if req not in doc:
@@ -137,8 +149,22 @@ def parse_rig_file(text: str, path: str = "<rig>") -> RigFile:
                 check_fields(fm, _ximc_fault_fields(), f"faults.ximc.{a}", path, loc)
         if "sensor" in faults:
             check_fields(faults["sensor"], _sensor_fault_fields(), "faults.sensor", path, loc)
+    site = None
+    if doc.get("site") is not None:
+        sm = doc["site"]
+        if not isinstance(sm, dict):
+            fail(doc, "site", "site", "expected a mapping {field_ut, inclination_deg, declination_deg}")
+        check_fields(sm, {"field_ut", "inclination_deg", "declination_deg"}, "site", path, loc)
+        vals = {}
+        for key, lo, hi in (("field_ut", 1.0, 100.0), ("inclination_deg", -90.0, 90.0),
+                            ("declination_deg", -180.0, 180.0)):
+            v = sm.get(key, getattr(SiteConfig(), key))
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:
+                fail(sm, key, f"site.{key}", f"expected a number in [{lo:g}, {hi:g}], got {v!r}")
+            vals[key] = float(v)
+        site = SiteConfig(**vals)
     return RigFile(path=path, name=str(doc.get("name", Path(path).stem)), kind=kind, home_policy=home, axes=axes,
-                   sensor=SensorConfig(model=model, bus=bus, address=address), sim=sim, faults=faults)
+                   sensor=SensorConfig(model=model, bus=bus, address=address), sim=sim, faults=faults, site=site)
 
 
 def _ximc_fault_fields() -> set[str]:
@@ -151,6 +177,13 @@ def _sensor_fault_fields() -> set[str]:
     import dataclasses
     from drivers.sensors.faults import SensorFaults
     return {f.name for f in dataclasses.fields(SensorFaults)}
+
+
+def _flag(m, key, where, fail) -> bool:
+    v = m.get(key, False)
+    if not isinstance(v, bool):
+        fail(m, key, f"{where}.{key}", f"expected true or false, got {v!r}")
+    return v
 
 
 def _axis(m, where, kind, fail, path, loc) -> AxisConfig:
@@ -187,4 +220,5 @@ def _axis(m, where, kind, fail, path, loc) -> AxisConfig:
                       speed_deg_s=num("speed_deg_s", 20.0, positive=True, maximum=STAGE_MAX_SPEED_DEG_S),
                       accel_deg_s2=num("accel_deg_s2", 40.0, positive=True),
                       soft_limits_deg=(float(limits[0]), float(limits[1])),
-                      cable_wrap_deg=num("cable_wrap_deg", 400.0, positive=True))
+                      cable_wrap_deg=num("cable_wrap_deg", 400.0, positive=True),
+                      slip_ring=_flag(m, "slip_ring", where, fail))

@@ -70,7 +70,40 @@ def identify(rig: RigHandles) -> dict:
     if getattr(sensor, "has_gyro", False):
         sensor_info["gyro_range_dps"] = getattr(sensor, "gyro_range_dps", None)
         sensor_info["gyro_lsb_per_dps"] = getattr(sensor, "gyro_lsb_per_dps", None)
-    return {"turntable": turntable, "sensor": sensor_info, "rig_file": rig.rig_file}
+    out = {"turntable": turntable, "sensor": sensor_info, "rig_file": rig.rig_file}
+    if rig.site_field is not None:
+        out["site"] = dict(rig.site_field)
+    return out
+
+
+def configure_magnetometer(procedure, rig: RigHandles, sensor_info: dict | None) -> None:
+    """Configure the AK8975 when the procedure reads it (after the MPU-9150 enabled its bypass)."""
+    if not procedure.sensor.magnetometer:
+        return
+    from rig.runner import RunError
+    if rig.magnetometer is None:
+        raise RunError(f"the procedure reads the magnetometer, but the {rig.sensor_model} on this rig has none")
+    rig.magnetometer.configure()
+    if sensor_info is not None:
+        sensor_info["magnetometer"] = {"model": "AK8975", "address": int(rig.magnetometer.address),
+                                       "asa_factor": [float(x) for x in rig.magnetometer.asa_factor],
+                                       "mag_lsb_per_ut": MAG_LSB_PER_UT}
+
+
+def session_columns(procedure, rig: RigHandles) -> tuple[str, ...]:
+    """CSV columns: the base ones, the gyroscope's when the sensor has one, the magnetometer's when
+    the procedure reads it, and the stage angles."""
+    from rig.session import BASE_COLUMNS
+    cols = BASE_COLUMNS
+    if getattr(rig.sensor, "has_gyro", False):
+        cols += ("wx", "wy", "wz")
+    if procedure.sensor.magnetometer:
+        cols += ("mx", "my", "mz")
+    return cols + ("a1_deg", "a2_deg", "a3_deg")
+
+
+#: magnetometer readings are stored as integers of 0.01 uT in the session's mx, my, mz columns
+MAG_LSB_PER_UT = 100.0
 
 
 def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, out_dir="sessions",
@@ -117,13 +150,15 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
             }
             rig.sensor.configure(procedure.sensor_settings())
             manifest["rig"] = identify(rig)
-            writer = SessionWriter.create(out_dir, manifest["id"], manifest)
+            configure_magnetometer(procedure, rig, manifest["rig"]["sensor"])
+            writer = SessionWriter.create(out_dir, manifest["id"], manifest, columns=session_columns(procedure, rig))
             if rig.truth is not None:
                 (writer.session_dir / "sim_truth.yaml").write_text(
                     yaml.safe_dump(rig.truth, sort_keys=False))
             ui.info(f"session {writer.session_dir}")
         else:
             rig.sensor.configure(procedure.sensor_settings())
+            configure_magnetometer(procedure, rig, None)
         _attach_stage_events(rig, writer)
         runner = Runner(procedure, rig, writer, ui, first_step=first_step, options=options,
                         time_offset_s=time_offset)

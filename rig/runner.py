@@ -88,8 +88,10 @@ class Runner:
         cable wrap) is refused up front, naming the step and the axis."""
         cur = dict(start_deg or {n: 0.0 for n in AXES})
         for step in self.steps[self.first_step:]:
-            if step.kind != "static":
+            if step.kind not in ("static", "rate"):
                 continue
+            if step.kind == "rate":
+                self._preflight_rate(step)
             for i, name in enumerate(AXES):
                 ax = self.rig.axes[name]
                 wanted = self.rig.stage_angle_deg(name, float(step.angles_deg[i]))
@@ -99,6 +101,21 @@ class Runner:
                 except RigInputError as exc:
                     raise RigInputError(self.procedure.path, step.source_line, f"steps: {step.name}: {name}",
                                         exc.message) from None
+
+    def _preflight_rate(self, step) -> None:
+        ax = self.rig.axes[step.rate_axis]
+        rate = abs(step.rate_deg_s)
+        where = f"steps: {step.name}: {step.rate_axis}"
+        if rate > 48.0 + 1e-9:
+            raise RigInputError(self.procedure.path, step.source_line, where,
+                                f"rate {rate:g} deg/s is above the stage's limit of 48 deg/s")
+        if not ax.slip_ring:
+            travel = rate * (step.dwell.seconds + step.settle.min_s + 2 * rate / ax.accel_deg_s2 + 1.0)
+            if travel > ax.cable_wrap_deg:
+                raise RigInputError(self.procedure.path, step.source_line, where,
+                                    f"spinning {step.dwell.seconds:g} s at {rate:g} deg/s turns {travel:.0f} deg, beyond "
+                                    f"the cable wrap of {ax.cable_wrap_deg:g} deg; set slip_ring: true for "
+                                    f"{step.rate_axis} in the rig file if it has one, or shorten the step")
 
     def prepare(self, resuming: bool) -> None:
         """Apply the rig's home/zero policy and the move and sensor settings."""
@@ -165,6 +182,9 @@ class Runner:
         if kind == "thermal":
             self._temperature_step(step)
             return
+        if kind == "rate":
+            self._rate_step(step)
+            return
         self._static_step(step)
 
     def _static_step(self, step) -> None:
@@ -204,8 +224,10 @@ class Runner:
             self.ui.warn(f"step {step.index + 1} ({step.name}) flagged: {'; '.join(problems)}")
         ts = t - self._t0
         angles = self._angles_now()
+        mag = self._read_magnetometer(step, len(ts))
         self.writer.append_samples(step.index, ts, a, temp_c=temp if self.rig.sensor.has_temperature else None,
-                                   gyro_counts=gyro, angles_deg=np.broadcast_to(angles, (len(ts), 3)))
+                                   gyro_counts=gyro, angles_deg=np.broadcast_to(angles, (len(ts), 3)),
+                                   mag_counts=mag)
         lsb = self.rig.sensor.accel_lsb_per_g
         stats = {
             "n_samples": int(len(ts)),
@@ -263,6 +285,84 @@ class Runner:
                 st = self.rig.stages[name].get_status()
                 if not st.running and st.command_error:
                     return  # command_wait_for_stop raises with the details
+
+    def _read_magnetometer(self, step, n_rows: int):
+        """``mag_samples`` AK8975 readings as integer 0.01 uT on the step's first rows (NaN elsewhere)."""
+        if not self.procedure.sensor.magnetometer or n_rows == 0:
+            return None
+        from rig.run import MAG_LSB_PER_UT
+        n = min(self.procedure.sensor.mag_samples, n_rows)
+        out = np.full((n_rows, 3), np.nan)
+        mag = self.rig.magnetometer
+        if hasattr(mag, "seek_step"):
+            mag.seek_step(step.index)
+        for i in range(n):
+            out[i] = np.round(np.asarray(mag.read_field_ut(), float) * MAG_LSB_PER_UT)
+        return out
+
+    # -- rate steps (gyroscope) -----------------------------------------------------------
+    def _rate_step(self, step) -> None:
+        """Spin one axis at a constant rate and capture only the constant-rate part."""
+        self._move_to(step)
+        name = step.rate_axis
+        ax = self.rig.axes[name]
+        st = self.rig.stages[name]
+        clock = self.rig.clock
+        stage_rate = ax.sign * step.rate_deg_s
+        self._progress(step, "spin-up")
+        self.writer.event("rotate", t_s=self.session_time(), step=step.index, axis=name, rate_deg_s=step.rate_deg_s)
+        st.set_speed_deg_s(abs(stage_rate), accel_deg_s2=ax.accel_deg_s2)
+        st.command_right() if stage_rate >= 0 else st.command_left()
+        try:
+            spin_up = abs(stage_rate) / ax.accel_deg_s2 + step.settle.min_s
+            clock.sleep(spin_up)
+            speed0 = self._stage_speed_deg_s(st)
+            if abs(speed0 - stage_rate) > 0.01 * abs(stage_rate) + 0.02:
+                raise RunError(f"step {step.index + 1} ({step.name}): {name} turns at {speed0:.3f} deg/s after "
+                               f"{spin_up:.1f} s, expected {stage_rate:g} deg/s")
+            self.rig.sensor.start()  # (re)starts sampling now: nothing from the spin-up is kept
+            self._progress(step, "capture")
+            t, a, temp, gyro = self._capture(step, (np.empty(0), np.empty((0, 3), np.int64), np.empty(0),
+                                                    np.empty((0, 3), np.int64)), self._poll_s())
+            speed1 = self._stage_speed_deg_s(st)
+        finally:
+            st.command_sstp()
+            st.command_wait_for_stop(50, timeout_s=self.options.move_timeout_s)
+            st.set_speed_deg_s(ax.speed_deg_s, accel_deg_s2=ax.accel_deg_s2)
+        self._wrap_position(name)
+        problems = []
+        if gyro is None or len(t) == 0:
+            raise RunError(f"step {step.index + 1} ({step.name}): the {self.rig.sensor_model} has no gyroscope")
+        if abs(speed1 - stage_rate) > 0.01 * abs(stage_rate) + 0.02:
+            problems.append(f"the rate changed during capture ({speed0:.3f} -> {speed1:.3f} deg/s)")
+        status = "complete" if not problems else "flagged"
+        ts = t - self._t0
+        self.writer.append_samples(step.index, ts, a, temp_c=temp if self.rig.sensor.has_temperature else None,
+                                   gyro_counts=gyro)
+        glsb = self.rig.sensor.gyro_lsb_per_dps
+        self.writer.complete_step(step.index, {
+            "n_samples": int(len(ts)), "t_start_s": float(ts[0]), "t_end_s": float(ts[-1]),
+            "temp_c": float(np.nanmean(temp)) if self.rig.sensor.has_temperature else None,
+            "stage_rate_deg_s": [speed0, speed1], "problems": problems,
+            "gyro_mean_dps": [float(x) for x in gyro.mean(axis=0) / glsb] if glsb else None,
+        }, status=status)
+        self.writer.event("capture", t_s=self.session_time(), step=step.index, n_samples=int(len(ts)), status=status)
+        self.outcomes.append(StepOutcome(step.index, status, int(len(ts)), problems))
+
+    def _stage_speed_deg_s(self, st) -> float:
+        s = st.get_status()
+        return (s.CurSpeed + s.uCurSpeed / st.usteps_per_step) * st.deg_per_step
+
+    def _wrap_position(self, name: str) -> None:
+        """After spinning, renumber the stage position into (-180, 180] (the same physical angle)."""
+        st = self.rig.stages[name]
+        pos = st.get_position_deg()
+        wrapped = (pos + 180.0) % 360.0 - 180.0
+        if abs(wrapped - pos) > 1e-9:
+            from drivers.ximc.protocol import SetPosition
+            steps, usteps = st._deg_to_steps(wrapped)
+            st.set_position(SetPosition(steps, usteps))
+            self.writer.event("renumber", t_s=self.session_time(), axis=name, from_deg=pos, to_deg=wrapped)
 
     def _angles_now(self) -> np.ndarray:
         return np.array([self.rig.kinematic_angle_deg(n, self.rig.stages[n].get_position_deg()) for n in AXES])
@@ -443,7 +543,7 @@ class Runner:
         out, prev = [], np.zeros(3)
         rate = self.rig.sensor.sample_rate_hz
         for s in self.steps:
-            if s.kind != "static":
+            if s.kind not in ("static", "rate"):
                 out.append(300.0 if s.kind == "thermal" else 0.0)
                 continue
             ang = np.asarray(s.angles_deg, float)

@@ -136,8 +136,8 @@ class SessionWriter:
         if gyro_counts is not None:
             g = np.asarray(gyro_counts, np.int64)
             cols.update(wx=g[:, 0], wy=g[:, 1], wz=g[:, 2])
-        if mag_counts is not None:
-            mm = np.asarray(mag_counts, np.int64)
+        if mag_counts is not None:  # rows without a magnetometer reading are NaN -> empty cells
+            mm = np.asarray(mag_counts, float)
             cols.update(mx=mm[:, 0], my=mm[:, 1], mz=mm[:, 2])
         if angles_deg is not None:
             an = np.asarray(angles_deg, float)
@@ -155,6 +155,11 @@ class SessionWriter:
                 parts.append(s)
             elif c.endswith("_deg"):
                 parts.append(np.char.mod("%.5f", v))
+            elif c in ("mx", "my", "mz"):
+                ok = np.isfinite(v)
+                s = np.full(n, "", dtype=object)
+                s[ok] = np.char.mod("%d", v[ok].astype(np.int64)).astype(object)
+                parts.append(s)
             else:
                 parts.append(np.char.mod("%d", v))
         rows = [",".join(r) for r in zip(*[p.astype(str) for p in parts])]
@@ -305,10 +310,12 @@ class Session:
         sel = self.samples["step"] == index
         return {k: (v[sel] if isinstance(v, np.ndarray) else v) for k, v in self.samples.items()}
 
-    def static_step_indices(self, include_flagged: bool = False) -> list[int]:
+    def static_step_indices(self, include_flagged: bool = False, unknown_pose: bool = False) -> list[int]:
+        """Indices of complete static steps with a known pose (and, with ``unknown_pose``, without one)."""
         ok = ("complete", "flagged") if include_flagged else ("complete",)
         return [s["index"] for s in self.manifest["steps"]
-                if s.get("kind", "static") == "static" and s.get("status") in ok and s.get("f_nominal") is not None]
+                if s.get("kind", "static") == "static" and s.get("status") in ok
+                and (unknown_pose or s.get("f_nominal") is not None)]
 
     def step_means(self, include=None):
         """Per-step means for the solver (complete static steps with a known pose)."""
@@ -329,7 +336,7 @@ class Session:
             a = self.samples["accel_counts"][rows].astype(float)
             st = self.manifest["steps"][i]
             names.append(st.get("name", f"step {i + 1}"))
-            f_nom.append(st["f_nominal"])
+            f_nom.append(st["f_nominal"] if st.get("f_nominal") is not None else [np.nan] * 3)
             means.append(a.mean(axis=0))
             sems.append(np.maximum(a.std(axis=0, ddof=1), 1.0 / np.sqrt(12.0)) / np.sqrt(n))
             ns.append(n)
@@ -344,11 +351,77 @@ class Session:
             tt = self.samples["t_s"][rows]
             ts.append(0.5 * (tt.min() + tt.max()))
         if not idx:
-            raise SessionFormatError(str(self.path), None, "steps", "no complete static step with a known pose to solve")
+            raise SessionFormatError(str(self.path), None, "steps", "no complete static step with a known pose to solve"
+                                     " (steps with unknown poses: use --method magnitude)")
         return StepMeans(names=tuple(names), f_nominal_g=np.array(f_nom, float), mean_counts=np.array(means),
                          sem_counts=np.array(sems), n_samples=np.array(ns, int),
                          temp_c=np.array(temps) if self.has_temperature else None, t_s=np.array(ts),
                          lsb_per_g=self.lsb_per_g)
+
+
+def rate_step_means(session: "Session"):
+    """Per-step gyroscope means of the complete rate steps (calib.gyro.RateStepMeans)."""
+    from calib.gyro import RateStepMeans
+    sensor = session.manifest["rig"]["sensor"]
+    lsb = sensor.get("gyro_lsb_per_dps")
+    if "gyro_counts" not in session.samples or not lsb:
+        raise SessionFormatError(str(session.path), None, "rig.sensor", "the session has no gyroscope data")
+    steps = [s for s in session.manifest["steps"] if s.get("kind") == "rate" and s.get("status") == "complete"]
+    if not steps:
+        raise SessionFormatError(str(session.path), None, "steps", "no complete rate step")
+    names, w, means, sems, ns = [], [], [], [], []
+    for st in steps:
+        rows = session.samples["step"] == st["index"]
+        g = session.samples["gyro_counts"][rows].astype(float)
+        if len(g) < 2 or not np.all(np.isfinite(g)):
+            raise SessionFormatError(str(session.path / "samples.csv"), None, f"step {st['index']}",
+                                     f"rate step {st['index'] + 1} has no usable gyroscope samples")
+        names.append(st.get("name"))
+        w.append(st["rate_nominal_dps"])
+        means.append(g.mean(axis=0))
+        sems.append(np.maximum(g.std(axis=0, ddof=1), 1.0 / np.sqrt(12.0)) / np.sqrt(len(g)))
+        ns.append(len(g))
+    return RateStepMeans(names=tuple(names), rate_nominal_dps=np.array(w, float), mean_counts=np.array(means),
+                         sem_counts=np.array(sems), n_samples=np.array(ns), lsb_per_dps=float(lsb))
+
+
+def mag_step_means(session: "Session", known_field: bool = True):
+    """Per-step magnetometer means (calib.magnetometer.MagStepMeans) of the static steps that have
+    readings; with ``known_field`` the nominal field in the sensor frame from the site field and the
+    step's stage angles (None when the session records no site field)."""
+    from calib.magnetometer import MagStepMeans
+    from rig.kinematics import sensor_to_world
+    mag_info = session.manifest["rig"]["sensor"].get("magnetometer") or {}
+    lsb = float(mag_info.get("mag_lsb_per_ut") or 100.0)
+    if "mag_counts" not in session.samples:
+        return None
+    site = session.manifest["rig"].get("site")
+    h_world = None
+    if known_field and site:
+        inc, dec = np.radians(site["inclination_deg"]), np.radians(site["declination_deg"])
+        hor = site["field_ut"] * np.cos(inc)
+        h_world = np.array([hor * np.cos(dec), hor * np.sin(dec), -site["field_ut"] * np.sin(inc)])
+    names, h, means, sems, ns = [], [], [], [], []
+    for st in session.manifest["steps"]:
+        if st.get("kind", "static") != "static" or st.get("status") != "complete":
+            continue
+        rows = session.samples["step"] == st["index"]
+        m = session.samples["mag_counts"][rows]
+        m = m[np.all(np.isfinite(m), axis=1)] / lsb
+        if len(m) < 2:
+            continue
+        names.append(st.get("name"))
+        if h_world is not None and st.get("angles_deg") is not None:
+            r = sensor_to_world(np.asarray([st["angles_deg"]], float))[0]
+            h.append(r.T @ h_world)
+        means.append(m.mean(axis=0))
+        sems.append(np.maximum(m.std(axis=0, ddof=1), 0.01) / np.sqrt(len(m)))
+        ns.append(len(m))
+    if not names:
+        return None
+    field = np.array(h, float) if len(h) == len(names) else None
+    return MagStepMeans(names=tuple(names), field_nominal_ut=field, mean_ut=np.array(means), sem_ut=np.array(sems),
+                        n_samples=np.array(ns))
 
 
 def load_session(path) -> Session:

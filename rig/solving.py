@@ -33,8 +33,12 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
     model = model or spec.get("model") or "triangular"
     method = method or spec.get("method") or "pinv"
     thermal = thermal if thermal is not None else spec.get("thermal", "auto")
-    steps = session.step_means()
+    if method == "magnitude":
+        steps = session.step_means(session.static_step_indices(unknown_pose=True))
+    else:
+        steps = session.step_means()
     accel = calib.solve(steps, model=model, method=method, thermal=thermal)
+    gyro, mag = solve_gyro_and_mag(session, spec)
     sensor = session.manifest["rig"]["sensor"]
     cal = calib.CalibrationFile(
         created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
@@ -43,7 +47,33 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
         sensor={"model": sensor.get("model"), "address": sensor.get("address"),
                 "serial": sensor.get("serial")},
         accelerometer=accel,
+        gyroscope=gyro,
+        magnetometer=mag,
     )
     path = Path(out) if out is not None else Path(session_dir) / "calibration.yaml"
     calfile.write(path, cal)
     return cal, path
+
+
+def solve_gyro_and_mag(session, spec: dict) -> tuple[dict | None, dict | None]:
+    """The gyroscope (rate steps) and magnetometer sections, when the session has their data."""
+    from calib.gyro import solve_gyro
+    from calib.magnetometer import solve_mag_ellipsoid, solve_mag_positions
+    from rig.session import mag_step_means, rate_step_means
+
+    gyro = mag = None
+    if any(s.get("kind") == "rate" for s in session.manifest["steps"]):
+        gyro = solve_gyro(rate_step_means(session)).to_dict()
+    mag_steps = mag_step_means(session)
+    if mag_steps is not None:
+        method = spec.get("magnetometer") or ("positions" if mag_steps.field_nominal_ut is not None else "ellipsoid")
+        if method == "positions":
+            if mag_steps.field_nominal_ut is None:
+                from calib.errors import ObservabilityError
+                raise ObservabilityError("the magnetometer position method needs the local field: add a site: "
+                                         "section to the rig file, or use solve: {magnetometer: ellipsoid}")
+            mag = solve_mag_positions(mag_steps).to_dict()
+        else:
+            site = session.manifest["rig"].get("site") or {}
+            mag = solve_mag_ellipsoid(mag_steps, float(site.get("field_ut", 1.0))).to_dict()
+    return gyro, mag

@@ -71,8 +71,8 @@ def test_poses_beyond_the_soft_limits_are_refused_before_anything_moves(tmp_path
     rig = _rig_file(tmp_path, **{"soft_limits_deg: [-400, 400], cable_wrap_deg: 400}\n    a3":
                                  "soft_limits_deg: [-400, 400], cable_wrap_deg: 400}\n    a3"})
     rig.write_text(rig.read_text().replace(
-        "a3: {sign: 1, speed_deg_s: 20, accel_deg_s2: 40, soft_limits_deg: [-400, 400], cable_wrap_deg: 400}",
-        "a3: {sign: 1, speed_deg_s: 20, accel_deg_s2: 40, soft_limits_deg: [-100, 100], cable_wrap_deg: 400}"))
+        "a3: {sign: 1, speed_deg_s: 20, accel_deg_s2: 40, soft_limits_deg: [-400, 400], cable_wrap_deg: 400, slip_ring: true}",
+        "a3: {sign: 1, speed_deg_s: 20, accel_deg_s2: 40, soft_limits_deg: [-100, 100], cable_wrap_deg: 400, slip_ring: true}"))
     code = main(["run", SIX, "--rig", str(rig), "--out", str(tmp_path / "s")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2
