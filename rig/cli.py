@@ -194,14 +194,28 @@ def cmd_apply(args) -> int:
     d = session.samples
     temp = d["temp_c"] if session.has_temperature else None
     f = cal.accelerometer.apply(d["accel_counts"], temp_c=temp, t_s=d["t_s"])
+    extra_cols, extra = [], []
+    if cal.gyroscope and "gyro_counts" in d:
+        from calib.gyro import GyroCalibration
+        extra_cols += ["wx_dps", "wy_dps", "wz_dps"]
+        extra.append(GyroCalibration.from_dict(cal.gyroscope, args.calibration).apply(d["gyro_counts"]))
+    if cal.magnetometer and "mag_counts" in d:
+        from calib.magnetometer import MagCalibration
+        from rig.run import MAG_LSB_PER_UT
+        info = session.manifest["rig"]["sensor"].get("magnetometer") or {}
+        lsb = float(info.get("mag_lsb_per_ut", MAG_LSB_PER_UT))
+        extra_cols += ["mx_ut", "my_ut", "mz_ut"]
+        extra.append(MagCalibration.from_dict(cal.magnetometer, args.calibration).apply(d["mag_counts"] / lsb))
     out = Path(args.output)
     with open(out, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["t_s", "step", "fx", "fy", "fz", "temp_c"])
+        w.writerow(["t_s", "step", "fx", "fy", "fz", "temp_c"] + extra_cols)
         for i in range(len(f)):
             tc = "" if temp is None or not np.isfinite(temp[i]) else f"{temp[i]:.3f}"
-            w.writerow([f"{d['t_s'][i]:.4f}", int(d["step"][i]), f"{f[i, 0]:.7f}", f"{f[i, 1]:.7f}",
-                        f"{f[i, 2]:.7f}", tc])
+            row = [f"{d['t_s'][i]:.4f}", int(d["step"][i]), f"{f[i, 0]:.7f}", f"{f[i, 1]:.7f}", f"{f[i, 2]:.7f}", tc]
+            for blk in extra:
+                row += ["" if not np.isfinite(v) else f"{v:.5f}" for v in blk[i]]
+            w.writerow(row)
     print(f"wrote {len(f)} rows to {out}")
     return EXIT_OK
 
@@ -307,6 +321,21 @@ def format_calibration(cal) -> str:
     if a.temperature:
         t = a.temperature
         lines.append(f"  temperature: t0 {t.t0_c:.2f} C, order {t.order}")
+    if a.effects:
+        lines.append("  effects: " + ", ".join(e["name"] for e in a.effects))
+    if cal.gyroscope:
+        from calib.gyro import GyroCalibration
+        g = GyroCalibration.from_dict(cal.gyroscope)
+        b = np.asarray(g.bias_counts) / g.lsb_per_dps
+        sb = np.array([g.sigma[f"b_{x}"] for x in "xyz"]) / g.lsb_per_dps
+        lines.append(f"  gyroscope: {g.n_steps} rate steps, residual {g.residual_rms_dps:.4f} deg/s rms; bias "
+                     + " ".join(f"{x} {v:+.3f}+-{e:.3f}" for x, v, e in zip("xyz", b, sb)) + " deg/s; scale "
+                     + " ".join(f"{v:.3f}" for v in np.asarray(g.scale_counts_per_dps)) + " counts/(deg/s)")
+    if cal.magnetometer:
+        from calib.magnetometer import MagCalibration
+        m = MagCalibration.from_dict(cal.magnetometer)
+        lines.append(f"  magnetometer ({m.method}): {m.n_steps} steps, residual {m.residual_rms_ut:.3f} uT rms; "
+                     "hard iron " + " ".join(f"{v:+.2f}" for v in np.asarray(m.hard_iron_ut)) + " uT")
     return "\n".join(lines)
 
 

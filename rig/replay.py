@@ -39,9 +39,10 @@ class ReplaySensor:
         self.model = s.get("model", "replay")
         self.address = int(s.get("address") or 0)
         self.has_temperature = bool(s.get("has_temperature"))
-        self.has_gyro = False
+        self.has_gyro = "gyro_counts" in session.samples and bool(s.get("gyro_lsb_per_dps"))
         self.accel_lsb_per_g = float(s["accel_lsb_per_g"])
-        self.gyro_lsb_per_dps = None
+        self.gyro_lsb_per_dps = float(s["gyro_lsb_per_dps"]) if self.has_gyro else None
+        self.gyro_range_dps = s.get("gyro_range_dps")
         self.sample_rate_hz = float(s["sample_rate_hz"])
         self.accel_range_g = int(s.get("accel_range_g") or 0)
         self.stats = CaptureStats()
@@ -80,7 +81,39 @@ class ReplaySensor:
         self._cursor = end
         temp = d["temp_c"][sl] if d.get("temp_c") is not None else np.full(end - sl.start, np.nan)
         # the recorded session times become the sample times, so the replayed session matches
-        return SampleBlock(t_s=t_rec[sl], accel_counts=d["accel_counts"][sl], temp_c=temp, gyro_counts=None)
+        gyro = d["gyro_counts"][sl].astype(np.int64) if self.has_gyro else None
+        return SampleBlock(t_s=t_rec[sl], accel_counts=d["accel_counts"][sl], temp_c=temp, gyro_counts=gyro)
+
+
+class ReplayMagnetometer:
+    """Serves a session's recorded magnetometer readings (uT), one step at a time."""
+
+    model = "AK8975"
+
+    def __init__(self, session) -> None:
+        info = session.manifest["rig"]["sensor"].get("magnetometer") or {}
+        self.session = session
+        self.address = int(info.get("address", 0x0C))
+        self.asa_factor = np.asarray(info.get("asa_factor", [1.0, 1.0, 1.0]), float)
+        self.lsb_per_ut = float(info.get("mag_lsb_per_ut", 100.0))
+        self._rows = np.empty((0, 3))
+        self._cursor = 0
+
+    def configure(self) -> None:
+        """Recorded data: nothing to configure."""
+
+    def seek_step(self, index: int) -> None:
+        m = self.session.step_samples(index)["mag_counts"]
+        self._rows = m[np.all(np.isfinite(m), axis=1)]
+        self._cursor = 0
+
+    def read_field_ut(self) -> np.ndarray:
+        if self._cursor >= len(self._rows):
+            from drivers.sensors.base import SensorError
+            raise SensorError("replay: the recording has no more magnetometer readings for this step")
+        v = self._rows[self._cursor] / self.lsb_per_ut
+        self._cursor += 1
+        return v
 
 
 def _empty_block(has_gyro: bool) -> SampleBlock:
@@ -107,9 +140,11 @@ def replay_session(session_dir, *, out_dir=None, ui: ConsoleUI | None = None) ->
                              speed_deg_s=48.0, accel_deg_s2=200.0, soft_limits_deg=(-1e6, 1e6),
                              cable_wrap_deg=1e6)
                 for i, n in enumerate(AXES)}
+        mag = ReplayMagnetometer(original) if "mag_counts" in original.samples else None
         rig = RigHandles(kind="replay", clock=clock, stages=stages, axes=axes, sensor=sensor,
                          sensor_model=sensor.model, sensor_address=sensor.address, home_policy="zero",
-                         is_replay=True, on_step_begin=sensor.seek_step)
+                         is_replay=True, on_step_begin=sensor.seek_step, magnetometer=mag,
+                         site_field=manifest0["rig"].get("site"))
         out_root = Path(out_dir) if out_dir is not None else Path(session_dir).resolve().parent
         text = manifest0["procedure"]["text"]
         manifest = {
@@ -124,8 +159,11 @@ def replay_session(session_dir, *, out_dir=None, ui: ConsoleUI | None = None) ->
         manifest["rig"] = identify(rig)
         manifest["rig"]["sensor"].update({k: manifest0["rig"]["sensor"].get(k) for k in
                                           ("model", "address", "accel_range_g", "accel_lsb_per_g",
-                                           "sample_rate_hz", "has_temperature")})
-        writer = SessionWriter.create(out_root, manifest["id"], manifest)
+                                           "sample_rate_hz", "has_temperature", "gyro_range_dps",
+                                           "gyro_lsb_per_dps", "magnetometer")
+                                          if k in manifest0["rig"]["sensor"]})
+        writer = SessionWriter.create(out_root, manifest["id"], manifest,
+                                      columns=tuple(manifest0.get("columns") or ()) or None)
         # recorded sample times are session times: make the runner's session clock start at 0 now
         runner = Runner(procedure, rig, writer, ui, time_offset_s=clock.now())
         runner.prepare(resuming=False)

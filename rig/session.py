@@ -61,9 +61,10 @@ class SessionWriter:
     # -- construction ------------------------------------------------------------------
     @classmethod
     def create(cls, sessions_root, session_id: str, manifest: dict,
-               columns: tuple[str, ...] = BASE_COLUMNS + ("a1_deg", "a2_deg", "a3_deg")) -> "SessionWriter":
+               columns: tuple[str, ...] | None = None) -> "SessionWriter":
         """Create ``sessions_root/session_id`` and write the manifest and the CSV header."""
         validate_session_id(session_id)
+        columns = tuple(columns) if columns else BASE_COLUMNS + ("a1_deg", "a2_deg", "a3_deg")
         root = Path(sessions_root)
         root.mkdir(parents=True, exist_ok=True)
         d = root / session_id

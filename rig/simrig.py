@@ -41,7 +41,7 @@ EFFECT_FIELDS: dict[str, str] = {
 WORLD_EFFECTS = ("table_tilt", "full_misalignment")
 
 SIM_KEYS = {"time_scale", "sensor", "chamber", "table_tilt_deg", "field", "ringing", "effects",
-            "errors", "serial_base"}
+            "errors", "gyro_errors", "mag_errors", "serial_base"}
 
 
 @dataclass
@@ -55,6 +55,8 @@ class SimSettings:
     table_tilt_deg: tuple[float, float] = (0.0, 0.0)
     effects: dict[str, Any] = dataclasses.field(default_factory=dict)
     errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # AccelErrorModel overrides
+    gyro_errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # GyroErrorModel overrides
+    mag_errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # MagErrorModel overrides
     serial_base: int = 0x5A00
 
     @classmethod
@@ -88,6 +90,12 @@ class SimSettings:
             allowed = {f.name for f in dataclasses.fields(AccelErrorModel)}
             _check_keys(m["errors"], allowed, f"{where}.errors")
             out.errors = dict(m["errors"])
+        for key, cls_ in (("gyro_errors", GyroErrorModel), ("mag_errors", MagErrorModel)):
+            if key in m:
+                if not isinstance(m[key], dict):
+                    raise RigInputError(None, None, f"{where}.{key}", "expected a mapping of error-model fields")
+                _check_keys(m[key], {f.name for f in dataclasses.fields(cls_)}, f"{where}.{key}")
+                setattr(out, key, dict(m[key]))
         if "serial_base" in m:
             out.serial_base = int(_number(m["serial_base"], f"{where}.serial_base", minimum=1))
         return out
@@ -120,6 +128,9 @@ class SimulatedRig:
         self.accel_errors = self._draw_accel_errors(rng)
         self.gyro_errors = GyroErrorModel.draw(rng, sensor_model) if sensor_model == "MPU-9150" else None
         self.mag_errors = MagErrorModel.draw(rng, sensor_model) if sensor_model == "MPU-9150" else None
+        for obj, over in ((self.gyro_errors, self.settings.gyro_errors), (self.mag_errors, self.settings.mag_errors)):
+            for k, v in (over.items() if obj is not None else ()):
+                setattr(obj, k, _broadcast_like(v, getattr(obj, k), k))
         self.chamber = SimChamber(self.clock, settings.chamber)
         ximc_faults = ximc_faults or {}
         self.emulators: list[ControllerEmulator] = []
