@@ -68,6 +68,8 @@ class EffectInputs:
         return np.eye(3) if self.matrix_g is None else np.asarray(self.matrix_g, float)
 
     def dt_c(self) -> np.ndarray:
+        if self.temp_c is None:  # no thermometer: temperature terms are unobservable, their columns zero
+            return np.zeros(len(self.f_g))
         return np.asarray(self.temp_c, float) - self.t0_c
 
 

@@ -47,6 +47,8 @@ class MagnitudeFit:
 
 
 _IU = np.triu_indices(3)
+#: smallest singular value of the unit directions / sqrt(K): six faces give 0.58, one pose 0
+MIN_DIRECTION_COVERAGE = 0.15
 
 
 def _unpack(p, radius):
@@ -119,6 +121,13 @@ def fit_magnitude(mean_counts, sem_counts=None, *, radius: float = 1.0, min_inte
     sig_m = np.sqrt(np.maximum(np.diag(jm @ cov_u @ jm.T), 0)).reshape(3, 3)
     f = (a - b) @ u.T
     resid = np.linalg.norm(f, axis=1) - r
+    # the directions must cover the sphere, or scale and bias trade off freely (e.g. one pose only)
+    unit = f / np.maximum(np.linalg.norm(f, axis=1), 1e-12)[:, None]
+    coverage = float(np.linalg.svd(unit, compute_uv=False)[-1] / np.sqrt(k))
+    if coverage < MIN_DIRECTION_COVERAGE:
+        raise ObservabilityError(f"the {k} static intervals do not point in enough different directions (coverage "
+                                 f"{coverage:.2f} < {MIN_DIRECTION_COVERAGE}): turn the sensor so each axis points up "
+                                 "and down in some of them")
     return MagnitudeFit(matrix=m, bias=b, radius=float(r), cov=cov, residual_rms=float(np.sqrt(np.mean(resid**2))),
                         chi2_per_dof=chi2 / dof if dof > 0 else float("nan"), n_intervals=k,
                         converged=bool(sol.success), sigma_bias=np.sqrt(np.diag(cov)[:3]), sigma_matrix=sig_m)

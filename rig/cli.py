@@ -67,6 +67,14 @@ def build_parser() -> argparse.ArgumentParser:
     dc.add_argument("--false-alarm", type=float, default=0.01,
                     help="probability of naming an effect in a session that has none (default 0.01)")
 
+    im = sub.add_parser("import", help="import another tool's recording as a session")
+    im.add_argument("--from", dest="source", required=True, choices=["imucal", "imu_tk", "tofupilot", "csv"])
+    im.add_argument("src", help="the recording file")
+    im.add_argument("-o", "--out", default="sessions", help="sessions directory (default: sessions/)")
+    im.add_argument("--id", default=None, help="session id (default: import-SOURCE-FILESTEM)")
+    im.add_argument("--g", type=float, default=9.80665, help="local gravity for m/s^2 sources (default 9.80665)")
+    im.add_argument("--window-s", type=float, default=120.0, help="tofupilot: seconds per step window")
+
     rp = sub.add_parser("replay", help="re-run a recorded session through the replay rig")
     rp.add_argument("session")
     rp.add_argument("--out", default=None, help="where the replayed session goes (default: beside the original)")
@@ -92,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return EXIT_BAD_INPUT
     handler = {"run": cmd_run, "solve": cmd_solve, "apply": cmd_apply, "evaluate": cmd_evaluate,
-               "replay": cmd_replay, "discover": cmd_discover, "sim": cmd_sim, "ports": cmd_ports}[args.command]
+               "replay": cmd_replay, "discover": cmd_discover, "import": cmd_import, "sim": cmd_sim, "ports": cmd_ports}[args.command]
     try:
         return handler(args)
     except BaseException as exc:  # noqa: BLE001 - the one place errors become exit codes
@@ -182,7 +190,22 @@ def cmd_solve(args) -> int:
     else:
         print(f"calibration: {path}")
         print(format_calibration(cal))
+        if args.method != "magnitude":
+            _print_redundancy(args.session)
     return EXIT_OK
+
+
+def _print_redundancy(session_dir) -> None:
+    """The six-pose redundancy check, when the session has two or more +/- pose pairs."""
+    from calib.errors import CalibError
+    from calib.redundancy import pair_biases
+    from rig.session import load_session
+    try:
+        steps = load_session(session_dir).step_means()
+        r = pair_biases(steps)
+    except (CalibError, Exception):  # noqa: BLE001 - an optional extra; the calibration is already written
+        return
+    print("  " + r.format_table(steps.lsb_per_g).replace("\n", "\n  "))
 
 
 def cmd_apply(args) -> int:
@@ -237,6 +260,29 @@ def cmd_discover(args) -> int:
         print(dsc.format_report(session, d))
         for k, v in extra.items():
             print(f"{k}: {v}")
+    return EXIT_OK
+
+
+def cmd_import(args) -> int:
+    from rig.recordings import import_recording
+    from rig.session import load_session
+
+    if not args.window_s > 0:
+        raise UsageError(f"--window-s: expected a positive number of seconds, got {args.window_s:g}")
+    path = import_recording(args.source, args.src, args.out, args.id, g_ms2=args.g, window_s=args.window_s)
+    s = load_session(path)
+    steps = s.manifest["steps"]
+    known = sum(1 for st in steps if st.get("kind") == "static" and st.get("f_nominal") is not None)
+    static = sum(1 for st in steps if st.get("kind") == "static")
+    imp = s.manifest["import"]
+    print(f"session: {path}")
+    print(f"  {len(s.samples['t_s'])} samples at {s.manifest['rig']['sensor']['sample_rate_hz']:g} Hz, "
+          f"{len(steps)} steps ({static} static, {known} with known poses) from {imp['steps_from']}; "
+          f"units {imp['units']}, {imp['lsb_per_g']:g} counts/g")
+    for note in imp["notes"]:
+        print(f"  note: {note}")
+    hint = "rig solve SESSION" if known >= 6 else "rig solve SESSION --method magnitude"
+    print(f"  next: {hint}; rig discover SESSION")
     return EXIT_OK
 
 

@@ -90,8 +90,10 @@ def format_report(session: Session, d: Discovery) -> str:
     """The plain-text report: localisation, effects named, gap before and after, per-step table."""
     lines = [f"session {session.id}: {len(d.steps)} static steps, noise level {d.noise_rms_g * 1e6:.1f} ug rms "
              f"(from each step's own scatter)"]
-    lines.append(f"baseline (bias, scale, triangular misalignment): residual {d.rms_before_g * 1e6:.1f} ug rms, "
-                 f"chi2/dof {d.chi2_per_dof_before:.2f}")
+    pose_free = any(s.f_nominal_g is None for s in d.steps)
+    label = "pose-free baseline (one constant per axis and unknown pose)" if pose_free else \
+        "baseline (bias, scale, triangular misalignment)"
+    lines.append(f"{label}: residual {d.rms_before_g * 1e6:.1f} ug rms, chi2/dof {d.chi2_per_dof_before:.2f}")
     lines.append("where the model and the data disagree:")
     lines += ["  " + s for s in summary_lines(d.where)]
     if d.effects:

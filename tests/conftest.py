@@ -12,12 +12,12 @@ RIGS = REPO / "rigs"
 DATASETS = REPO.parent / "shared" / "datasets"
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def repo() -> Path:
     return REPO
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def datasets() -> Path:
     if not DATASETS.is_dir():
         pytest.skip(f"shared datasets not found at {DATASETS} (CI has ../shared beside the checkout)")
