@@ -112,6 +112,7 @@ class Discovery:
     steps: list[StepRow]
     where: dict
     history: list = field(default_factory=list)  # (label, rms_g, chi2_per_dof)
+    not_named: dict = field(default_factory=dict)  # candidate -> p-value at the last forward pass
     false_alarm: float = 0.01
     calibration: object = None  # AccelCalibration or None (unknown poses)
 
@@ -122,6 +123,7 @@ class Discovery:
                 "effects": [e.to_json() for e in self.effects], "aliases": [list(a) for a in self.aliases],
                 "unobservable": list(self.unobservable),
                 "unobservable_why": dict(self.unobservable_why), "where": self.where,
+                "not_named": {k: {"p_value": v[0], "threshold": v[1]} for k, v in self.not_named.items()},
                 "steps": [s.to_json() for s in self.steps]}
 
 
@@ -361,13 +363,14 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
                      chi2_per_dof_before=base_fit.rss / base_fit.dof, chi2_per_dof_after=final.rss / final.dof,
                      effects=effects, aliases=aliases, unobservable=unobservable, unobservable_why=why,
                      steps=rows, where=localise(steps, ctx, z0), history=history, false_alarm=false_alarm,
-                     calibration=cal)
+                     calibration=cal, not_named=dict(getattr(prob, "last_pass", {})))
 
 
 def _select(prob: _Problem, observable: list, alpha: float) -> tuple[list, list]:
     selected: list[str] = []
     aliases: list[list[str]] = []
     cache: dict = {}
+    prob.last_pass = {}
 
     def fit(names):
         key = tuple(names)
@@ -385,6 +388,7 @@ def _select(prob: _Problem, observable: list, alpha: float) -> tuple[list, list]
         thr = alpha / len(remaining)
         best = min(remaining, key=lambda n: (pvals[n][1], -pvals[n][0]))
         if pvals[best][1] >= thr:
+            prob.last_pass = {n: (pvals[n][1], thr) for n in remaining}
             break
         group = [best]
         for n in remaining:

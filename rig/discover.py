@@ -104,6 +104,10 @@ def format_report(session: Session, d: Discovery) -> str:
             lines.append(f"    residual after: {e.rms_after_g * 1e6:.1f} ug rms (p = {e.p_value:.2g})")
     else:
         lines.append("effects named: none (nothing significant beyond the baseline)")
+    if d.not_named:
+        near = sorted(d.not_named.items(), key=lambda kv: kv[1][0])
+        lines.append("tested, not significant (p-value vs threshold): "
+                     + ", ".join(f"{n} {p:.2g} vs {t:.2g}" for n, (p, t) in near))
     for group in d.aliases:
         lines.append(f"aliases (the data cannot tell these apart; the first was used): {', '.join(group)}")
     if d.unobservable:
@@ -157,7 +161,8 @@ def write_plot(d: Discovery, path) -> Path:
         a.set_ylabel("residual, mg")
     for a in axes.ravel():
         a.axhline(0, color="0.6", lw=0.8)
-        a.legend(loc="upper right", fontsize=8)
+        if a.get_legend_handles_labels()[0]:
+            a.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     p = Path(path)
     fig.savefig(p, dpi=100)
