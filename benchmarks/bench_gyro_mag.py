@@ -62,16 +62,16 @@ def gyro_report(session: Path, label: str) -> None:
     print("|---|---|---|---|---|")
     for j, a in enumerate("xyz"):
         est, sig = g.bias_counts[j] / lsb, g.sigma[f"b_{a}"] / lsb
-        print(f"| bias {a} (deg/s) | {b_true[j]:.4f} | {est:.4f} | {sig:.4f} | {(est - b_true[j]) / sig:+.1f} |")
+        print(f"| bias {a} (deg/s) | {b_true[j]:.4f} | {est:.5f} | {sig:.1e} | {(est - b_true[j]) / sig:+.1f} |")
     for j, a in enumerate("xyz"):
         est, sig = g.matrix_counts_per_dps[j][j] / lsb, g.sigma[f"k_{a}"] / lsb
-        print(f"| scale {a} | {m_true[j, j]:.5f} | {est:.5f} | {sig:.5f} | {(est - m_true[j, j]) / sig:+.1f} |")
+        print(f"| scale {a} | {m_true[j, j]:.5f} | {est:.6f} | {sig:.1e} | {(est - m_true[j, j]) / sig:+.1f} |")
     for j, a in enumerate("xyz"):
         for k, c in enumerate("xyz"):
             if j != k:
                 t = m_true[j, k] / m_true[j, j]
                 est, sig = g.nonorthogonality[f"m_{a}{c}"], g.sigma[f"m_{a}{c}"]
-                print(f"| m_{a}{c} | {t:+.5f} | {est:+.5f} | {sig:.5f} | {(est - t) / sig:+.1f} |")
+                print(f"| m_{a}{c} | {t:+.5f} | {est:+.6f} | {sig:.1e} | {(est - t) / sig:+.1f} |")
     pairs = np.array([p.bias_counts for p in g.bias_pairs]) / lsb
     print(f"+/- pair biases (deg/s), mean over pairs: {np.round(pairs.mean(axis=0), 4).tolist()}, "
           f"true {np.round(b_true, 4).tolist()}")
@@ -96,7 +96,7 @@ def mag_report(session: Path, label: str) -> None:
         for j, a in enumerate("xyz"):
             for k, c in enumerate("xyz"):
                 t, est, sig = truth["soft_iron"][j][k], np.asarray(m.matrix)[j, k], m.sigma[f"a_{a}{c}"]
-                print(f"| A_{a}{c} | {t:+.5f} | {est:+.5f} | {sig:.5f} | {(est - t) / sig:+.1f} |")
+                print(f"| A_{a}{c} | {t:+.5f} | {est:+.6f} | {sig:.1e} | {(est - t) / sig:+.1f} |")
     ms = mag_step_means(load_session(session))
     field = 50.0
     raw = np.linalg.norm(ms.mean_ut, axis=1) - field
