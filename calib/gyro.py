@@ -143,10 +143,13 @@ class RateStepMeans:
     sem_counts: np.ndarray
     n_samples: np.ndarray
     lsb_per_dps: float
+    f_mean_g: np.ndarray | None = None  # (K, 3) mean specific force during each step, sensor frame, g
 
     def __post_init__(self) -> None:
         k = len(self.names)
         owner = "RateStepMeans"
+        if self.f_mean_g is not None:
+            object.__setattr__(self, "f_mean_g", check_array(owner, "f_mean_g", self.f_mean_g, (k, 3)))
         for name, shape in (("rate_nominal_dps", (k, 3)), ("mean_counts", (k, 3)), ("sem_counts", (k, 3)),
                             ("n_samples", (k,))):
             object.__setattr__(self, name, check_array(owner, name, getattr(self, name), shape,
@@ -224,16 +227,26 @@ class GyroCalibration:
     residual_rms_dps: float = float("nan")
     chi2_per_dof: float = float("nan")
     n_steps: int = 0
+    g_sensitivity: dict | None = None  # {inputs, matrix_counts_per_g (3,3), sigma_counts_per_g (3,3)}
+
+    def g_matrix(self) -> np.ndarray:
+        """(3, 3) g-sensitivity G (counts per g; zero columns for inputs not determined)."""
+        if not self.g_sensitivity:
+            return np.zeros((3, 3))
+        return np.asarray(self.g_sensitivity["matrix_counts_per_g"], float)
 
     def predict_counts(self, w_dps: np.ndarray) -> np.ndarray:
         """Model output ``M w + b`` (N, 3) counts for true rates ``w_dps`` (N, 3), sensor frame, deg/s."""
         w = np.atleast_2d(np.asarray(w_dps, float))
         return w @ self.matrix_counts_per_dps.T + self.bias_counts
 
-    def apply(self, counts: np.ndarray) -> np.ndarray:
-        """Calibrated rate ``M^-1 (counts - b)`` (N, 3), sensor frame, deg/s, from raw counts (N, 3)."""
-        c = np.atleast_2d(np.asarray(counts, float))
-        return np.linalg.solve(self.matrix_counts_per_dps, (c - self.bias_counts).T).T
+    def apply(self, counts: np.ndarray, f_g: np.ndarray | None = None) -> np.ndarray:
+        """Calibrated rate ``M^-1 (counts - b - G f)`` (N, 3), sensor frame, deg/s, from raw counts (N, 3);
+        ``f_g`` (N, 3) the specific force in g, needed only to remove the g-sensitivity."""
+        c = np.atleast_2d(np.asarray(counts, float)) - self.bias_counts
+        if f_g is not None and self.g_sensitivity:
+            c = c - np.atleast_2d(np.asarray(f_g, float)) @ self.g_matrix().T
+        return np.linalg.solve(self.matrix_counts_per_dps, c.T).T
 
     def to_dict(self) -> dict:
         """Plain floats, lists and dicts (YAML-friendly); :meth:`from_dict` inverts it exactly."""
@@ -248,6 +261,10 @@ class GyroCalibration:
             "residual_rms_dps": float(self.residual_rms_dps),
             "chi2_per_dof": float(self.chi2_per_dof),
             "n_steps": int(self.n_steps),
+            "g_sensitivity": None if not self.g_sensitivity else {
+                "inputs": list(self.g_sensitivity["inputs"]),
+                "matrix_counts_per_g": np.asarray(self.g_sensitivity["matrix_counts_per_g"], float).tolist(),
+                "sigma_counts_per_g": np.asarray(self.g_sensitivity["sigma_counts_per_g"], float).tolist()},
         }
 
     @classmethod
@@ -259,7 +276,15 @@ class GyroCalibration:
         CalibrationFileError naming ``path`` (the file, if any), the field path and what was expected.
         """
         v = DictValidator(path, "gyro")
-        v.keys(d, "", set(_GYRO_KEYS))
+        v.keys(d, "", set(_GYRO_KEYS), optional={"g_sensitivity"})
+        gs = d.get("g_sensitivity")
+        if gs is not None:
+            v.keys(gs, "g_sensitivity", {"inputs", "matrix_counts_per_g", "sigma_counts_per_g"})
+            if not (isinstance(gs["inputs"], list) and all(x in AXES for x in gs["inputs"])):
+                v.fail("g_sensitivity.inputs", "a list of input axes (x, y, z)")
+            gs = {"inputs": list(gs["inputs"]),
+                  "matrix_counts_per_g": v.array(gs, "matrix_counts_per_g", (3, 3), "g_sensitivity"),
+                  "sigma_counts_per_g": v.array(gs, "sigma_counts_per_g", (3, 3), "g_sensitivity", nonneg=True)}
         matrix = v.array(d, "matrix_counts_per_dps", (3, 3))
         scale = v.array(d, "scale_counts_per_dps", (3,))
         if not np.all(np.diag(matrix) != 0):
@@ -289,6 +314,7 @@ class GyroCalibration:
             residual_rms_dps=v.number(d, "residual_rms_dps", allow_nan=True),
             chi2_per_dof=v.number(d, "chi2_per_dof", allow_nan=True),
             n_steps=v.integer(d, "n_steps"),
+            g_sensitivity=gs,
         )
 
 
@@ -415,7 +441,7 @@ def _sigmas(matrix: np.ndarray, fits: tuple) -> dict:
     for i, j in OFF_DIAGONAL:
         c = fits[i].cov
         mii, mij = matrix[i, i], matrix[i, j]
-        grad = np.zeros(4)
+        grad = np.zeros(c.shape[0])
         grad[j] = 1.0 / mii
         grad[i] = -mij / mii**2
         sig[f"m_{AXES[i]}{AXES[j]}"] = float(np.sqrt(max(grad @ c @ grad, 0.0)))
@@ -443,6 +469,9 @@ def solve_gyro(steps: RateStepMeans) -> GyroCalibration:
     """
     w = steps.rate_nominal_dps
     _check_observable(w)
+    g_inputs = g_sensitivity_inputs(steps)
+    if g_inputs:
+        return _solve_with_g(steps, g_inputs)
     names = [[f"M_{AXES[i]}{a}" for a in AXES] + [f"b_{AXES[i]}"] for i in range(3)]
     fit = fit_affine(w, steps.mean_counts, steps.sem_counts, names)
     m, b = fit.matrix, fit.offset
@@ -453,3 +482,45 @@ def solve_gyro(steps: RateStepMeans) -> GyroCalibration:
         scale_counts_per_dps=np.diag(m).copy(), nonorthogonality=nonorth, sigma=_sigmas(m, fit.axis_fits),
         bias_pairs=find_bias_pairs(steps), residual_rms_dps=float(np.sqrt(np.mean(res_dps**2))),
         chi2_per_dof=fit.chi2_per_dof, n_steps=len(steps))
+
+
+#: an input component of the specific force must vary by this much over the rate steps (g) for its
+#: column of the g-sensitivity to be determined (e.g. z spins with z up vs x/y spins where gravity turns)
+G_SPREAD_MIN = 0.5
+
+
+def g_sensitivity_inputs(steps: RateStepMeans) -> list[int]:
+    """Input axes whose g-sensitivity column the steps determine (empty without ``f_mean_g``)."""
+    if steps.f_mean_g is None:
+        return []
+    return [k for k in range(3) if np.ptp(steps.f_mean_g[:, k]) >= G_SPREAD_MIN]
+
+
+def _solve_with_g(steps: RateStepMeans, g_inputs: list[int]) -> GyroCalibration:
+    """``counts = M w + b + G f``: the 12 parameters plus the determined columns of G (counts per g)."""
+    w, f = steps.rate_nominal_dps, steps.f_mean_g
+    design = np.column_stack([w, np.ones(len(w))] + [f[:, k] for k in g_inputs])
+    fits = []
+    for i in range(3):
+        nm = [f"M_{AXES[i]}{a}" for a in AXES] + [f"b_{AXES[i]}"] + [f"G_{AXES[i]}{AXES[k]}" for k in g_inputs]
+        fits.append(solve_wls(design, steps.mean_counts[:, i], steps.sem_counts[:, i], nm))
+    m = np.array([ft.params[:3] for ft in fits])
+    b = np.array([ft.params[3] for ft in fits])
+    gm, gs = np.zeros((3, 3)), np.zeros((3, 3))
+    for i, ft in enumerate(fits):
+        for n, k in enumerate(g_inputs):
+            gm[i, k] = ft.params[4 + n]
+            gs[i, k] = np.sqrt(ft.cov[4 + n, 4 + n])
+    res = np.column_stack([ft.residuals for ft in fits])
+    res_dps = np.linalg.solve(m, res.T).T
+    chi2 = sum(ft.chi2 for ft in fits)
+    dof = sum(ft.dof for ft in fits)
+    nonorth = {f"m_{AXES[i]}{AXES[j]}": float(m[i, j] / m[i, i]) for i, j in OFF_DIAGONAL}
+    # the +/- pairs, corrected for the g-sensitivity of their own specific force
+    pairs = find_bias_pairs(steps)
+    return GyroCalibration(
+        lsb_per_dps=steps.lsb_per_dps, matrix_counts_per_dps=m, bias_counts=b, scale_counts_per_dps=np.diag(m).copy(),
+        nonorthogonality=nonorth, sigma=_sigmas(m, tuple(fits)), bias_pairs=pairs,
+        residual_rms_dps=float(np.sqrt(np.mean(res_dps**2))), chi2_per_dof=chi2 / dof if dof > 0 else float("nan"),
+        n_steps=len(steps),
+        g_sensitivity={"inputs": [AXES[k] for k in g_inputs], "matrix_counts_per_g": gm, "sigma_counts_per_g": gs})

@@ -375,7 +375,7 @@ def format_calibration(cal) -> str:
         b = np.asarray(g.bias_counts) / g.lsb_per_dps
         sb = np.array([g.sigma[f"b_{x}"] for x in "xyz"]) / g.lsb_per_dps
         lines.append(f"  gyroscope: {g.n_steps} rate steps, residual {g.residual_rms_dps:.4f} deg/s rms; bias "
-                     + " ".join(f"{x} {v:+.3f}+-{e:.3f}" for x, v, e in zip("xyz", b, sb)) + " deg/s; scale "
+                     + " ".join(f"{x} {v:+.4f}+-{e:.4f}" for x, v, e in zip("xyz", b, sb)) + " deg/s; scale "
                      + " ".join(f"{v:.3f}" for v in np.asarray(g.scale_counts_per_dps)) + " counts/(deg/s)")
     if cal.magnetometer:
         from calib.magnetometer import MagCalibration

@@ -360,8 +360,10 @@ class Session:
                          lsb_per_g=self.lsb_per_g)
 
 
-def rate_step_means(session: "Session"):
-    """Per-step gyroscope means of the complete rate steps (calib.gyro.RateStepMeans)."""
+def rate_step_means(session: "Session", accel=None):
+    """Per-step gyroscope means of the complete rate steps (calib.gyro.RateStepMeans), with the mean
+    specific force of each step (for the g-sensitivity): from the accelerometer calibration ``accel``
+    when given, else the raw accelerometer divided by its nominal sensitivity."""
     from calib.gyro import RateStepMeans
     sensor = session.manifest["rig"]["sensor"]
     lsb = sensor.get("gyro_lsb_per_dps")
@@ -370,10 +372,18 @@ def rate_step_means(session: "Session"):
     steps = [s for s in session.manifest["steps"] if s.get("kind") == "rate" and s.get("status") == "complete"]
     if not steps:
         raise SessionFormatError(str(session.path), None, "steps", "no complete rate step")
-    names, w, means, sems, ns = [], [], [], [], []
+    names, w, means, sems, ns, fs = [], [], [], [], [], []
     for st in steps:
         rows = session.samples["step"] == st["index"]
         g = session.samples["gyro_counts"][rows].astype(float)
+        # the mean specific force during the step (raw accelerometer, g): for the gyro's g-sensitivity
+        a_mean = session.samples["accel_counts"][rows].mean(axis=0)
+        if accel is not None:
+            tc = session.samples["temp_c"][rows]
+            t_mean = float(np.mean(tc)) if np.all(np.isfinite(tc)) and len(tc) else None
+            fs.append(accel.apply(a_mean[None, :], temp_c=t_mean, t_s=float(np.mean(session.samples["t_s"][rows])))[0])
+        else:
+            fs.append(a_mean / session.lsb_per_g)
         if len(g) < 2 or not np.all(np.isfinite(g)):
             raise SessionFormatError(str(session.path / "samples.csv"), None, f"step {st['index']}",
                                      f"rate step {st['index'] + 1} has no usable gyroscope samples")
@@ -383,7 +393,8 @@ def rate_step_means(session: "Session"):
         sems.append(np.maximum(g.std(axis=0, ddof=1), 1.0 / np.sqrt(12.0)) / np.sqrt(len(g)))
         ns.append(len(g))
     return RateStepMeans(names=tuple(names), rate_nominal_dps=np.array(w, float), mean_counts=np.array(means),
-                         sem_counts=np.array(sems), n_samples=np.array(ns), lsb_per_dps=float(lsb))
+                         sem_counts=np.array(sems), n_samples=np.array(ns), lsb_per_dps=float(lsb),
+                         f_mean_g=np.array(fs, float))
 
 
 def mag_step_means(session: "Session", known_field: bool = True):

@@ -38,7 +38,7 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
     else:
         steps = session.step_means()
     accel = calib.solve(steps, model=model, method=method, thermal=thermal)
-    gyro, mag = solve_gyro_and_mag(session, spec)
+    gyro, mag = solve_gyro_and_mag(session, spec, accel)
     sensor = session.manifest["rig"]["sensor"]
     cal = calib.CalibrationFile(
         created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
@@ -55,7 +55,7 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
     return cal, path
 
 
-def solve_gyro_and_mag(session, spec: dict) -> tuple[dict | None, dict | None]:
+def solve_gyro_and_mag(session, spec: dict, accel=None) -> tuple[dict | None, dict | None]:
     """The gyroscope (rate steps) and magnetometer sections, when the session has their data."""
     from calib.gyro import solve_gyro
     from calib.magnetometer import solve_mag_ellipsoid, solve_mag_positions
@@ -63,7 +63,7 @@ def solve_gyro_and_mag(session, spec: dict) -> tuple[dict | None, dict | None]:
 
     gyro = mag = None
     if any(s.get("kind") == "rate" for s in session.manifest["steps"]):
-        gyro = solve_gyro(rate_step_means(session)).to_dict()
+        gyro = solve_gyro(rate_step_means(session, accel)).to_dict()
     mag_steps = mag_step_means(session)
     if mag_steps is not None:
         method = spec.get("magnetometer") or ("positions" if mag_steps.field_nominal_ut is not None else "ellipsoid")

@@ -104,6 +104,22 @@ def test_the_rate_test_recovers_all_12_gyro_parameters_within_their_sigmas(runs)
     assert np.max(np.abs(w - rs.rate_nominal_dps)) < 0.02
 
 
+def test_with_the_gyros_g_sensitivity_the_bias_and_the_determined_g_column_are_recovered(runs):
+    """The default simulated MPU-9150 has g-sensitivity: z spins with z up see 1 g along z; the
+    solver adds the g-sensitivity columns the steps determine (here the z column)."""
+    s = runs["short"]
+    g = GyroCalibration.from_dict(calfile.read(s / "calibration.yaml").gyroscope)
+    truth = _truth(s)["gyroscope"]
+    lsb = g.lsb_per_dps
+    assert "z" in g.g_sensitivity["inputs"]
+    gm, gs = g.g_matrix() / lsb, np.asarray(g.g_sensitivity["sigma_counts_per_g"]) / lsb
+    g_true = np.asarray(truth["g_sensitivity_dps_per_g"])
+    assert np.all(np.abs(gm[:, 2] - g_true[:, 2]) < 4 * gs[:, 2])
+    for j, a in enumerate("xyz"):
+        assert abs(g.bias_counts[j] / lsb - truth["bias_dps"][j]) < 4 * g.sigma[f"b_{a}"] / lsb, a
+    assert g.chi2_per_dof < 3
+
+
 def test_the_rate_steps_capture_only_the_constant_rate_part(runs):
     from rig.session import load_session
     sess = load_session(runs["gyro"])
