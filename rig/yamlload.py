@@ -71,7 +71,8 @@ def load_located(text: str, path: str):
         try:
             return loader.construct_object(n, deep=True)
         except yaml.YAMLError as exc:
-            raise RigInputError(path, n.start_mark.line + 1, None, f"not valid YAML: {exc}") from None
+            problem = getattr(exc, "problem", None) or (str(exc).splitlines() or [""])[0]
+            raise RigInputError(path, n.start_mark.line + 1, None, f"not valid YAML: {problem}") from None
 
     try:
         return build(node), loc

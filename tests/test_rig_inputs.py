@@ -195,3 +195,12 @@ def test_extra_columns_in_any_order_are_accepted(tmp_path):
 def test_session_ids_cannot_escape_the_sessions_directory(tmp_path, bad):
     with pytest.raises(SessionFormatError):
         validate_session_id(bad)
+
+
+def test_a_tag_inside_a_flow_sequence_is_one_line_with_its_line_number():
+    """Found by the fuzzer: an unknown tag on a list item gave a three-line message."""
+    from rig.rigfile import parse_rig_file
+    text = (RIGS / "sim.yaml").read_text().replace("soft_limits_deg: [-400, 400]", "soft_limits_deg: [!-400, 400]", 1)
+    with pytest.raises(RigInputError) as exc:
+        parse_rig_file(text, "r.yaml")
+    assert str(exc.value).startswith("r.yaml:") and "\n" not in str(exc.value) and "tag" in str(exc.value)
