@@ -75,9 +75,17 @@ def gyro_report(session: Path, label: str) -> None:
     pairs = np.array([p.bias_counts for p in g.bias_pairs]) / lsb
     print(f"+/- pair biases (deg/s), mean over pairs: {np.round(pairs.mean(axis=0), 4).tolist()}, "
           f"true {np.round(b_true, 4).tolist()}")
-    rs = rate_step_means(load_session(session))
+    accel = calfile.read(session / "calibration.yaml").accelerometer
+    rs = rate_step_means(load_session(session), accel)
     raw = rs.mean_counts / lsb
-    cal = g.apply(rs.mean_counts)
+    cal = g.apply(rs.mean_counts, f_g=rs.f_mean_g)
+    if g.g_sensitivity:
+        gm = g.g_matrix() / lsb
+        gt = np.asarray(truth["g_sensitivity_dps_per_g"])
+        gs = np.asarray(g.g_sensitivity["sigma_counts_per_g"]) / lsb
+        for k in ("xyz".index(i) for i in g.g_sensitivity["inputs"]):
+            print(f"g-sensitivity column {'xyz'[k]} (deg/s/g): true {np.round(gt[:, k], 4).tolist()}, recovered "
+                  f"{np.round(gm[:, k], 4).tolist()} +- {np.round(gs[:, k], 4).tolist()}")
     print(f"rate error over the 18 modes, RMS: raw {np.sqrt(np.mean((raw - rs.rate_nominal_dps) ** 2)):.3f} deg/s -> "
           f"calibrated {np.sqrt(np.mean((cal - rs.rate_nominal_dps) ** 2)):.4f} deg/s")
 
