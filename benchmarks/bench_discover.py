@@ -159,7 +159,7 @@ def main() -> None:
         cells = []
         for dwell in dwells:
             found = None
-            for factor in (0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0):
+            for factor in (0.01, 0.02, 0.03, 0.05, 0.07, 0.1, 0.15, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0):
                 m = mag * factor
                 hits = sum(named(tpl.trial(np.random.default_rng(2000 + s), effect, m, dwell), effect)
                            for s in range(args.seeds))
