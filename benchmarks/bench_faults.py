@@ -92,7 +92,7 @@ FAULTS = {
     "stall at 30 deg (a2)": "faults:\n  ximc:\n    a2: {stall_at_deg: 30}\n",
     "limit switch at -45 deg (a3)": "faults:\n  ximc:\n    a3: {limit_deg: -45}\n",
     "1% I2C remote-I/O errors": "faults:\n  sensor: {oserror_rate: 0.01, seed: 5}\n",
-    "0.5 s I2C error burst": "faults:\n  sensor: {oserror_window_s: [30.0, 30.5]}\n",
+    "0.5 s I2C error burst": "faults:\n  sensor: {oserror_window_s: [37.0, 37.5]}\n",
     "chip dead after 30 s": "faults:\n  sensor: {dead_after_s: 30}\n",
     "stuck readings after 40 s": "faults:\n  sensor: {stuck_after_s: 40}\n",
     "saturation after 40 s": "faults:\n  sensor: {saturate_after_s: 40}\n",

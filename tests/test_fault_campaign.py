@@ -58,7 +58,7 @@ def test_200_ms_answer_latency_is_tolerated():
 
 
 def test_a_burst_of_i2c_errors_is_survived_by_measuring_the_step_again(tmp_path):
-    rig = _rig_file(tmp_path, "faults:\n  sensor: {oserror_window_s: [30.0, 30.5]}\n")
+    rig = _rig_file(tmp_path, "faults:\n  sensor: {oserror_window_s: [37.0, 37.5]}\n")
     assert main(["run", SIX, "--rig", str(rig), "--out", str(tmp_path / "s"), "--quiet"]) == 0
     d = _session(tmp_path / "s")
     events = [json.loads(x) for x in (d / "events.jsonl").read_text().splitlines()]
