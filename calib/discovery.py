@@ -334,6 +334,7 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
         final = prob.fit(selected)
     cov = final.cov0 * _inflation(final)
     sig = np.sqrt(np.diag(cov))
+    prefix = [prob.fit(selected[:i]) for i in range(len(selected) + 1)]  # the model after each addition
     effects = []
     for i, n in enumerate(selected):
         lib = LIBRARY[n]
@@ -342,9 +343,8 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
         for col, (blk, idx) in enumerate(final.names):
             if blk == n:
                 est[idx], sd[idx] = final.theta[col], sig[col]
-        partial = prob.fit(selected[:i + 1])
         effects.append(FoundEffect(n, list(lib.params), lib.unit, est.tolist(), sd.tolist(),
-                                   _rms_g(prob, partial), f_test(prob.fit(selected[:i]), partial)[1]))
+                                   _rms_g(prob, prefix[i + 1]), f_test(prefix[i], prefix[i + 1])[1]))
 
     z0 = (base_fit.resid * prob.w).reshape(3, k).T
     z1 = (final.resid * prob.w).reshape(3, k).T
@@ -355,8 +355,7 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
                     None if prob.pose_free else prob.f[i].tolist(), r0[i].tolist(), r1[i].tolist(),
                     z0[i].tolist(), z1[i].tolist()) for i in range(k)]
     history = [("baseline", _rms_g(prob, base_fit), base_fit.rss / base_fit.dof)]
-    history += [(e.name, e.rms_after_g, prob.fit(selected[:i + 1]).rss / prob.fit(selected[:i + 1]).dof)
-                for i, e in enumerate(effects)]
+    history += [(e.name, e.rms_after_g, prefix[i + 1].rss / prefix[i + 1].dof) for i, e in enumerate(effects)]
     noise = float(np.sqrt(np.mean(np.asarray(steps.sem_counts, float) ** 2)) / prob.lsb)
     cal = None if prob.pose_free else _calibration(steps, prob, final, cov, selected, t0, t_ref, ctx)
     return Discovery(rms_before_g=_rms_g(prob, base_fit), rms_after_g=_rms_g(prob, final), noise_rms_g=noise,
