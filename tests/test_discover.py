@@ -122,7 +122,7 @@ def test_a_six_position_session_reports_what_it_cannot_observe_and_names_nothing
     assert "zero" in d.unobservable_why["cross_axis_nonlinearity"]
 
 
-def test_the_localisation_points_at_the_heating_leg_for_hysteresis(sessions):
+def test_the_localisation_reports_heating_and_cooling_legs_separately(sessions):
     _, d = discover_session(sessions["thermal_hysteresis"])
     assert set(d.where["by_leg"]) >= {"heating", "cooling"}
     assert d.where["cells"] > 0
