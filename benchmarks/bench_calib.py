@@ -25,7 +25,7 @@ from calib.data import StepMeans  # noqa: E402
 from calib.evaluation import roll_pitch_deg  # noqa: E402
 from calib.solvers import solve_batch  # noqa: E402
 from calib.synthetic import f_from_roll_pitch, six_faces  # noqa: E402
-from drivers.sensors.error_model import AccelErrorModel  # noqa: E402
+from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
 
 SEED_POSES = [(0, 90), (-60, 60), (-30, 30), (0, 0), (30, -30), (60, -60), (90, 0)]
 PAPER = {"ADXL345": [(-0.8, 0.22), (-0.56, -0.66), (-0.28, -0.14), (0, 0.22), (0.36, 0.48), (0.52, 0.72), (0.61, -0.34)],

@@ -30,10 +30,10 @@ sys.path.insert(0, str(REPO))
 
 from calib.data import StepMeans  # noqa: E402
 from calib.discovery import discover  # noqa: E402
-from drivers.sensors.error_model import AccelErrorModel  # noqa: E402
-from rig.discover import step_context  # noqa: E402
-from rig.kinematics import rot_x, rot_y  # noqa: E402
-from rig.session import load_session  # noqa: E402
+from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
+from rig.analysis.discover import step_context  # noqa: E402
+from rig.planning.kinematics import rot_x, rot_y  # noqa: E402
+from rig.session.store import load_session  # noqa: E402
 
 #: effect -> (pattern, stated magnitude); the hidden value is pattern * magnitude
 EFFECTS = {
@@ -174,7 +174,7 @@ def main() -> None:
         fa_full = 0
         for seed in range(args.full):
             s = record_template(tmp, seed=100 + seed)
-            from rig.discover import discover_session
+            from rig.analysis.discover import discover_session
             _, d = discover_session(s)
             fa_full += false_alarm(d)
         print(f"false alarms on {args.full} full clean sessions: {fa_full}/{args.full}")

@@ -21,11 +21,11 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from rig.planning import move_time_s  # noqa: E402
-from rig.procedure import load_procedure  # noqa: E402
-from rig.run import run_procedure  # noqa: E402
-from rig.session import SessionWriter, load_session  # noqa: E402
-from rig.solving import solve_session  # noqa: E402
+from rig.planning.targets import move_time_s  # noqa: E402
+from rig.config.procedure import load_procedure  # noqa: E402
+from rig.execution.lifecycle import run_procedure  # noqa: E402
+from rig.session.store import SessionWriter, load_session  # noqa: E402
+from rig.analysis.solve import solve_session  # noqa: E402
 
 
 def lower_bound_s(procedure_path: Path, accel_deg_s2: float = 40.0, settle_s: float = 1.0) -> float:

@@ -12,11 +12,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from drivers.clock import VirtualClock  # noqa: E402
 from drivers.sensors import SensorSettings, open_sensor  # noqa: E402
-from drivers.sensors.adxl345_model import Adxl345Model  # noqa: E402
-from drivers.sensors.error_model import AccelErrorModel  # noqa: E402
-from drivers.sensors.i2c_sim import SimulatedI2CBus  # noqa: E402
-from drivers.sensors.mpu9150_model import Mpu9150Model  # noqa: E402
-from drivers.sensors.physics import StaticPhysics  # noqa: E402
+from drivers.sensors.sim.adxl345 import Adxl345Model  # noqa: E402
+from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
+from drivers.sensors.sim.bus import SimulatedI2CBus  # noqa: E402
+from drivers.sensors.sim.mpu9150 import Mpu9150Model  # noqa: E402
+from drivers.sensors.sim.physics import StaticPhysics  # noqa: E402
 
 
 def run(model: str, rate_hz: float, seconds: float = 60.0, poll_s: float = 0.02) -> None:

@@ -11,7 +11,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from drivers.ximc import protocol as P  # noqa: E402
-from drivers.ximc.emulator import ControllerEmulator  # noqa: E402
+from drivers.ximc.sim.emulator import ControllerEmulator  # noqa: E402
 from drivers.ximc.stage import Stage  # noqa: E402
 
 

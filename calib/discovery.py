@@ -24,7 +24,7 @@
    new M) and report the residual RMS after each addition.
 
 Pure numpy/scipy; the session-side context (pose rotations, heating legs) is
-computed by the caller (``rig.discover``).
+computed by the caller (``rig.analysis.discover``).
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ with ``w_k`` (3,) the true angular rate of the step in the sensor frame, deg/s,
 ``M`` (3, 3) counts per deg/s (diagonal = scale factors ``k_x, k_y, k_z``,
 off-diagonal = non-orthogonality / cross-axis couplings) and ``b`` (3,) the
 zero-rate output, counts. In the simulator's convention
-(:class:`drivers.sensors.error_model.GyroErrorModel`)
+(:class:`drivers.sensors.sim.error_model.GyroErrorModel`)
 ``M = lsb_per_dps * matrix`` and ``b = lsb_per_dps * (bias_dps + G f)`` where
 ``G f`` is the g-sensitivity for the (constant) specific force of the step.
 

@@ -7,7 +7,7 @@ Model, sensor frame::
 with ``h`` (3,) the true magnetic field in the sensor frame, microtesla, ``A``
 (3, 3) dimensionless (scale factors, non-orthogonality, soft iron and
 installation error together) and ``B`` (3,) the hard-iron offset, microtesla.
-In the simulator's convention (:class:`drivers.sensors.error_model.MagErrorModel`)
+In the simulator's convention (:class:`drivers.sensors.sim.error_model.MagErrorModel`)
 ``A = soft_iron`` and ``B = hard_iron_ut``.
 
 Two solvers:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from drivers.clock import Clock, MonotonicClock
-from drivers.sensors.adxl345_model import BW_RATE, DATA_FORMAT, DATAX0, DEVID, FIFO_CTL, FIFO_STATUS, INT_SOURCE, POWER_CTL
+from drivers.sensors.sim.adxl345 import BW_RATE, DATA_FORMAT, DATAX0, DEVID, FIFO_CTL, FIFO_STATUS, INT_SOURCE, POWER_CTL
 from drivers.sensors.base import BusRetry, check_identity, CaptureStats, SampleBlock, SensorError, SensorIdentity, SensorSettings
 
 RANGE_BITS = {2: 0, 4: 1, 8: 2, 16: 3}

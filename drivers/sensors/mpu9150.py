@@ -13,7 +13,7 @@ import numpy as np
 
 from drivers.clock import Clock, MonotonicClock
 from drivers.sensors.base import BusRetry, check_identity, CaptureStats, SampleBlock, SensorError, SensorIdentity, SensorSettings
-from drivers.sensors.mpu9150_model import (ACCEL_CONFIG, ACCEL_LSB_PER_G, CONFIG, FIFO_COUNTH, FIFO_EN, FIFO_R_W,
+from drivers.sensors.sim.mpu9150 import (ACCEL_CONFIG, ACCEL_LSB_PER_G, CONFIG, FIFO_COUNTH, FIFO_EN, FIFO_R_W,
                                            GYRO_CONFIG, GYRO_LSB_PER_DPS, INT_ENABLE, INT_PIN_CFG, INT_STATUS,
                                            PWR_MGMT_1, SMPLRT_DIV, USER_CTRL, WHO_AM_I)
 

@@ -1,0 +1,137 @@
+"""Register-level model of the ADXL345 (datasheet rev. E register map).
+
+DEVID 0x00 = 0xE5, OFSX/OFSY/OFSZ 0x1E..0x20 (15.6 mg/LSB, added to the output), BW_RATE 0x2C
+(rate = 3200 / 2^(15 - code) Hz), POWER_CTL 0x2D (Measure bit 3; standby at power-up),
+INT_SOURCE 0x30 (DATA_READY bit 7, Overrun bit 0), DATA_FORMAT 0x31 (range bits 1:0, JUSTIFY bit 2,
+FULL_RES bit 3), DATAX0..DATAZ1 0x32..0x37 little-endian (reading them pops one FIFO entry),
+FIFO_CTL 0x38 (mode bits 7:6: bypass/FIFO/stream), FIFO_STATUS 0x39 (entries bits 5:0). No thermometer.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drivers.sensors.sim.error_model import AccelErrorModel
+from drivers.sensors.sim.faults import FaultInjector, SensorFaults
+from drivers.sensors.sim.bus import I2CDevice
+from drivers.sensors.sim.sampler import LazySampler
+
+DEVID, OFSX, BW_RATE, POWER_CTL, INT_SOURCE, DATA_FORMAT = 0x00, 0x1E, 0x2C, 0x2D, 0x30, 0x31
+DATAX0, FIFO_CTL, FIFO_STATUS = 0x32, 0x38, 0x39
+FIFO_DEPTH = 32
+
+
+def lsb_per_g(data_format: int) -> float:
+    rng = data_format & 3
+    if data_format & 0x08:
+        return 256.0  # full resolution: 3.9 mg/LSB at every range
+    return 512.0 / (2 ** rng)  # 10-bit: +-2 g -> 256 LSB/g ... +-16 g -> 32 LSB/g
+
+
+class Adxl345Model(I2CDevice):
+    def __init__(self, physics, accel_errors: AccelErrorModel, *, clock, seed: int = 0,
+                 faults: SensorFaults | None = None) -> None:
+        self.clock = clock
+        self.sampler = LazySampler(physics, accel_errors, clock, seed)
+        self.faults = FaultInjector(faults, clock)
+        self.pointer = 0
+        self.regs = bytearray(0x3A)
+        self.regs[DEVID] = 0xE5
+        self.regs[BW_RATE] = 0x0A
+        self.regs[INT_SOURCE] = 0x02
+        self.fifo: list[np.ndarray] = []
+        self.latest = np.zeros(3, np.int64)
+        self.overruns = 0
+        self._stuck = None
+
+    def check_access(self) -> None:
+        self.faults.check_access()
+
+    def rate_hz(self) -> float:
+        return 3200.0 / 2 ** (15 - (self.regs[BW_RATE] & 0x0F))
+
+    def _range_counts(self) -> tuple[int, int]:
+        df = self.regs[DATA_FORMAT]
+        g_range = 2 * 2 ** (df & 3)
+        full = int(g_range * lsb_per_g(df))
+        return -full, full - 1
+
+    def _catch_up(self) -> None:
+        s = self.sampler.catch_up(keep_last=FIFO_DEPTH + 2)
+        if s is None:
+            return
+        t = s["t_s"]
+        ofs = np.frombuffer(bytes(self.regs[OFSX:OFSX + 3]), dtype=np.int8).astype(float) * 0.0156
+        lo, hi = self._range_counts()
+        a = np.clip(np.round((s["accel_g"] + ofs) * lsb_per_g(self.regs[DATA_FORMAT])), lo, hi).astype(np.int64)
+        f = self.faults.f
+        if f.saturate_after_s is not None:
+            a[t >= f.saturate_after_s] = hi
+        if f.stuck_after_s is not None:
+            st = t >= f.stuck_after_s
+            if st.any():
+                if self._stuck is None:
+                    self._stuck = a[int(np.argmax(st))].copy()
+                a[st] = self._stuck
+        self.latest = a[-1]
+        self.regs[INT_SOURCE] |= 0x80
+        mode = self.regs[FIFO_CTL] >> 6
+        if mode == 0:
+            return
+        for row in a:
+            if len(self.fifo) >= FIFO_DEPTH:
+                if mode == 1:  # FIFO mode: stop collecting when full
+                    self.regs[INT_SOURCE] |= 0x01
+                    self.overruns += 1
+                    break
+                self.fifo.pop(0)  # stream mode: the oldest is lost
+                self.regs[INT_SOURCE] |= 0x01
+                self.overruns += 1
+            self.fifo.append(row)
+        if s["skipped"]:
+            self.regs[INT_SOURCE] |= 0x01
+            self.overruns += 1
+
+    def read_registers(self, register: int, length: int) -> bytes:
+        self._catch_up()
+        out = bytearray()
+        popped = None
+        for i in range(length):
+            r = register + i
+            if DATAX0 <= r <= DATAX0 + 5:
+                if popped is None:
+                    if self.regs[FIFO_CTL] >> 6 and self.fifo:
+                        popped = self.fifo.pop(0)
+                    else:
+                        popped = self.latest
+                    if not self.fifo:
+                        self.regs[INT_SOURCE] &= ~0x80 & 0xFF
+                out.append(popped.astype("<i2").tobytes()[r - DATAX0])
+            elif r == FIFO_STATUS:
+                out.append(min(len(self.fifo), FIFO_DEPTH) & 0x3F)
+            elif r == INT_SOURCE:
+                out.append(self.regs[INT_SOURCE])
+                self.regs[INT_SOURCE] &= ~0x01 & 0xFF  # overrun cleared on read
+            elif r < len(self.regs):
+                out.append(self.regs[r])
+            else:
+                out.append(0)
+        return bytes(out)
+
+    def write_registers(self, register: int, data: bytes) -> None:
+        self._catch_up()
+        for i, v in enumerate(data):
+            r = register + i
+            if r in (DEVID, INT_SOURCE, FIFO_STATUS) or DATAX0 <= r <= DATAX0 + 5:
+                continue
+            old = self.regs[r]
+            self.regs[r] = v
+            if r == POWER_CTL:
+                if v & 0x08 and not old & 0x08:
+                    self.sampler.restart(self.rate_hz(), self.rate_hz() / 2)
+                elif not v & 0x08:
+                    self.sampler.stop()
+            if r == BW_RATE and self.regs[POWER_CTL] & 0x08:
+                self.sampler.restart(self.rate_hz(), self.rate_hz() / 2)
+            if r == FIFO_CTL and (v >> 6) == 0:
+                self.fifo.clear()

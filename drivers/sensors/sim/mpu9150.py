@@ -1,0 +1,254 @@
+"""Register-level model of the MPU-9150 (MPU-6050 register map) with the AK8975 behind its bypass.
+
+Registers honoured (addresses from the MPU-6000/6050 register map, rev 4.2):
+SMPLRT_DIV 0x19, CONFIG 0x1A (DLPF_CFG), GYRO_CONFIG 0x1B, ACCEL_CONFIG 0x1C, FIFO_EN 0x23,
+INT_PIN_CFG 0x37 (I2C_BYPASS_EN exposes the AK8975 at 0x0C), INT_ENABLE 0x38, INT_STATUS 0x3A
+(DATA_RDY bit 0, FIFO_OFLOW bit 4, cleared on read), data 0x3B..0x48 big-endian, USER_CTRL 0x6A
+(FIFO_EN bit 6, FIFO_RESET bit 2), PWR_MGMT_1 0x6B (DEVICE_RESET bit 7, SLEEP bit 6, reset 0x40),
+FIFO_COUNTH/L 0x72/0x73, FIFO_R_W 0x74, WHO_AM_I 0x75 = 0x68.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drivers.sensors.sim.error_model import AccelErrorModel, MagErrorModel
+from drivers.sensors.sim.faults import FaultInjector, SensorFaults
+from drivers.sensors.sim.bus import I2CDevice
+from drivers.sensors.sim.sampler import LazySampler
+
+SMPLRT_DIV, CONFIG, GYRO_CONFIG, ACCEL_CONFIG = 0x19, 0x1A, 0x1B, 0x1C
+FIFO_EN, INT_PIN_CFG, INT_ENABLE, INT_STATUS = 0x23, 0x37, 0x38, 0x3A
+ACCEL_XOUT_H, TEMP_OUT_H, GYRO_XOUT_H = 0x3B, 0x41, 0x43
+USER_CTRL, PWR_MGMT_1, PWR_MGMT_2 = 0x6A, 0x6B, 0x6C
+FIFO_COUNTH, FIFO_COUNTL, FIFO_R_W, WHO_AM_I = 0x72, 0x73, 0x74, 0x75
+FIFO_SIZE = 1024
+ACCEL_LSB_PER_G = {0: 16384.0, 1: 8192.0, 2: 4096.0, 3: 2048.0}
+GYRO_LSB_PER_DPS = {0: 131.0, 1: 65.5, 2: 32.8, 3: 16.4}
+DLPF_BW_HZ = {0: 260.0, 1: 184.0, 2: 94.0, 3: 44.0, 4: 21.0, 5: 10.0, 6: 5.0, 7: 260.0}
+AK8975_ADDRESS = 0x0C
+
+
+def _i16(x: np.ndarray) -> np.ndarray:
+    return np.clip(np.round(x), -32768, 32767).astype(np.int64)
+
+
+class Mpu9150Model(I2CDevice):
+    """Simulated MPU-9150.
+
+    Parameters
+    ----------
+    physics : PhysicsSource (specific force, rate, field, temperature vs time)
+    accel_errors : AccelErrorModel
+    clock : Clock
+    seed : noise seed
+    gyro_errors, mag_errors : optional error models
+    faults : SensorFaults
+    """
+
+    def __init__(self, physics, accel_errors: AccelErrorModel, *, clock, seed: int = 0, gyro_errors=None,
+                 mag_errors: MagErrorModel | None = None, faults: SensorFaults | None = None) -> None:
+        self.clock = clock
+        self.sampler = LazySampler(physics, accel_errors, clock, seed, gyro_errors)
+        self.faults = FaultInjector(faults, clock)
+        self.mag = Ak8975Model(physics, mag_errors or MagErrorModel(), clock=clock, seed=seed + 1)
+        self._bus = None
+        self.pointer = 0
+        self.fifo_overflows = 0
+        self._reset()
+
+    def attach(self, bus, address: int = 0x68) -> None:
+        """Plug into a SimulatedI2CBus (the AK8975 appears when the bypass is enabled)."""
+        self._bus = bus
+        bus.add_device(address, self)
+
+    def _reset(self) -> None:
+        self.regs = bytearray(128)
+        self.regs[PWR_MGMT_1] = 0x40
+        self.regs[WHO_AM_I] = 0x68
+        self.fifo = bytearray()
+        self.sampler.stop()
+        self._last = {"a": np.zeros(3, np.int64), "t": 0, "g": np.zeros(3, np.int64)}
+        self._stuck: dict | None = None
+
+    # -- I2CDevice -----------------------------------------------------------------------------
+    def check_access(self) -> None:
+        self.faults.check_access()
+
+    def read_registers(self, register: int, length: int) -> bytes:
+        self._catch_up()
+        out = bytearray()
+        reg = register
+        for _ in range(length):
+            if reg == FIFO_R_W:
+                out.append(self.fifo.pop(0) if self.fifo else 0)
+                continue  # FIFO_R_W does not auto-increment
+            if reg == INT_STATUS:
+                out.append(self.regs[INT_STATUS])
+                self.regs[INT_STATUS] = 0  # cleared on read
+            elif reg in (FIFO_COUNTH, FIFO_COUNTL):
+                n = len(self.fifo)
+                out.append((n >> 8) & 0xFF if reg == FIFO_COUNTH else n & 0xFF)
+            else:
+                out.append(self.regs[reg & 0x7F])
+            reg += 1
+        return bytes(out)
+
+    def write_registers(self, register: int, data: bytes) -> None:
+        self._catch_up()
+        for i, v in enumerate(data):
+            self._write(register + i, v)
+
+    def _write(self, reg: int, v: int) -> None:
+        if reg == PWR_MGMT_1:
+            if v & 0x80:
+                self._reset()
+                return
+            was_asleep = bool(self.regs[PWR_MGMT_1] & 0x40)
+            self.regs[reg] = v & 0x7F
+            if v & 0x40:
+                self.sampler.stop()
+            elif was_asleep:
+                self._restart_grid()
+            return
+        if reg == USER_CTRL:
+            if v & 0x04:
+                self.fifo.clear()
+            self.regs[reg] = v & ~0x04 & 0xFF
+            return
+        if reg == FIFO_R_W:
+            return
+        if reg in (WHO_AM_I, INT_STATUS) or ACCEL_XOUT_H <= reg <= 0x48:
+            return  # read-only
+        self.regs[reg & 0x7F] = v
+        if reg in (SMPLRT_DIV, CONFIG) and not self.regs[PWR_MGMT_1] & 0x40:
+            self._restart_grid()
+        if reg == INT_PIN_CFG and self._bus is not None:
+            if v & 0x02:
+                self._bus.add_device(AK8975_ADDRESS, self.mag)
+            else:
+                self._bus.remove_device(AK8975_ADDRESS)
+
+    # -- sampling ------------------------------------------------------------------------------
+    @property
+    def accel_lsb_per_g(self) -> float:
+        return ACCEL_LSB_PER_G[(self.regs[ACCEL_CONFIG] >> 3) & 3]
+
+    @property
+    def gyro_lsb_per_dps(self) -> float:
+        return GYRO_LSB_PER_DPS[(self.regs[GYRO_CONFIG] >> 3) & 3]
+
+    def output_rate_hz(self) -> float:
+        dlpf = self.regs[CONFIG] & 7
+        base = 8000.0 if dlpf in (0, 7) else 1000.0
+        return base / (1 + self.regs[SMPLRT_DIV])
+
+    def _restart_grid(self) -> None:
+        self.sampler.restart(self.output_rate_hz(), DLPF_BW_HZ[self.regs[CONFIG] & 7])
+
+    def _sample_bytes(self) -> int:
+        en = self.regs[FIFO_EN]
+        return (6 if en & 0x08 else 0) + (2 if en & 0x80 else 0) + 2 * bin(en & 0x70).count("1")
+
+    def _catch_up(self) -> None:
+        size = max(self._sample_bytes(), 1)
+        s = self.sampler.catch_up(keep_last=FIFO_SIZE // size + 2)
+        if s is None:
+            return
+        t = s["t_s"]
+        a = _i16(s["accel_g"] * self.accel_lsb_per_g)
+        temp = _i16((s["temp_c"] - 35.0) * 340.0)
+        g = _i16(s["gyro_dps"] * self.gyro_lsb_per_dps) if s["gyro_dps"] is not None else np.zeros_like(a)
+        f = self.faults
+        if f.f.saturate_after_s is not None:
+            sat = t >= f.f.saturate_after_s
+            a[sat] = 32767
+        if f.f.thermometer_fail_after_s is not None:
+            temp[t >= f.f.thermometer_fail_after_s] = -32768
+        if f.f.stuck_after_s is not None:
+            st = t >= f.f.stuck_after_s
+            if st.any():
+                if self._stuck is None:
+                    first = int(np.argmax(st))
+                    self._stuck = {"a": a[first].copy(), "t": temp[first], "g": g[first].copy()}
+                a[st], temp[st], g[st] = self._stuck["a"], self._stuck["t"], self._stuck["g"]
+        # data registers hold the newest sample
+        data = np.concatenate([a[-1], [temp[-1]], g[-1]]).astype(">i2").tobytes()
+        self.regs[ACCEL_XOUT_H:ACCEL_XOUT_H + 14] = data
+        self.regs[INT_STATUS] |= 0x01
+        if s["skipped"]:
+            self.regs[INT_STATUS] |= 0x10 if self.regs[USER_CTRL] & 0x40 else 0
+            if self.regs[USER_CTRL] & 0x40:
+                self.fifo_overflows += 1
+        if self.regs[USER_CTRL] & 0x40 and self._sample_bytes():
+            en = self.regs[FIFO_EN]
+            cols = []
+            if en & 0x08:
+                cols.append(a)
+            if en & 0x80:
+                cols.append(temp[:, None])
+            for bit, j in ((0x40, 0), (0x20, 1), (0x10, 2)):
+                if en & bit:
+                    cols.append(g[:, j:j + 1])
+            block = np.concatenate(cols, axis=1).astype(">i2").tobytes()
+            self.fifo.extend(block)
+            excess = len(self.fifo) - FIFO_SIZE
+            if excess > 0:
+                drop = -(-excess // size) * size  # whole samples
+                del self.fifo[:drop]
+                self.regs[INT_STATUS] |= 0x10
+                self.fifo_overflows += 1
+
+
+class Ak8975Model(I2CDevice):
+    """AK8975 magnetometer: WIA 0x48, ST1 DRDY, HXL..HZH little-endian, ST2, CNTL, fuse-ROM ASA."""
+
+    def __init__(self, physics, errors: MagErrorModel, *, clock, seed: int = 0) -> None:
+        self.physics = physics
+        self.errors = errors
+        self.clock = clock
+        self.rng = np.random.default_rng(seed)
+        self.asa = bytes(int(x) for x in self.rng.integers(150, 190, 3))
+        self.regs = bytearray(0x13)
+        self.regs[0x00] = 0x48
+        self.regs[0x01] = 0x9A
+        self.pointer = 0
+        self._ready_at: float | None = None
+
+    def _factor(self) -> np.ndarray:
+        return np.array([(b - 128) * 0.5 / 128 + 1 for b in self.asa])
+
+    def _update(self) -> None:
+        if self._ready_at is not None and self.clock.now() >= self._ready_at:
+            t = np.array([self._ready_at])
+            m = self.errors.output_ut(self.physics(t).magnetic_field_ut)[0]
+            m = m + self.rng.normal(0, self.errors.noise_ut, 3)
+            raw = np.clip(np.round(m / 0.3 / self._factor()), -4095, 4095).astype("<i2")
+            self.regs[0x03:0x09] = raw.tobytes()
+            self.regs[0x02] = 0x01  # DRDY
+            self.regs[0x09] = 0x08 if np.any(np.abs(m) > 1229) else 0
+            self.regs[0x0A] = 0x00  # powers down after a single measurement
+            self._ready_at = None
+
+    def read_registers(self, register: int, length: int) -> bytes:
+        self._update()
+        out = bytearray()
+        for i in range(length):
+            r = register + i
+            if 0x10 <= r <= 0x12:
+                out.append(self.asa[r - 0x10] if self.regs[0x0A] == 0x0F else 0)
+            elif r < len(self.regs):
+                out.append(self.regs[r])
+            else:
+                out.append(0)
+            if r == 0x09:
+                self.regs[0x02] = 0  # reading ST2 ends the data read
+        return bytes(out)
+
+    def write_registers(self, register: int, data: bytes) -> None:
+        for i, v in enumerate(data):
+            r = register + i
+            if r == 0x0A:
+                self.regs[0x0A] = v & 0x0F
+                if v & 0x0F == 0x01:
+                    self._ready_at = self.clock.now() + 0.0073

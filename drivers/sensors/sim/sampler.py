@@ -1,0 +1,75 @@
+"""Lazy sample generation shared by the chip models.
+
+Sample k of a stream is taken at ``t_start + k / rate``; samples are produced
+only when the host looks (``catch_up(now)``), vectorised, from the physics
+source and the error model, so a simulated chip costs nothing while nobody
+reads it and is exact under any clock.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drivers.sensors.sim.error_model import AccelErrorModel, HysteresisState
+
+
+class LazySampler:
+    def __init__(self, physics, accel_errors: AccelErrorModel, clock, seed: int, gyro_errors=None) -> None:
+        self.physics = physics
+        self.accel = accel_errors
+        self.gyro = gyro_errors
+        self.clock = clock
+        self.rng = np.random.default_rng(seed)
+        self.hyst = HysteresisState(accel_errors.hysteresis_band_c)
+        self.rate_hz = 100.0
+        self.bandwidth_hz = 44.0
+        self.running = False
+        self.t_start = 0.0
+        self.next_k = 0
+
+    def restart(self, rate_hz: float, bandwidth_hz: float) -> None:
+        """(Re)start the sample grid now (power-up, rate change)."""
+        self.rate_hz = float(rate_hz)
+        self.bandwidth_hz = float(bandwidth_hz)
+        self.t_start = self.clock.now()
+        self.next_k = 1
+        self.running = True
+
+    def stop(self) -> None:
+        self.running = False
+
+    def catch_up(self, keep_last: int):
+        """Samples due since the last call: dict of arrays (t_s, accel_g, temp_c, gyro_dps, skipped).
+
+        At most ``keep_last`` samples are fully produced; earlier ones (that would
+        overflow the FIFO anyway) are only counted in ``skipped`` (their physics
+        is still evaluated on a coarse grid so stateful effects follow).
+        """
+        if not self.running:
+            return None
+        now = self.clock.now()
+        last_k = int(np.floor((now - self.t_start) * self.rate_hz + 1e-9))
+        if last_k < self.next_k:
+            return None
+        n = last_k - self.next_k + 1
+        skipped = max(0, n - keep_last)
+        if skipped:
+            ts_skip = self.t_start + np.arange(self.next_k, self.next_k + skipped, max(1, int(self.rate_hz * 0.05))) / self.rate_hz
+            ph = self.physics(ts_skip)
+            self.hyst.update(ph.temp_c)
+        k = np.arange(self.next_k + skipped, last_k + 1)
+        self.next_k = last_k + 1
+        t = self.t_start + k / self.rate_hz
+        ph = self.physics(t)
+        heating = self.hyst.update(ph.temp_c)
+        a = self.accel.output_g(ph.specific_force_g, ph.temp_c, t, heating)
+        sigma = np.asarray(self.accel.noise_density_g_per_rthz) * np.sqrt(min(self.bandwidth_hz, self.rate_hz / 2) * np.pi / 2)
+        a = a + self.rng.normal(0.0, 1.0, a.shape) * sigma
+        g = np.asarray(ph.angular_rate_dps, float)  # an ideal gyro unless an error model is given
+        if self.gyro is not None:
+            g = self.gyro.output_dps(ph.angular_rate_dps, ph.specific_force_g)
+            gs = np.asarray(self.gyro.noise_density_dps_per_rthz) * np.sqrt(min(self.bandwidth_hz, self.rate_hz / 2) * np.pi / 2)
+            g = g + self.rng.normal(0.0, 1.0, g.shape) * gs
+        temp = ph.temp_c + self.rng.normal(0.0, 0.02, len(t))
+        return {"t_s": t, "accel_g": a, "temp_c": temp, "gyro_dps": g, "mag_ut": ph.magnetic_field_ut,
+                "skipped": skipped}

@@ -1,0 +1,184 @@
+"""``rig discover``: the discrepancy workflow on a recorded session (docs/discrepancy.md).
+
+The session side of :mod:`calib.discovery`: step means, the rotation of every
+pose (for ``table_tilt``), the heating or cooling leg of every step (from the
+temperature record, for ``thermal_hysteresis``), then the report, the JSON, the
+plot and the augmented calibration file.
+"""
+
+from __future__ import annotations
+
+import json
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from calib import calfile
+from calib.discovery import Discovery, StepContext, discover, summary_lines
+from calib.effects import LIBRARY, heating_state
+from rig.planning.kinematics import sensor_to_world
+from rig.session.store import Session, load_session
+
+BAND_C = 0.5
+
+
+def read_events(session_dir) -> list[dict]:
+    """The session's events (a torn last line, from a crash, is skipped)."""
+    path = Path(session_dir) / "events.jsonl"
+    out = []
+    if not path.is_file():
+        return out
+    for line in path.read_text().splitlines():
+        try:
+            e = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if isinstance(e, dict):
+            out.append(e)
+    return out
+
+
+def step_context(session: Session, step_indices: list[int]) -> StepContext:
+    """Pose rotations and heating legs of the given steps."""
+    steps = session.manifest["steps"]
+    angles = [steps[i].get("angles_deg") for i in step_indices]
+    b2s = None
+    if all(a is not None for a in angles):
+        b2s = np.transpose(sensor_to_world(np.asarray(angles, float)), (0, 2, 1))
+    heating = None
+    if session.has_temperature:
+        series: list[tuple[float, float, int | None]] = []  # (t_s, temp_c, step position or None)
+        for e in read_events(session.path):
+            if e.get("kind") == "temperature" and isinstance(e.get("t_s"), (int, float)):
+                t_end = float(e["t_s"])
+                if isinstance(e.get("start_c"), (int, float)):
+                    series.append((t_end - float(e.get("waited_s", 0.0)), float(e["start_c"]), None))
+                if isinstance(e.get("temp_c"), (int, float)):
+                    series.append((t_end, float(e["temp_c"]), None))
+        for pos, i in enumerate(step_indices):
+            rows = session.samples["step"] == i
+            tc = session.samples["temp_c"][rows]
+            tt = session.samples["t_s"][rows]
+            if len(tt):
+                series.append((float(tt.mean()), float(np.mean(tc)), pos))
+        series.sort(key=lambda r: r[0])
+        state = heating_state([r[1] for r in series], BAND_C)
+        heating = np.zeros(len(step_indices))
+        for (t, c, pos), h in zip(series, state):
+            if pos is not None:
+                heating[pos] = h
+    groups = None
+    if any(steps[i].get("f_nominal") is None for i in step_indices):
+        # steps sharing one unknown pose carry the same pose_group; otherwise each is its own
+        groups = np.array([int(steps[i]["pose_group"]) if isinstance(steps[i].get("pose_group"), int)
+                           else 1_000_000 + i for i in step_indices])
+    return StepContext(heating=heating, base_to_sensor=b2s, pose_group=groups, band_c=BAND_C)
+
+
+def discover_session(session_dir, *, false_alarm: float = 0.01) -> tuple[Session, Discovery]:
+    session = load_session(session_dir)
+    idx = session.static_step_indices()
+    if not idx:  # an imported recording without known poses: the pose-free baseline
+        idx = session.static_step_indices(unknown_pose=True)
+    steps = session.step_means(idx)
+    ctx = step_context(session, idx)
+    return session, discover(steps, ctx, false_alarm=false_alarm)
+
+
+def format_report(session: Session, d: Discovery) -> str:
+    """The plain-text report: localisation, effects named, gap before and after, per-step table."""
+    lines = [f"session {session.id}: {len(d.steps)} static steps, noise level {d.noise_rms_g * 1e6:.1f} ug rms "
+             f"(from each step's own scatter)"]
+    pose_free = any(s.f_nominal_g is None for s in d.steps)
+    label = "pose-free baseline (one constant per axis and unknown pose)" if pose_free else \
+        "baseline (bias, scale, triangular misalignment)"
+    lines.append(f"{label}: residual {d.rms_before_g * 1e6:.1f} ug rms, chi2/dof {d.chi2_per_dof_before:.2f}")
+    lines.append("where the model and the data disagree:")
+    lines += ["  " + s for s in summary_lines(d.where)]
+    if d.effects:
+        lines.append(f"effects named (false-alarm rate {d.false_alarm:g} per session):")
+        for e in d.effects:
+            est = ", ".join(f"{a} {_fmt(v)} +- {_fmt(s)}" for a, v, s in zip(e.axes, e.estimate, e.sigma))
+            lines.append(f"  + {e.name:<24} [{e.unit}] {est}")
+            lines.append(f"    residual after: {e.rms_after_g * 1e6:.1f} ug rms (p = {e.p_value:.2g})")
+    else:
+        lines.append("effects named: none (nothing significant beyond the baseline)")
+    if d.not_named:
+        near = sorted(d.not_named.items(), key=lambda kv: kv[1][0])
+        lines.append("tested, not significant (p-value vs threshold): "
+                     + ", ".join(f"{n} {p:.2g} vs {t:.2g}" for n, (p, t) in near))
+    for group in d.aliases:
+        lines.append(f"aliases (the data cannot tell these apart; the first was used): {', '.join(group)}")
+    if d.unobservable:
+        lines.append("unobservable in this session (never named):")
+        for n in d.unobservable:
+            lines.append(f"  - {n}: {d.unobservable_why[n]}; needs {LIBRARY[n].coverage}")
+    lines.append(f"gap: {d.rms_before_g * 1e6:.1f} -> {d.rms_after_g * 1e6:.1f} ug rms "
+                 f"(noise {d.noise_rms_g * 1e6:.1f} ug), chi2/dof {d.chi2_per_dof_before:.2f} -> "
+                 f"{d.chi2_per_dof_after:.2f}")
+    lines.append("per step (residual, ug; before -> after):")
+    lines.append(f"  {'step':<14} {'temp C':>7} {'leg':>4}   {'x':>17} {'y':>17} {'z':>17}")
+    for s in d.steps:
+        leg = {1: "up", -1: "down", 0: "-"}.get(s.heating, "-")
+        temp = f"{s.temp_c:7.2f}" if s.temp_c is not None else "      -"
+        cells = " ".join(f"{b * 1e6:7.0f} -> {a * 1e6:5.0f}" for b, a in zip(s.residual_before_g, s.residual_after_g))
+        lines.append(f"  {s.name[:14]:<14} {temp} {leg:>4}   {cells}")
+    return "\n".join(lines)
+
+
+def _fmt(v) -> str:
+    if v is None or not np.isfinite(v):
+        return "n/a"
+    return f"{v:.4g}"
+
+
+def write_plot(d: Discovery, path) -> Path:
+    """PNG: residuals before and after against step (pose order) and temperature."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    r0 = np.array([s.residual_before_g for s in d.steps]) * 1e3
+    r1 = np.array([s.residual_after_g for s in d.steps]) * 1e3
+    temps = np.array([np.nan if s.temp_c is None else s.temp_c for s in d.steps])
+    fig, axes = plt.subplots(2, 2, figsize=(12, 7), sharey="row")
+    k = np.arange(len(d.steps))
+    for j, (lab, col) in enumerate(zip("xyz", ("tab:red", "tab:green", "tab:blue"))):
+        axes[0, 0].plot(k, r0[:, j], ".", color=col, label=lab)
+        axes[0, 1].plot(k, r1[:, j], ".", color=col, label=lab)
+        if np.isfinite(temps).any():
+            axes[1, 0].plot(temps, r0[:, j], ".", color=col, label=lab)
+            axes[1, 1].plot(temps, r1[:, j], ".", color=col, label=lab)
+    added = ", ".join(e.name for e in d.effects) or "nothing"
+    axes[0, 0].set_title(f"baseline: {d.rms_before_g * 1e6:.0f} ug rms")
+    axes[0, 1].set_title(f"+ {added}: {d.rms_after_g * 1e6:.0f} ug rms")
+    for a in axes[0]:
+        a.set_xlabel("step (pose order)")
+    for a in axes[1]:
+        a.set_xlabel("temperature, C")
+    for a in axes[:, 0]:
+        a.set_ylabel("residual, mg")
+    for a in axes.ravel():
+        a.axhline(0, color="0.6", lw=0.8)
+        if a.get_legend_handles_labels()[0]:
+            a.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    p = Path(path)
+    fig.savefig(p, dpi=100)
+    plt.close(fig)
+    return p
+
+
+def write_calibration(session: Session, d: Discovery, path) -> Path:
+    from rig.analysis.solve import SOFTWARE
+    if d.calibration is None:
+        from calib.errors import CalibError
+        raise CalibError("cannot write a calibration: the session's poses are unknown")
+    sensor = session.manifest["rig"]["sensor"]
+    cal = calfile.CalibrationFile(created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                                  software=dict(SOFTWARE), session=session.id,
+                                  sensor={"model": sensor.get("model"), "address": sensor.get("address"),
+                                          "serial": sensor.get("serial")},
+                                  accelerometer=d.calibration)
+    return calfile.write(path, cal)

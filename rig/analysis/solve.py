@@ -1,0 +1,79 @@
+"""Session -> calibration file: the one path used by ``rig run``, ``rig solve`` and ``rig replay``."""
+
+from __future__ import annotations
+
+from datetime import datetime, timezone
+from pathlib import Path
+
+import calib
+from calib import calfile
+from rig import __version__
+from rig.session.store import load_session
+
+SOFTWARE = {"name": "rig-calibration", "version": __version__}
+
+
+def solve_session(session_dir, *, model: str | None = None, method: str | None = None,
+                  thermal=None, out=None, session=None):
+    """Solve a recorded session and write its calibration file.
+
+    Parameters
+    ----------
+    session_dir : path of a ``rig-session/1`` directory.
+    model, method, thermal : override the procedure's ``solve:`` settings
+        (defaults: triangular, pinv, auto).
+    out : path of the calibration file (default ``SESSION/calibration.yaml``).
+
+    Returns
+    -------
+    (calib.CalibrationFile, pathlib.Path)
+    """
+    session = session or load_session(session_dir)
+    spec = session.solve_spec or {}
+    model = model or spec.get("model") or "triangular"
+    method = method or spec.get("method") or "pinv"
+    thermal = thermal if thermal is not None else spec.get("thermal", "auto")
+    if method == "magnitude":
+        steps = session.step_means(session.static_step_indices(unknown_pose=True))
+    else:
+        steps = session.step_means()
+    accel = calib.solve(steps, model=model, method=method, thermal=thermal)
+    gyro, mag = solve_gyro_and_mag(session, spec, accel)
+    sensor = session.manifest["rig"]["sensor"]
+    cal = calib.CalibrationFile(
+        created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        software=dict(SOFTWARE),
+        session=session.id,
+        sensor={"model": sensor.get("model"), "address": sensor.get("address"),
+                "serial": sensor.get("serial")},
+        accelerometer=accel,
+        gyroscope=gyro,
+        magnetometer=mag,
+    )
+    path = Path(out) if out is not None else Path(session_dir) / "calibration.yaml"
+    calfile.write(path, cal)
+    return cal, path
+
+
+def solve_gyro_and_mag(session, spec: dict, accel=None) -> tuple[dict | None, dict | None]:
+    """The gyroscope (rate steps) and magnetometer sections, when the session has their data."""
+    from calib.gyro import solve_gyro
+    from calib.magnetometer import solve_mag_ellipsoid, solve_mag_positions
+    from rig.session.store import mag_step_means, rate_step_means
+
+    gyro = mag = None
+    if any(s.get("kind") == "rate" for s in session.manifest["steps"]):
+        gyro = solve_gyro(rate_step_means(session, accel)).to_dict()
+    mag_steps = mag_step_means(session)
+    if mag_steps is not None:
+        method = spec.get("magnetometer") or ("positions" if mag_steps.field_nominal_ut is not None else "ellipsoid")
+        if method == "positions":
+            if mag_steps.field_nominal_ut is None:
+                from calib.errors import ObservabilityError
+                raise ObservabilityError("the magnetometer position method needs the local field: add a site: "
+                                         "section to the rig file, or use solve: {magnetometer: ellipsoid}")
+            mag = solve_mag_positions(mag_steps).to_dict()
+        else:
+            site = session.manifest["rig"].get("site") or {}
+            mag = solve_mag_ellipsoid(mag_steps, float(site.get("field_ut", 1.0))).to_dict()
+    return gyro, mag

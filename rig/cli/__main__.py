@@ -1,0 +1,5 @@
+import sys
+
+from rig.cli.main import main
+
+sys.exit(main())

@@ -1,0 +1,271 @@
+"""The simulated rig: three emulated Standa controllers on pseudo-terminals and a
+simulated I2C sensor, coupled by a world model.
+
+Nothing here is an API-level fake: the runner talks to the emulators through
+the same pyserial ``Stage`` driver it uses on hardware, and to the sensor
+through the same smbus-level driver. The simulator's hidden parameters (the
+sensor's true error model, table tilt, chamber) are drawn from ``seed`` and
+exposed through :meth:`SimulatedRig.truth` for ``sim_truth.yaml``; nothing that
+solves or searches may read them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from drivers.clock import MonotonicClock, VirtualClock
+from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, MagErrorModel
+from drivers.sensors.sim.bus import SimulatedI2CBus
+from drivers.ximc.sim.emulator import ControllerEmulator, XimcFaults
+from rig.errors import RigInputError
+from rig.simulation.world import AxisLink, ChamberConfig, FieldConfig, RingingConfig, SimChamber, WorldModel
+
+AXES = ("a1", "a2", "a3")
+
+#: Canonical names of hidden effects a rig file may switch on, and how each
+#: maps onto the sensor error model (field, shape) or the world model.
+EFFECT_FIELDS: dict[str, str] = {
+    "bias_tempco": "bias_tempco_g_per_c",
+    "bias_tempco_quadratic": "bias_tempco2_g_per_c2",
+    "scale_tempco": "scale_tempco_per_c",
+    "scale_nonlinearity": "scale_nonlinearity",
+    "cross_axis_nonlinearity": "cross_axis_nonlinearity",
+    "bias_drift": "bias_drift_g_per_s",
+    "thermal_hysteresis": "thermal_hysteresis_g",
+}
+WORLD_EFFECTS = ("table_tilt", "full_misalignment")
+
+SIM_KEYS = {"time_scale", "sensor", "chamber", "table_tilt_deg", "field", "ringing", "effects",
+            "errors", "gyro_errors", "mag_errors", "serial_base"}
+
+
+@dataclass
+class SimSettings:
+    """The ``sim:`` section of a rig file, validated."""
+
+    time_scale: float = 1.0  # 0 = virtual time
+    chamber: ChamberConfig = dataclasses.field(default_factory=ChamberConfig)
+    ringing: RingingConfig = dataclasses.field(default_factory=RingingConfig)
+    magnetic_field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
+    table_tilt_deg: tuple[float, float] = (0.0, 0.0)
+    effects: dict[str, Any] = dataclasses.field(default_factory=dict)
+    errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # AccelErrorModel overrides
+    gyro_errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # GyroErrorModel overrides
+    mag_errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # MagErrorModel overrides
+    serial_base: int = 0x5A00
+
+    @classmethod
+    def from_mapping(cls, m: dict | None, where: str) -> "SimSettings":
+        m = dict(m or {})
+        _check_keys(m, SIM_KEYS, where)
+        out = cls()
+        if "time_scale" in m:
+            out.time_scale = _number(m["time_scale"], f"{where}.time_scale", minimum=0.0)
+        if "chamber" in m:
+            out.chamber = _dataclass_from(ChamberConfig, m["chamber"], f"{where}.chamber")
+        if "ringing" in m:
+            out.ringing = _dataclass_from(RingingConfig, m["ringing"], f"{where}.ringing")
+        if "field" in m:
+            out.magnetic_field = _dataclass_from(FieldConfig, m["field"], f"{where}.field")
+        if "table_tilt_deg" in m:
+            v = m["table_tilt_deg"]
+            if not (isinstance(v, list) and len(v) == 2):
+                raise RigInputError(None, None, f"{where}.table_tilt_deg", "expected [tilt_x_deg, tilt_y_deg]")
+            out.table_tilt_deg = (_number(v[0], f"{where}.table_tilt_deg[0]"),
+                                  _number(v[1], f"{where}.table_tilt_deg[1]"))
+        if "effects" in m:
+            eff = m["effects"] or {}
+            if not isinstance(eff, dict):
+                raise RigInputError(None, None, f"{where}.effects", "expected a mapping of effect name to magnitude")
+            _check_keys(eff, set(EFFECT_FIELDS) | set(WORLD_EFFECTS), f"{where}.effects")
+            out.effects = dict(eff)
+        if "errors" in m:
+            if not isinstance(m["errors"], dict):
+                raise RigInputError(None, None, f"{where}.errors", "expected a mapping of error-model fields")
+            allowed = {f.name for f in dataclasses.fields(AccelErrorModel)}
+            _check_keys(m["errors"], allowed, f"{where}.errors")
+            out.errors = dict(m["errors"])
+        for key, cls_ in (("gyro_errors", GyroErrorModel), ("mag_errors", MagErrorModel)):
+            if key in m:
+                if not isinstance(m[key], dict):
+                    raise RigInputError(None, None, f"{where}.{key}", "expected a mapping of error-model fields")
+                _check_keys(m[key], {f.name for f in dataclasses.fields(cls_)}, f"{where}.{key}")
+                setattr(out, key, dict(m[key]))
+        if "serial_base" in m:
+            out.serial_base = int(_number(m["serial_base"], f"{where}.serial_base", minimum=1))
+        return out
+
+
+class SimulatedRig:
+    """Emulators + simulated sensor + world model, ready for the runner.
+
+    Parameters
+    ----------
+    settings : SimSettings
+    seed : int
+        Draws the sensor's hidden error model and noise.
+    sensor_model : str
+        "MPU-9150" or "ADXL345".
+    sensor_address : int
+    axis_signs, home_offsets_deg : per-axis rig-file values (kinematic angle =
+        sign * (stage angle - home offset)).
+    ximc_faults : dict axis -> XimcFaults fields; sensor_faults : SensorFaults fields.
+    """
+
+    def __init__(self, settings: SimSettings, *, seed: int, sensor_model: str = "MPU-9150",
+                 sensor_address: int | None = None, axis_signs=(1, 1, 1), home_offsets_deg=(0, 0, 0),
+                 ximc_faults: dict | None = None, sensor_faults: dict | None = None) -> None:
+        self.settings = settings
+        self.seed = int(seed)
+        self.sensor_model = sensor_model
+        self.clock = VirtualClock() if settings.time_scale == 0 else MonotonicClock(settings.time_scale)
+        rng = np.random.default_rng(self.seed)
+        self.accel_errors = self._draw_accel_errors(rng)
+        self.gyro_errors = GyroErrorModel.draw(rng, sensor_model) if sensor_model == "MPU-9150" else None
+        self.mag_errors = MagErrorModel.draw(rng, sensor_model) if sensor_model == "MPU-9150" else None
+        for obj, over in ((self.gyro_errors, self.settings.gyro_errors), (self.mag_errors, self.settings.mag_errors)):
+            for k, v in (over.items() if obj is not None else ()):
+                setattr(obj, k, _broadcast_like(v, getattr(obj, k), k))
+        self.chamber = SimChamber(self.clock, settings.chamber)
+        ximc_faults = ximc_faults or {}
+        self.emulators: list[ControllerEmulator] = []
+        for i, name in enumerate(AXES):
+            faults = XimcFaults(**ximc_faults[name]) if name in ximc_faults else None
+            emu = ControllerEmulator(settings.serial_base + i, clock=self.clock, faults=faults,
+                                     seed=self.seed * 10 + i)
+            self.emulators.append(emu)
+        self.ports: dict[str, str] = {}
+        self.world = WorldModel(
+            axes=[AxisLink(e.position_deg_at, e.speed_deg_s_at, float(s), float(h))
+                  for e, s, h in zip(self.emulators, axis_signs, home_offsets_deg)],
+            chamber=self.chamber,
+            table_tilt_deg=self._tilt(),
+            magnetic_field=settings.magnetic_field,
+            ringing=settings.ringing,
+        )
+        self.bus = SimulatedI2CBus(1)
+        self.sensor_address = sensor_address
+        self.chip = self._make_chip(sensor_faults)
+
+    # -- construction -------------------------------------------------------------------
+    def _draw_accel_errors(self, rng) -> AccelErrorModel:
+        errors = AccelErrorModel.draw(rng, self.sensor_model)
+        d = errors.to_dict()
+        d.update(self.settings.errors)
+        for name, value in self.settings.effects.items():
+            if name in EFFECT_FIELDS:
+                key = EFFECT_FIELDS[name]
+                d[key] = _broadcast_like(value, d.get(key), name)
+            elif name == "full_misalignment":
+                # a small mounting rotation about the sensor's x axis couples y and z
+                # beyond what the triangular model allows (below-diagonal terms)
+                ang = float(np.radians(value if np.isscalar(value) else value[0]))
+                m = np.asarray(d["matrix"], float)
+                rot = np.array([[1, 0, 0], [0, np.cos(ang), -np.sin(ang)], [0, np.sin(ang), np.cos(ang)]])
+                d["matrix"] = (m @ rot).tolist()
+        return AccelErrorModel.from_dict(d)
+
+    def _tilt(self) -> tuple[float, float]:
+        tilt = self.settings.table_tilt_deg
+        if "table_tilt" in self.settings.effects:
+            v = self.settings.effects["table_tilt"]
+            tilt = (float(v[0]), float(v[1])) if not np.isscalar(v) else (float(v), 0.0)
+        return tilt
+
+    def _make_chip(self, sensor_faults):
+        from drivers.sensors.sim import faults as sensor_faults_mod
+        faults = sensor_faults_mod.SensorFaults(**sensor_faults) if sensor_faults else None
+        if self.sensor_model == "MPU-9150":
+            from drivers.sensors.sim.mpu9150 import Mpu9150Model
+            chip = Mpu9150Model(self.world, self.accel_errors, clock=self.clock, seed=self.seed,
+                                gyro_errors=self.gyro_errors, mag_errors=self.mag_errors, faults=faults)
+            addr = self.sensor_address or 0x68
+            if hasattr(chip, "attach"):
+                chip.attach(self.bus, addr)
+            else:
+                self.bus.add_device(addr, chip)
+        elif self.sensor_model == "ADXL345":
+            from drivers.sensors.sim.adxl345 import Adxl345Model
+            chip = Adxl345Model(self.world, self.accel_errors, clock=self.clock, seed=self.seed, faults=faults)
+            addr = self.sensor_address or 0x53
+            self.bus.add_device(addr, chip)
+        else:
+            raise RigInputError(None, None, "sensor.model", f"unknown sensor {self.sensor_model!r} (allowed: MPU-9150, ADXL345)")
+        self.sensor_address = addr
+        return chip
+
+    # -- lifecycle ----------------------------------------------------------------------
+    def start(self) -> dict[str, str]:
+        """Start the emulators; return axis -> device path."""
+        for name, emu in zip(AXES, self.emulators):
+            self.ports[name] = emu.start()
+        return dict(self.ports)
+
+    def stop(self) -> None:
+        for emu in self.emulators:
+            try:
+                emu.stop()
+            except Exception:  # noqa: BLE001 - shutting down, nothing to report to
+                pass
+
+    def __enter__(self) -> "SimulatedRig":
+        self.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+    def truth(self) -> dict:
+        """Hidden simulator parameters (for sim_truth.yaml; tests and benchmarks only)."""
+        return {
+            "seed": self.seed,
+            "sensor_model": self.sensor_model,
+            "accelerometer": self.accel_errors.to_dict(),
+            "gyroscope": self.gyro_errors.to_dict() if self.gyro_errors else None,
+            "magnetometer": self.mag_errors.to_dict() if self.mag_errors else None,
+            "table_tilt_deg": list(self.world.table_tilt_deg),
+            "chamber": dataclasses.asdict(self.settings.chamber),
+            "field": dataclasses.asdict(self.settings.magnetic_field),
+            "effects": {k: _plain(v) for k, v in self.settings.effects.items()},
+            "time_scale": self.settings.time_scale,
+        }
+
+
+def _broadcast_like(value, like, name):
+    v = np.asarray(value, float)
+    shape = np.shape(like) if like is not None else (3,)
+    try:
+        return np.broadcast_to(v, shape).tolist()
+    except ValueError:
+        raise RigInputError(None, None, f"sim.effects.{name}", f"expected a number or shape {list(shape)}") from None
+
+
+def _plain(v):
+    return np.asarray(v).tolist() if not isinstance(v, (int, float, str)) else v
+
+
+def _check_keys(m: dict, allowed: set[str], where: str) -> None:
+    for k in m:
+        if k not in allowed:
+            raise RigInputError(None, None, f"{where}.{k}", f"unknown key (allowed: {', '.join(sorted(allowed))})")
+
+
+def _number(v, where: str, minimum: float | None = None) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise RigInputError(None, None, where, f"expected a number, got {v!r}")
+    if minimum is not None and v < minimum:
+        raise RigInputError(None, None, where, f"expected >= {minimum:g}, got {v!r}")
+    return float(v)
+
+
+def _dataclass_from(cls, m, where: str):
+    if not isinstance(m, dict):
+        raise RigInputError(None, None, where, "expected a mapping")
+    allowed = {f.name for f in dataclasses.fields(cls)}
+    _check_keys(m, allowed, where)
+    return cls(**{k: _number(v, f"{where}.{k}") for k, v in m.items()})
