@@ -1,0 +1,95 @@
+"""Structure figures of the code base: largest classes and functions, function-level imports.
+
+    python benchmarks/structure.py [PACKAGE ...]      # default: rig drivers calib
+
+Prints the five largest classes and functions, the number of function-level imports and the
+modules per folder; exits 1 when a limit of the architecture rules (docs/architecture.md) is broken:
+no class over 250 lines, no function over 60 lines (declarative tables excepted: a function or class
+whose body is a single literal), function-level imports only for optional heavy dependencies
+(``OPTIONAL_HEAVY``). ``tests/test_architecture.py`` runs the same check.
+"""
+
+from __future__ import annotations
+
+import ast
+import sys
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+MAX_CLASS_LINES = 250
+MAX_FUNCTION_LINES = 60
+#: modules imported inside functions on purpose: heavy and needed by one command only
+OPTIONAL_HEAVY = ("matplotlib", "scipy", "pandas", "libximc", "smbus2", "serial.tools", "rich", "termios", "tty",
+                  "pty", "fcntl", "resource", "readline", "importlinter")
+
+
+@dataclass(frozen=True)
+class Block:
+    kind: str  # class | function
+    name: str  # module:qualified.name
+    lines: int
+
+
+def _is_table(node: ast.AST) -> bool:
+    """A body that is one literal (a declarative table), after an optional docstring."""
+    body = [n for n in node.body if not (isinstance(n, ast.Expr) and isinstance(n.value, ast.Constant))]
+    return len(body) == 1 and isinstance(body[0], (ast.Return, ast.Assign)) and isinstance(
+        body[0].value, (ast.Dict, ast.List, ast.Tuple, ast.Set))
+
+
+def scan(path: Path, root: Path) -> tuple[list[Block], list[str]]:
+    """Classes, functions (with their line counts) and function-level imports of one module."""
+    tree = ast.parse(path.read_text(), str(path))
+    module = path.relative_to(root).with_suffix("").as_posix().replace("/", ".")
+    blocks: list[Block] = []
+    inner_imports: list[str] = []
+
+    def visit(node: ast.AST, prefix: str, in_function: bool) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                kind = "class" if isinstance(child, ast.ClassDef) else "function"
+                name = f"{prefix}{child.name}"
+                if not _is_table(child):
+                    blocks.append(Block(kind, f"{module}:{name}", child.end_lineno - child.lineno + 1))
+                visit(child, name + ".", in_function or kind == "function")
+            elif isinstance(child, (ast.Import, ast.ImportFrom)):
+                if in_function:
+                    names = [a.name for a in child.names] if isinstance(child, ast.Import) else [child.module or ""]
+                    for n in names:
+                        if not n.startswith(OPTIONAL_HEAVY):
+                            inner_imports.append(f"{module}:{child.lineno}: {n}")
+            else:
+                visit(child, prefix, in_function)
+
+    visit(tree, "", False)
+    return blocks, inner_imports
+
+
+def report(packages: list[str]) -> int:
+    blocks: list[Block] = []
+    inner: list[str] = []
+    folders: Counter[str] = Counter()
+    for package in packages:
+        for path in sorted((REPO / package).rglob("*.py")):
+            b, i = scan(path, REPO)
+            blocks += b
+            inner += i
+            folders[path.parent.relative_to(REPO).as_posix()] += 1
+    classes = sorted((b for b in blocks if b.kind == "class"), key=lambda b: -b.lines)
+    functions = sorted((b for b in blocks if b.kind == "function"), key=lambda b: -b.lines)
+    print("largest classes:   " + ", ".join(f"{b.name} ({b.lines})" for b in classes[:5]))
+    print("largest functions: " + ", ".join(f"{b.name} ({b.lines})" for b in functions[:5]))
+    print(f"function-level imports (not optional heavy dependencies): {len(inner)}")
+    for line in inner:
+        print(f"  {line}")
+    print("modules per folder: " + ", ".join(f"{k} {v}" for k, v in sorted(folders.items())))
+    over = [b for b in classes if b.lines > MAX_CLASS_LINES] + [b for b in functions if b.lines > MAX_FUNCTION_LINES]
+    for b in over:
+        print(f"OVER LIMIT: {b.kind} {b.name}: {b.lines} lines")
+    return 1 if over or inner else 0
+
+
+if __name__ == "__main__":
+    sys.exit(report(sys.argv[1:] or ["rig", "drivers", "calib"]))
