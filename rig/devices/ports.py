@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import glob
 
+from drivers.ximc.stage import Stage
+
 STANDA_VID_PID = (0x1CBE, 0x0007)
 SENSOR_PROBES = [  # (address, identity register, expected value, model)
     (0x68, 0x75, 0x68, "MPU-9150"), (0x69, 0x75, 0x68, "MPU-9150"),
@@ -38,7 +40,6 @@ def list_ports() -> list[str]:
 
 def _probe_ximc(device: str) -> str:
     try:
-        from drivers.ximc.stage import Stage
         with Stage(device, name="probe") as st:
             ident = st.identify()
         return f"Standa controller, serial {ident.serial_number}, firmware {ident.firmware}"

@@ -1,179 +1,136 @@
-"""Open a rig: hardware from a rig file, the simulated rig, or a replay rig.
+"""A rig as the engine drives it: a clock, three axes, a sensor, and optionally a magnetometer
+and a climate chamber.
 
-Whatever the kind, the runner gets the same :class:`RigHandles`: a clock,
-three ``Stage`` drivers on serial ports, an ``AccelSensor`` on an I2C bus,
-and optionally a chamber it can set. Only the simulated rig has hidden truth.
+Whatever opened it (hardware from a rig file, the simulated rig, the replay of a session: see
+:mod:`rig.devices.registry`), the engine gets the same :class:`Rig` and never asks which kind it
+is. What differs between kinds is data on the rig, not branches in the engine: how stillness is
+judged (``settle``), which files describe it in the session (``attachments``), which devices want
+to know that a step begins (``step_listeners``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, Protocol
 
-from drivers.clock import Clock, MonotonicClock
-from drivers.sensors import open_sensor
-from drivers.ximc.stage import Stage
+from drivers.clock import Clock
+from rig.config.rigfile import AxisConfig
+from rig.planning.kinematics import AXES
 
-AXES = ("a1", "a2", "a3")
+
+class Chamber(Protocol):
+    """A climate chamber the engine can set (simulated chamber, a driver of a real one)."""
+
+    def set_target_c(self, target_c: float) -> None: ...
 
 
 @dataclass
-class AxisSetup:
-    """Per-axis values from the rig file (angles in the kinematic frame, deg)."""
+class Axis:
+    """One stage of the turntable: its rig-file configuration and its driver.
+
+    Angles: ``kinematic`` is the axis angle of the kinematics contract (docs/kinematics.md),
+    ``stage`` the controller's own position; ``kinematic = sign * (stage - home_offset)``.
+    """
 
     name: str
-    port: str
-    serial: int | None = None
-    sign: float = 1.0
-    home_offset_deg: float = 0.0
-    speed_deg_s: float = 20.0
-    accel_deg_s2: float = 20.0
-    soft_limits_deg: tuple[float, float] = (-720.0, 720.0)
-    cable_wrap_deg: float = 720.0
-    slip_ring: bool = False
+    config: AxisConfig
+    stage: Any  # drivers.ximc.stage.Stage
+
+    def stage_angle_deg(self, kinematic_deg: float) -> float:
+        """Stage (controller) angle that puts the axis at ``kinematic_deg``."""
+        return self.config.sign * kinematic_deg + self.config.home_offset_deg
+
+    def kinematic_angle_deg(self, stage_deg: float) -> float:
+        """Kinematic angle of the axis when the controller reads ``stage_deg``."""
+        return self.config.sign * (stage_deg - self.config.home_offset_deg)
 
 
 @dataclass
-class RigHandles:
-    """Everything the runner drives."""
-
-    kind: str  # "sim" | "hardware" | "replay"
-    clock: Clock
-    stages: dict[str, Stage]
-    axes: dict[str, AxisSetup]
-    sensor: Any  # AccelSensor
-    sensor_model: str
-    sensor_address: int
-    home_policy: str = "zero"  # none | zero | home
-    chamber: Any | None = None  # has set_target_c(target_c)
-    truth: dict | None = None
-    is_replay: bool = False
-    on_step_begin: Callable[[int], None] | None = None
-    rig_file: str | None = None
-    magnetometer: Any | None = None  # has read_field_ut() -> (3,) uT
-    site_field: dict | None = None  # {field_ut, inclination_deg, declination_deg}
-    _closers: list[Callable[[], None]] = field(default_factory=list)
-
-    def close(self) -> None:
-        for stage in self.stages.values():
-            try:
-                stage.close()
-            except Exception:  # noqa: BLE001 - closing; nothing more to do
-                pass
-        for closer in reversed(self._closers):
-            try:
-                closer()
-            except Exception:  # noqa: BLE001
-                pass
-
-    def stage_angle_deg(self, axis: str, kinematic_deg: float) -> float:
-        """Stage (controller) angle that puts the kinematic axis at ``kinematic_deg``."""
-        a = self.axes[axis]
-        return a.sign * kinematic_deg + a.home_offset_deg
-
-    def kinematic_angle_deg(self, axis: str, stage_deg: float) -> float:
-        a = self.axes[axis]
-        return a.sign * (stage_deg - a.home_offset_deg)
-
-
-def open_rig(rig_file, *, seed: int = 0, time_scale: float | None = None,
-             on_stage_event: Callable[[str, dict], None] | None = None) -> RigHandles:
-    """Open the rig described by a loaded rig file.
+class Rig:
+    """Everything a run drives.
 
     Parameters
     ----------
-    rig_file : rig.config.rigfile.RigFile
-    seed : int
-        Simulated rigs only: draws the hidden sensor parameters and noise.
-    time_scale : float, optional
-        Simulated rigs only: override the rig file's time scale (0 = virtual time).
-    on_stage_event : callable
-        Receives recovered-fault events from the stage drivers.
+    kind : str
+        The registry name it was opened with ("hardware", "sim", "replay"); recorded, never
+        branched on.
+    turntable : str
+        What the turntable is, for the session ("standa-8smc", "sim:8smc5-emulator", ...).
+    settle : str
+        How the engine knows the table is still: "accelerometer" (watch the sensor until its
+        windows agree) or "none" (the samples were recorded after settling: replay).
+    seed : int | None
+        Seed of a simulated sensor: part of the rig's identity (a resume must use the same).
+    attachments : dict
+        Files (name -> text) stored in a new session directory, e.g. ``sim_truth.yaml``.
+    step_listeners : list
+        Called with the step index when a step begins (a replayed sensor seeks its recording).
     """
-    axes = {name: _axis_setup(rig_file, name) for name in AXES}
-    if rig_file.is_simulated:
-        return _open_sim(rig_file, axes, seed, time_scale, on_stage_event)
-    return _open_hardware(rig_file, axes, on_stage_event)
 
+    kind: str
+    clock: Clock
+    axes: dict[str, Axis]
+    sensor: Any  # drivers.sensors.base.AccelSensor
+    turntable: str = "standa-8smc"
+    home_policy: str = "zero"  # none | zero | home
+    chamber: Chamber | None = None
+    magnetometer: Any | None = None  # drivers.sensors.ak8975.Ak8975-like: configure(), read_field_ut()
+    site_field: dict | None = None  # {field_ut, inclination_deg, declination_deg}
+    settle: str = "accelerometer"
+    seed: int | None = None
+    rig_file: str | None = None
+    attachments: dict[str, str] = field(default_factory=dict)
+    step_listeners: list[Callable[[int], None]] = field(default_factory=list)
+    closers: list[Callable[[], None]] = field(default_factory=list)
 
-def _axis_setup(rig_file, name: str) -> AxisSetup:
-    ax = rig_file.axes[name]
-    return AxisSetup(name=name, port=ax.port, serial=ax.serial, sign=float(ax.sign),
-                     home_offset_deg=float(ax.home_offset_deg), speed_deg_s=float(ax.speed_deg_s),
-                     accel_deg_s2=float(ax.accel_deg_s2), soft_limits_deg=tuple(ax.soft_limits_deg),
-                     cable_wrap_deg=float(ax.cable_wrap_deg), slip_ring=bool(ax.slip_ring))
+    @property
+    def stages(self) -> dict[str, Any]:
+        """Axis name -> stage driver."""
+        return {name: axis.stage for name, axis in self.axes.items()}
 
+    def begin_step(self, index: int) -> None:
+        """Tell the devices that want to know that step ``index`` begins."""
+        for listener in self.step_listeners:
+            listener(index)
 
-def _open_stages(ports: dict[str, str], clock: Clock, on_event) -> dict[str, Stage]:
-    stages = {}
-    try:
+    def describe(self) -> dict:
+        """Identity of every device, for the session manifest's ``rig`` section."""
+        axes = {}
         for name in AXES:
-            st = Stage(ports[name], clock=clock, name=name, on_event=on_event)
-            st.open()
-            stages[name] = st
-    except Exception:
-        for st in stages.values():
-            st.close()
-        raise
-    return stages
+            axis = self.axes[name]
+            ident = axis.stage.identify()
+            axes[name] = {"port": axis.config.port, "serial": ident.serial_number, "firmware": ident.firmware,
+                          "device": ident.device, "sign": axis.config.sign,
+                          "home_offset_deg": axis.config.home_offset_deg}
+        out = {"turntable": {"kind": self.turntable, "axes": axes}, "sensor": describe_sensor(self.sensor),
+               "rig_file": self.rig_file}
+        if self.site_field is not None:
+            out["site"] = dict(self.site_field)
+        return out
+
+    def close(self) -> None:
+        """Close every driver and stop what the opener started; never raises."""
+        for axis in self.axes.values():
+            _quietly(axis.stage.close)
+        for closer in reversed(self.closers):
+            _quietly(closer)
 
 
-def _open_hardware(rig_file, axes, on_event) -> RigHandles:
-    clock = MonotonicClock()
-    stages = _open_stages({n: a.port for n, a in axes.items()}, clock, on_event)
+def describe_sensor(sensor) -> dict:
+    """The sensor's identity and settings, for the manifest's ``rig.sensor``."""
+    info = {
+        "model": sensor.model, "address": int(sensor.address), "identity": sensor.identify().to_dict(),
+        "accel_range_g": int(sensor.accel_range_g), "accel_lsb_per_g": float(sensor.accel_lsb_per_g),
+        "sample_rate_hz": float(sensor.sample_rate_hz), "has_temperature": bool(sensor.has_temperature),
+    }
+    if getattr(sensor, "has_gyro", False):
+        info["gyro_range_dps"] = getattr(sensor, "gyro_range_dps", None)
+        info["gyro_lsb_per_dps"] = getattr(sensor, "gyro_lsb_per_dps", None)
+    return info
+
+
+def _quietly(action: Callable[[], None]) -> None:
     try:
-        import smbus2
-        bus = smbus2.SMBus(rig_file.sensor.bus)
-        sensor = open_sensor(rig_file.sensor.model, bus, rig_file.sensor.address, clock=clock)
-    except Exception:
-        for st in stages.values():
-            st.close()
-        raise
-    h = RigHandles(kind="hardware", clock=clock, stages=stages, axes=axes, sensor=sensor,
-                   sensor_model=rig_file.sensor.model, sensor_address=rig_file.sensor.address,
-                   home_policy=rig_file.home_policy, rig_file=str(rig_file.path))
-    h._closers.append(bus.close)
-    if rig_file.sensor.model == "MPU-9150":
-        from drivers.sensors.ak8975 import Ak8975
-        h.magnetometer = Ak8975(bus, clock=clock)
-    if rig_file.site is not None:
-        h.site_field = {"field_ut": rig_file.site.field_ut, "inclination_deg": rig_file.site.inclination_deg,
-                        "declination_deg": rig_file.site.declination_deg}
-    return h
-
-
-def _open_sim(rig_file, axes, seed, time_scale, on_event) -> RigHandles:
-    from rig.simulation.simrig import SimSettings, SimulatedRig
-
-    settings = SimSettings.from_mapping(rig_file.sim, f"{rig_file.path}: sim")
-    if time_scale is not None:
-        settings.time_scale = float(time_scale)
-    faults = rig_file.faults or {}
-    sim = SimulatedRig(settings, seed=seed, sensor_model=rig_file.sensor.model,
-                       sensor_address=rig_file.sensor.address,
-                       axis_signs=[axes[n].sign for n in AXES],
-                       home_offsets_deg=[axes[n].home_offset_deg for n in AXES],
-                       ximc_faults=faults.get("ximc"), sensor_faults=faults.get("sensor"))
-    ports = sim.start()
-    try:
-        for n in AXES:
-            axes[n].port = ports[n]
-            axes[n].serial = sim.emulators[AXES.index(n)].serial_number
-        stages = _open_stages(ports, sim.clock, on_event)
-        sensor = open_sensor(rig_file.sensor.model, sim.bus, sim.sensor_address, clock=sim.clock)
-    except Exception:
-        sim.stop()
-        raise
-    h = RigHandles(kind="sim", clock=sim.clock, stages=stages, axes=axes, sensor=sensor,
-                   sensor_model=rig_file.sensor.model, sensor_address=sim.sensor_address,
-                   home_policy=rig_file.home_policy, chamber=sim.chamber, truth=sim.truth(),
-                   rig_file=str(rig_file.path))
-    h._closers.append(sim.stop)
-    if rig_file.sensor.model == "MPU-9150":  # the AK8975 behind the MPU-9150's I2C bypass
-        from drivers.sensors.ak8975 import Ak8975
-        h.magnetometer = Ak8975(sim.bus, clock=sim.clock)
-    fc = settings.magnetic_field
-    h.site_field = {"field_ut": float(fc.magnitude_ut), "inclination_deg": float(fc.inclination_deg),
-                    "declination_deg": float(fc.declination_deg)}
-    h.sim = sim  # type: ignore[attr-defined]  # for tests that inspect the world
-    return h
+        action()
+    except Exception:  # noqa: BLE001 - closing: nothing more can be done, and the others must close too
+        pass

@@ -1,32 +1,30 @@
-"""``rig replay``: re-run a recorded procedure against a rig that serves the recording.
+"""The ``replay`` rig kind: a rig that serves a recorded session.
 
-The replay rig has emulated controllers (so every move goes through the real
-Stage driver and protocol) and a :class:`ReplaySensor` that implements the
-same ``AccelSensor`` interface as the I2C drivers, serving each step's
-recorded samples in clock time. The runner, the session writer and the solver
-are the ones a live run uses, so a replay gives the identical calibration.
+It has emulated controllers (so every move goes through the real Stage driver and protocol), a
+:class:`ReplaySensor` with the ``AccelSensor`` interface of the I2C drivers serving each step's
+recorded samples in clock time, the recorded magnetometer readings, and a chamber whose
+thermometer reads what the recording read. The engine, the session writer and the solver are the
+ones a live run uses (``rig.workflow.replay``), so a replay gives the identical calibration.
 """
 
 from __future__ import annotations
 
-import hashlib
-from dataclasses import dataclass
-from datetime import datetime, timezone
-from pathlib import Path
+import dataclasses
 
 import numpy as np
 
 from drivers.clock import VirtualClock
-from drivers.sensors.base import CaptureStats, SampleBlock, SensorIdentity
+from drivers.sensors.base import CaptureStats, SampleBlock, SensorError, SensorIdentity
 from drivers.ximc.sim.emulator import ControllerEmulator
-from drivers.ximc.stage import Stage
-from rig import __version__
-from rig.devices.rig import AXES, AxisSetup, RigHandles
-from rig.config.procedure import load_procedure_text
-from rig.execution.lifecycle import RunResult, identify
-from rig.execution.engine import Runner
-from rig.session.store import SessionWriter, load_session
-from rig.console import ConsoleUI
+from rig.config.rigfile import AxisConfig
+from rig.devices.hardware import open_stages
+from rig.devices.registry import register_rig_kind
+from rig.devices.rig import Rig
+from rig.planning.kinematics import AXES
+
+#: the replay table moves fast and has no limits: the recording already proved the poses legal
+REPLAY_AXIS = AxisConfig(port=None, speed_deg_s=48.0, accel_deg_s2=200.0, soft_limits_deg=(-1e6, 1e6),
+                         cable_wrap_deg=1e6)
 
 
 class ReplaySensor:
@@ -50,6 +48,7 @@ class ReplaySensor:
         self._cursor = 0
         self._t_clock0 = 0.0
         self._data = None
+        self._temp_c = None
 
     def identify(self) -> SensorIdentity:
         return SensorIdentity(model=self.model, address=self.address, identity_register=None,
@@ -62,6 +61,13 @@ class ReplaySensor:
         self._step = index
         self._data = self.session.step_samples(index)
         self._cursor = 0
+        self._temp_c = (self.session.manifest["steps"][index].get("stats") or {}).get("temp_c")
+
+    def read_temperature_c(self) -> float:
+        """The temperature the recording reached in this step (temperature steps), C."""
+        if self._temp_c is None:
+            raise SensorError(f"replay: step {self._step + 1} of the recording has no temperature")
+        return float(self._temp_c)
 
     def start(self) -> None:
         self._t_clock0 = self.clock.now()
@@ -109,7 +115,6 @@ class ReplayMagnetometer:
 
     def read_field_ut(self) -> np.ndarray:
         if self._cursor >= len(self._rows):
-            from drivers.sensors.base import SensorError
             raise SensorError("replay: the recording has no more magnetometer readings for this step")
         v = self._rows[self._cursor] / self.lsb_per_ut
         self._cursor += 1
@@ -121,66 +126,42 @@ def _empty_block(has_gyro: bool) -> SampleBlock:
                        gyro_counts=np.empty((0, 3), np.int64) if has_gyro else None)
 
 
-def replay_session(session_dir, *, out_dir=None, ui: ConsoleUI | None = None) -> RunResult:
-    """Replay a session into a new session directory and solve it."""
-    ui = ui or ConsoleUI(quiet=True)
-    original = load_session(session_dir)
-    manifest0 = original.manifest
-    procedure = load_procedure_text(manifest0["procedure"]["text"], manifest0["procedure"].get("file") or "<session>")
+
+
+class ReplayChamber:
+    """The recording's chamber: set-points are noted, the temperatures come from the recording."""
+
+    def __init__(self) -> None:
+        self.target_c: float | None = None
+
+    def set_target_c(self, target_c: float) -> None:
+        self.target_c = float(target_c)
+
+
+def open_replay_rig(session, *, seed: int | None = None, time_scale: float | None = None) -> Rig:
+    """A rig that serves ``session`` (a loaded ``rig.session`` Session) in virtual time."""
     clock = VirtualClock()
     emulators = [ControllerEmulator(0x7E00 + i, clock=clock) for i in range(3)]
-    ports = {n: e.start() for n, e in zip(AXES, emulators)}
-    stages = {}
-    sensor = ReplaySensor(original, clock)
     try:
-        for n in AXES:
-            stages[n] = Stage(ports[n], clock=clock, name=n)
-            stages[n].open()
-        axes = {n: AxisSetup(name=n, port=ports[n], serial=emulators[i].serial_number,
-                             speed_deg_s=48.0, accel_deg_s2=200.0, soft_limits_deg=(-1e6, 1e6),
-                             cable_wrap_deg=1e6)
-                for i, n in enumerate(AXES)}
-        mag = ReplayMagnetometer(original) if "mag_counts" in original.samples else None
-        rig = RigHandles(kind="replay", clock=clock, stages=stages, axes=axes, sensor=sensor,
-                         sensor_model=sensor.model, sensor_address=sensor.address, home_policy="zero",
-                         is_replay=True, on_step_begin=sensor.seek_step, magnetometer=mag,
-                         site_field=manifest0["rig"].get("site"))
-        out_root = Path(out_dir) if out_dir is not None else Path(session_dir).resolve().parent
-        text = manifest0["procedure"]["text"]
-        manifest = {
-            "id": f"{original.id}-replay-{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%SZ')}",
-            "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-            "status": "running",
-            "replay_of": original.id,
-            "procedure": dict(manifest0["procedure"], sha256=hashlib.sha256(text.encode()).hexdigest()),
-            "software": {"name": "rig-calibration", "version": __version__},
-            "steps": [step.to_manifest() for step in procedure.expanded_steps()],
-        }
-        manifest["rig"] = identify(rig)
-        manifest["rig"]["sensor"].update({k: manifest0["rig"]["sensor"].get(k) for k in
-                                          ("model", "address", "accel_range_g", "accel_lsb_per_g",
-                                           "sample_rate_hz", "has_temperature", "gyro_range_dps",
-                                           "gyro_lsb_per_dps", "magnetometer")
-                                          if k in manifest0["rig"]["sensor"]})
-        writer = SessionWriter.create(out_root, manifest["id"], manifest,
-                                      columns=tuple(manifest0.get("columns") or ()) or None)
-        # recorded sample times are session times: make the runner's session clock start at 0 now
-        runner = Runner(procedure, rig, writer, ui, time_offset_s=clock.now())
-        runner.prepare(resuming=False)
-        try:
-            outcomes = runner.run()
-        except BaseException as exc:
-            writer.event("abort", reason=str(exc))
-            writer.set_status("aborted")
-            raise
-    finally:
-        for st in stages.values():
-            st.close()
+        ports = {n: e.start() for n, e in zip(AXES, emulators)}
+        axes = open_stages({n: _replay_axis(ports[n], emulators[i].serial_number) for i, n in enumerate(AXES)},
+                           clock)
+    except Exception:
         for e in emulators:
             e.stop()
-    cal = cal_path = None
-    if procedure.solve is not None:
-        from rig.analysis.solve import solve_session
-        cal, cal_path = solve_session(writer.session_dir)
-    writer.set_status("complete")
-    return RunResult(writer.session_dir, "complete", outcomes, cal_path, cal)
+        raise
+    sensor = ReplaySensor(session, clock)
+    mag = ReplayMagnetometer(session) if "mag_counts" in session.samples else None
+    rig = Rig(kind="replay", clock=clock, axes=axes, sensor=sensor, turntable="replay:8smc5-emulator",
+              home_policy="zero", chamber=ReplayChamber(), magnetometer=mag,
+              site_field=session.manifest["rig"].get("site"),
+              settle="none", step_listeners=[sensor.seek_step] + ([mag.seek_step] if mag is not None else []))
+    rig.closers.extend(e.stop for e in emulators)
+    return rig
+
+
+def _replay_axis(port: str, serial: int) -> AxisConfig:
+    return dataclasses.replace(REPLAY_AXIS, port=port, serial=serial)
+
+
+register_rig_kind("replay", open_replay_rig)

@@ -9,6 +9,7 @@ import numpy as np
 from drivers.clock import MonotonicClock
 from drivers.sensors import open_sensor
 from drivers.sensors.base import SensorSettings
+from drivers.ximc.sim.emulator import ControllerEmulator
 from rig.simulation.simrig import SimSettings, SimulatedRig
 
 
@@ -16,8 +17,6 @@ def serve_sim(*, count: int = 3, time_scale: float = 1.0, seed: int = 0, sensor_
               once: bool = False) -> int:
     """Start ``count`` emulated 8SMC5 controllers (the first three form the simulated table),
     print their device paths and a few sensor readings, and serve until Ctrl-C."""
-    from drivers.ximc.sim.emulator import ControllerEmulator
-
     settings = SimSettings(time_scale=time_scale)
     sim = SimulatedRig(settings, seed=seed, sensor_model=sensor_model)
     extra = [ControllerEmulator(settings.serial_base + 3 + i, clock=sim.clock) for i in range(max(0, count - 3))]

@@ -6,7 +6,8 @@ import io
 import re
 
 from rig.cli import main
-from rig.console import ConsoleUI, OperatorAbsent, StepProgress
+from rig.cli.console import ConsoleUI
+from rig.execution.operator import OperatorAbsent, StepProgress
 
 import pytest
 

@@ -1,0 +1,10 @@
+"""One module per ``rig`` command: ``add_parser(subparsers)`` and ``run(args) -> exit code``."""
+
+from types import ModuleType
+
+from rig.cli.commands import apply, discover, evaluate, import_, ports, replay, run, sim, solve
+
+#: command name -> module, in the order ``rig --help`` lists them
+COMMANDS: dict[str, ModuleType] = {"run": run, "solve": solve, "apply": apply, "evaluate": evaluate,
+                                   "discover": discover, "import": import_, "replay": replay, "sim": sim,
+                                   "ports": ports}

@@ -1,0 +1,37 @@
+"""``rig discover SESSION``: where the model and the data disagree, and which effect is missing."""
+
+from __future__ import annotations
+
+import json
+
+from rig.analysis import discover as dsc
+from rig.cli.common import EXIT_OK, UsageError, json_default
+
+
+def add_parser(sub) -> None:
+    dc = sub.add_parser("discover", help="find where the model and the data disagree; name the missing effect")
+    dc.add_argument("session")
+    dc.add_argument("--json", action="store_true", help="print the rig-discover/1 JSON instead of the report")
+    dc.add_argument("--plot", metavar="FILE.png", default=None, help="residuals before/after, by pose and temperature")
+    dc.add_argument("-o", "--output", metavar="CALIB.yaml", default=None,
+                    help="write the augmented calibration (effects filled in)")
+    dc.add_argument("--false-alarm", type=float, default=0.01,
+                    help="probability of naming an effect in a session that has none (default 0.01)")
+
+
+def run(args) -> int:
+    if not 0 < args.false_alarm < 0.5:
+        raise UsageError(f"--false-alarm: expected a probability in (0, 0.5), got {args.false_alarm:g}")
+    session, d = dsc.discover_session(args.session, false_alarm=args.false_alarm)
+    extra = {}
+    if args.plot:
+        extra["plot"] = str(dsc.write_plot(d, args.plot))
+    if args.output:
+        extra["calibration"] = str(dsc.write_calibration(session, d, args.output))
+    if args.json:
+        print(json.dumps({**d.to_json(), **extra}, indent=2, default=json_default))
+    else:
+        print(dsc.format_report(session, d))
+        for k, v in extra.items():
+            print(f"{k}: {v}")
+    return EXIT_OK

@@ -1,0 +1,60 @@
+"""``rig run PROCEDURE [--rig sim|RIG.yaml] [--seed N] [--resume DIR]``: run, record, solve."""
+
+from __future__ import annotations
+
+import signal
+import sys
+
+from rig.cli.common import EXIT_FAILURE, EXIT_OK, UsageError, format_calibration
+from rig.cli.console import ConsoleUI
+from rig.execution.context import RunAborted
+from rig.workflow.run import run_procedure
+
+
+def add_parser(sub) -> None:
+    r = sub.add_parser("run", help="run a procedure and record a session")
+    r.add_argument("procedure", nargs="?", help="procedure YAML (omit with --resume)")
+    r.add_argument("--rig", default=None, help="'sim' (default) or a rig file")
+    r.add_argument("--out", default="sessions", help="sessions directory (default: sessions/)")
+    r.add_argument("--seed", type=int, default=None, help="simulated rig: seed of the hidden sensor parameters")
+    r.add_argument("--resume", metavar="DIR", default=None, help="continue an interrupted session")
+    r.add_argument("--time-scale", type=float, default=None,
+                   help="simulated rig: clock speed-up (0 = virtual time, as fast as possible)")
+    r.add_argument("--yes", action="store_true", help="confirm every operator prompt")
+    r.add_argument("--quiet", action="store_true", help="print only warnings and the result")
+
+
+def run(args) -> int:
+    if args.procedure is None and args.resume is None:
+        raise UsageError("give a procedure file, or --resume DIR")
+    stop_on_signals()
+    ui = ConsoleUI(assume_yes=args.yes, quiet=args.quiet)
+    try:
+        result = run_procedure(args.procedure, rig_spec=args.rig, out_dir=args.out, seed=args.seed,
+                               resume_dir=args.resume, ui=ui, time_scale=args.time_scale)
+    except RunAborted as exc:
+        ui.close()
+        print(f"rig run: aborted: {exc}; motors stopped. Resume with: rig run --resume <session dir>",
+              file=sys.stderr)
+        return EXIT_FAILURE
+    finally:
+        ui.close()
+    flagged = [o for o in result.outcomes if o.status == "flagged"]
+    print(f"session: {result.session_dir}")
+    if flagged:
+        print(f"flagged steps (left out of the solve): {', '.join(str(o.index + 1) for o in flagged)}")
+    if result.calibration is not None:
+        print(f"calibration: {result.calibration_path}")
+        print(format_calibration(result.calibration))
+    return EXIT_OK
+
+
+def stop_on_signals() -> None:
+    """Ctrl-C (SIGINT) and SIGTERM stop the motors and abort the run, even when the shell that started
+    us ignores SIGINT (a background job does): the turntable must stop whoever asks."""
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, interrupt)
+    signal.signal(signal.SIGTERM, interrupt)

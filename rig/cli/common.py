@@ -1,0 +1,77 @@
+"""What every command shares: exit codes, the usage error, JSON and calibration formatting."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from calib.gyro import GyroCalibration
+from calib.magnetometer import MagCalibration
+
+#: exit codes (contract: docs/cli.md)
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class UsageError(Exception):
+    """Bad command-line input (exit 2)."""
+
+
+def json_default(o):
+    """JSON for numpy values (arrays as lists); anything else as its string."""
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    return str(o)
+
+
+def parse_thermal(v):
+    """``--thermal``: auto, off or a polynomial order 1..3."""
+    if v is None or v in ("auto", "off"):
+        return v
+    try:
+        order = int(v)
+    except ValueError:
+        raise UsageError(f"--thermal: expected auto, off or a polynomial order 1..3, got {v!r}") from None
+    if not 1 <= order <= 3:
+        raise UsageError(f"--thermal: expected auto, off or a polynomial order 1..3, got {v!r}")
+    return order
+
+
+def format_calibration(cal) -> str:
+    """A short human summary of a calibration file (accelerometer, gyroscope, magnetometer)."""
+    lines = _accelerometer_lines(cal.accelerometer)
+    if cal.gyroscope:
+        lines.append(_gyroscope_line(cal.gyroscope))
+    if cal.magnetometer:
+        m = cal.magnetometer if isinstance(cal.magnetometer, MagCalibration) else MagCalibration.from_dict(cal.magnetometer)
+        lines.append(f"  magnetometer ({m.method}): {m.n_steps} steps, residual {m.residual_rms_ut:.3f} uT rms; "
+                     "hard iron " + " ".join(f"{v:+.2f}" for v in np.asarray(m.hard_iron_ut)) + " uT")
+    return "\n".join(lines)
+
+
+def _accelerometer_lines(a) -> list[str]:
+    lines = [f"  model: {a.model}   fit: {a.fit.steps} steps, residual {a.fit.residual_rms_g * 1e6:.1f} ug rms, "
+             f"chi2/dof {a.fit.chi2_per_dof:.2f}"]
+    sig = a.sigma
+    for j, axis in enumerate("xyz"):
+        lines.append(f"  {axis}: bias {a.bias_counts[j]:10.2f} +- {sig['bias_counts'][j]:.2f} counts   "
+                     f"scale {a.scale_counts_per_g[j]:10.2f} +- {sig['scale_counts_per_g'][j]:.2f} counts/g")
+    if a.misalignment:
+        m = a.misalignment
+        sm = sig.get("misalignment") or {}
+        lines.append("  misalignment (mrad): " + "  ".join(
+            f"{k} {m[k] * 1e3:.3f} +- {sm.get(k, float('nan')) * 1e3:.3f}" for k in ("alpha_yz", "alpha_zy", "alpha_zx")))
+    if a.temperature:
+        lines.append(f"  temperature: t0 {a.temperature.t0_c:.2f} C, order {a.temperature.order}")
+    if a.effects:
+        lines.append("  effects: " + ", ".join(e["name"] for e in a.effects))
+    return lines
+
+
+def _gyroscope_line(section) -> str:
+    g = section if isinstance(section, GyroCalibration) else GyroCalibration.from_dict(section)
+    b = np.asarray(g.bias_counts) / g.lsb_per_dps
+    sb = np.array([g.sigma[f"b_{x}"] for x in "xyz"]) / g.lsb_per_dps
+    return (f"  gyroscope: {g.n_steps} rate steps, residual {g.residual_rms_dps:.4f} deg/s rms; bias "
+            + " ".join(f"{x} {v:+.4f}+-{e:.4f}" for x, v, e in zip("xyz", b, sb)) + " deg/s; scale "
+            + " ".join(f"{v:.3f}" for v in np.asarray(g.scale_counts_per_dps)) + " counts/(deg/s)")

@@ -1,0 +1,153 @@
+"""What the technician sees: a live progress bar, prompts, warnings, the result below.
+
+On a terminal the progress is a ``rich.progress`` bar: the step, its phase, temperature and noise,
+and the run's end as a wall-clock time; warnings and information print above the bar and the result
+below it once the run ends; nothing is redrawn over stale characters. Elsewhere (CI, logs, pipes)
+it degrades to one plain line per phase change.
+"""
+
+from __future__ import annotations
+
+import sys
+from datetime import datetime, timedelta
+from typing import TextIO
+
+from rich.console import Console
+from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn
+from rich.text import Text
+
+from rig.execution.operator import OperatorAbsent, StepProgress
+
+
+class WallClockEta(ProgressColumn):
+    """When the run will end, as a time of day (from the remaining rig time and the observed pace)."""
+
+    def render(self, task) -> Text:
+        remaining = task.time_remaining
+        if remaining is None:
+            return Text("ends --:--", style="progress.remaining")
+        end = datetime.now() + timedelta(seconds=remaining)
+        return Text(f"ends {end:%H:%M}", style="progress.remaining")
+
+
+class ConsoleUI:
+    """Plain-language console output for a run (an ``rig.execution.operator.Operator``).
+
+    Parameters
+    ----------
+    out : TextIO
+        Where progress goes (stderr by default so stdout stays for results).
+    assume_yes : bool
+        Answer every operator prompt with "yes" (for scripted runs).
+    interactive : bool | None
+        Whether prompts may read stdin; default: stdin is a terminal.
+    quiet : bool
+        Only warnings and prompts.
+    """
+
+    def __init__(self, out: TextIO | None = None, *, assume_yes: bool = False,
+                 interactive: bool | None = None, quiet: bool = False) -> None:
+        self.out = out or sys.stderr
+        self.assume_yes = assume_yes
+        self.interactive = sys.stdin.isatty() if interactive is None else interactive
+        self.quiet = quiet
+        self._last_phase: tuple[int, str] | None = None
+        self._live = _LiveBar(self.out) if self.out.isatty() and not quiet else None
+
+    def info(self, message: str) -> None:
+        if not self.quiet:
+            self._line(message)
+
+    def warn(self, message: str) -> None:
+        self._line(f"warning: {message}")
+
+    def progress(self, p: StepProgress) -> None:
+        if self.quiet:
+            return
+        if self._live is not None:
+            self._live.update(p)
+            return
+        key = (p.index, p.phase)
+        if key != self._last_phase:  # plain output: one line per phase change
+            self._last_phase = key
+            self._line(plain_progress_line(p))
+
+    def confirm(self, question: str) -> bool:
+        """Ask the operator; True when they confirm."""
+        self._line(f">>> {question}")
+        if self.assume_yes:
+            self._line(">>> (answered yes: --yes)")
+            return True
+        if not self.interactive:
+            raise OperatorAbsent(f"operator prompt needs a terminal: {question!r} (rerun with --yes to confirm prompts)")
+        if self._live is not None:
+            self._live.pause()
+        answer = input(">>> press Enter to continue, or type 'abort': ").strip().lower()
+        return answer not in ("abort", "a", "no", "n", "q")
+
+    def close(self) -> None:
+        """End the live display: the bar stays where it is and what follows prints below it."""
+        if self._live is not None:
+            self._live.stop()
+
+    def _line(self, text: str) -> None:
+        if self._live is not None:
+            self._live.print(text)
+        else:
+            print(text, file=self.out, flush=True)
+
+
+class _LiveBar:
+    """One ``rich`` progress bar for the whole run (completed = estimated rig seconds done)."""
+
+    def __init__(self, out: TextIO) -> None:
+        self.console = Console(file=out)
+        self.bar = Progress(TextColumn("{task.description}"), BarColumn(bar_width=None), WallClockEta(),
+                            console=self.console, transient=False, auto_refresh=True)
+        self.task = None
+        self.total_s = 0.0
+
+    def update(self, p: StepProgress) -> None:
+        remaining = max(float(p.run_eta_s or 0.0), 0.0)
+        if self.task is None:
+            self.total_s = remaining
+            self.task = self.bar.add_task(describe(p), total=max(self.total_s, 1e-9))
+            self.bar.start()
+        self.total_s = max(self.total_s, remaining)
+        self.bar.update(self.task, description=describe(p), total=max(self.total_s, 1e-9),
+                        completed=self.total_s - remaining)
+
+    def print(self, text: str) -> None:
+        self.console.print(text, highlight=False, markup=False)
+
+    def pause(self) -> None:
+        self.bar.stop()
+
+    def stop(self) -> None:
+        if self.task is not None:
+            self.bar.stop()
+
+
+def describe(p: StepProgress) -> str:
+    """Short description of where the run is (fits 60 columns with the bar)."""
+    temp = f" {p.temp_c:.1f}C" if p.temp_c is not None and p.temp_c == p.temp_c else ""
+    noise = f" {p.noise_ug:.0f}ug" if p.noise_ug is not None and p.noise_ug == p.noise_ug else ""
+    return f"[{p.index + 1}/{p.total}] {p.name}: {p.phase}{temp}{noise}"
+
+
+def plain_progress_line(p: StepProgress) -> str:
+    """One line for logs: step, phase, temperature, noise, the step's and the run's remaining time."""
+    eta = f"  ETA {_fmt_s(p.eta_s)}" if p.eta_s is not None else ""
+    noise = f"  noise {p.noise_ug:.0f} ug" if p.noise_ug is not None and p.noise_ug == p.noise_ug else ""
+    temp = f"  {p.temp_c:.2f} C" if p.temp_c is not None and p.temp_c == p.temp_c else ""
+    run_eta = f"  run ETA {_fmt_s(p.run_eta_s)}" if p.run_eta_s is not None else ""
+    return f"[{p.index + 1}/{p.total}] {p.name}: {p.phase}{temp}{noise}{eta}{run_eta}"
+
+
+def _fmt_s(s: float) -> str:
+    s = max(0.0, float(s))
+    if s < 60:
+        return f"{s:.0f}s"
+    if s < 3600:
+        return f"{int(s // 60)}m{int(s % 60):02d}s"
+    return f"{int(s // 3600)}h{int((s % 3600) // 60):02d}m"

@@ -1,0 +1,188 @@
+"""Settle and capture: wait until the table is still, then record a step's samples.
+
+The result is a typed :class:`Capture`. How stillness is judged is chosen by the rig's ``settle``
+(``SETTLERS``): from the accelerometer itself (hardware, simulated rig), or not at all (a replayed
+recording holds only settled samples).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rig.execution.context import RunContext
+from rig.execution.settle import SettleDetector, SettleRule
+
+
+@dataclass
+class Samples:
+    """Samples of one capture: times (rig clock, s), raw counts, temperature (C, NaN: none)."""
+
+    t_s: np.ndarray
+    accel_counts: np.ndarray
+    temp_c: np.ndarray
+    gyro_counts: np.ndarray | None
+
+    @classmethod
+    def empty(cls, with_gyro: bool) -> "Samples":
+        return cls(np.empty(0), np.empty((0, 3), np.int64), np.empty(0),
+                   np.empty((0, 3), np.int64) if with_gyro else None)
+
+    def __len__(self) -> int:
+        return len(self.t_s)
+
+
+@dataclass
+class Capture:
+    """One step's capture: the samples, how long settling took (s; None: it never settled) and
+    the problems that flag the step."""
+
+    samples: Samples
+    settle_s: float | None
+    problems: list[str] = field(default_factory=list)
+
+
+def poll_interval_s(sensor) -> float:
+    """Drain the FIFO well before it can overflow (ADXL345: 32 samples)."""
+    return min(0.05, 8.0 / sensor.sample_rate_hz)
+
+
+def expected_samples(step, rate_hz: float) -> int:
+    """Samples the step's dwell asks for (0: decided while capturing, by ``dwell.sem_g``)."""
+    d = step.dwell
+    if d.samples is not None:
+        return int(d.samples)
+    if d.seconds is not None:
+        return int(round(d.seconds * rate_hz))
+    return 0
+
+
+def nominal_dwell_s(step, rate_hz: float) -> float:
+    """The dwell's expected length, s (the cap for an uncertainty-targeted dwell)."""
+    d = step.dwell
+    if d.seconds is not None:
+        return float(d.seconds)
+    if d.samples is not None:
+        return d.samples / rate_hz
+    return float(d.max_seconds or 600.0)
+
+
+def settle_with_accelerometer(ctx: RunContext, step) -> tuple[Samples, float | None, list[str]]:
+    """Watch the accelerometer until consecutive windows agree (``SettleDetector``); return the
+    samples to keep (none unless ``keep_settle_windows``), the settle time and problems."""
+    sensor, clock = ctx.rig.sensor, ctx.rig.clock
+    s = step.settle
+    rule = SettleRule(window_s=s.window_s, threshold_g=s.threshold_g, mean_tol_sigma=s.mean_tol_sigma,
+                      timeout_s=s.timeout_s, min_s=s.min_s)
+    detector = SettleDetector(rule, sensor.sample_rate_hz, sensor.accel_lsb_per_g)
+    t_start = clock.now()
+    detector.start(t_start)
+    ctx.progress(step, "settle")
+    while True:
+        clock.sleep(poll_interval_s(sensor))
+        block = sensor.read()
+        settled = detector.feed(block.t_s, block.accel_counts, block.temp_c, block.gyro_counts)
+        if settled is not None:
+            break
+        if clock.now() - t_start > rule.timeout_s:
+            # capture anyway from here on; the step is flagged
+            return (Samples.empty(block.gyro_counts is not None), None,
+                    [f"did not settle within {rule.timeout_s:g} s"])
+    ctx.event("settle", step=step.index, settle_s=settled.elapsed_s, noise_g=[float(x) for x in settled.noise_g])
+    if ctx.options.keep_settle_windows:
+        keep = Samples(settled.keep_t_s, settled.keep_accel, settled.keep_temp_c, settled.keep_gyro)
+    else:
+        # the windows that proved the table still hold the tail of the ringing, whose mean biases
+        # the step mean by ~0.1 mg (rig discover named it as a spurious drift): start afresh
+        keep = Samples.empty(settled.keep_gyro is not None)
+    return keep, settled.elapsed_s, []
+
+
+def settle_not_needed(ctx: RunContext, step) -> tuple[Samples, float | None, list[str]]:
+    """A recording holds only settled samples: capture from its first sample."""
+    return Samples.empty(False), 0.0, []
+
+
+#: rig.settle -> how stillness is judged
+SETTLERS = {"accelerometer": settle_with_accelerometer, "none": settle_not_needed}
+
+
+def settle_and_capture(ctx: RunContext, step) -> Capture:
+    """Start the sensor, settle as the rig says, capture the dwell; FIFO overflows flag the step."""
+    sensor = ctx.rig.sensor
+    overflows0 = sensor.stats.overflows
+    sensor.start()
+    keep, settle_s, problems = SETTLERS[ctx.rig.settle](ctx, step)
+    samples = capture(ctx, step, keep)
+    if sensor.stats.overflows > overflows0:
+        problems.append(f"sensor FIFO overflowed {sensor.stats.overflows - overflows0} time(s): samples lost")
+    return Capture(samples, settle_s, problems)
+
+
+def capture(ctx: RunContext, step, keep: Samples) -> Samples:
+    """Read the sensor until the dwell is done (samples, seconds, or a standard-error target)."""
+    sensor, clock = ctx.rig.sensor, ctx.rig.clock
+    rate, lsb, dwell = sensor.sample_rate_hz, sensor.accel_lsb_per_g, step.dwell
+    parts = [keep]
+    n = len(keep)
+    t_begin = clock.now()
+    n_target = expected_samples(step, rate)
+    timeout_s = 2.0 * nominal_dwell_s(step, rate) + 5.0
+    while not (n_target and n >= n_target):
+        if dwell.sem_g is not None:
+            stop_n = sem_stop_index(np.concatenate([p.accel_counts for p in parts]), lsb, dwell.sem_g)
+            if stop_n is not None or (dwell.max_seconds is not None and n >= dwell.max_seconds * rate):
+                n_target = stop_n if stop_n is not None else int(round(dwell.max_seconds * rate))
+                break
+        if clock.now() - t_begin > timeout_s:
+            break
+        clock.sleep(poll_interval_s(sensor))
+        block = sensor.read()
+        if len(block.t_s):
+            parts.append(Samples(block.t_s, block.accel_counts, block.temp_c, block.gyro_counts))
+            n += len(block.t_s)
+            ctx.progress(step, "capture", noise_ug=_noise_ug(parts, lsb),
+                         temp_c=float(block.temp_c[-1]) if len(block.temp_c) else None,
+                         eta_s=(max(n_target - n, 0) / rate) if n_target else None)
+    sensor.stop()
+    return _join(parts, n_target)
+
+
+def _join(parts: list[Samples], n_target: int) -> Samples:
+    gyros = [p.gyro_counts for p in parts if p.gyro_counts is not None]
+    out = Samples(np.concatenate([p.t_s for p in parts]),
+                  np.concatenate([p.accel_counts for p in parts]).astype(np.int64),
+                  np.concatenate([p.temp_c for p in parts]),
+                  np.concatenate(gyros).astype(np.int64) if gyros else None)
+    if n_target:
+        out = Samples(out.t_s[:n_target], out.accel_counts[:n_target], out.temp_c[:n_target],
+                      out.gyro_counts[:n_target] if out.gyro_counts is not None else None)
+    return out
+
+
+def _noise_ug(parts: list[Samples], lsb: float) -> float | None:
+    a = np.concatenate([p.accel_counts for p in parts])
+    if len(a) < 3:
+        return None
+    return float(np.max(a.std(axis=0, ddof=1)) / lsb * 1e6)
+
+
+def sem_stop_index(a: np.ndarray, lsb_per_g: float, sem_g: float, step: int = 10, min_n: int = 20) -> int | None:
+    """Smallest n (a multiple of ``step``, >= ``min_n``) at which every axis' standard error of the
+    mean over the first n samples is at most ``sem_g`` (g); None if not yet.
+
+    Deterministic in the sample sequence, so a replay stops at the same sample.
+    """
+    if len(a) < min_n:
+        return None
+    x = a.astype(float) / lsb_per_g
+    c1, c2 = np.cumsum(x, axis=0), np.cumsum(x * x, axis=0)
+    ns = np.arange(min_n, len(a) + 1, step)
+    if len(ns) == 0:
+        return None
+    s1, s2 = c1[ns - 1], c2[ns - 1]
+    nn = ns[:, None].astype(float)
+    sem = np.sqrt(np.maximum((s2 - s1 * s1 / nn) / (nn - 1), 0.0) / nn)
+    idx = np.flatnonzero(np.all(sem <= sem_g, axis=1))
+    return int(ns[idx[0]]) if len(idx) else None

@@ -1,0 +1,95 @@
+"""What every step executor works with: the rig, the session being recorded, the operator, the
+options and the session clock."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from rig.execution.checks import CheckLimits
+from rig.execution.operator import Operator, StepProgress
+from rig.devices.rig import Rig
+
+
+class RunError(Exception):
+    """A run cannot continue; the message is one line for the technician."""
+
+
+class RunAborted(Exception):
+    """The operator interrupted the run (Ctrl-C or 'abort' at a prompt)."""
+
+
+@dataclass(frozen=True)
+class EngineOptions:
+    """How hard the engine tries and how long it waits.
+
+    ``max_attempts`` captures of one step before it is flagged; ``keep_settle_windows`` counts the
+    settle detector's still windows as captured data (off: their ringing tail biases step means);
+    tolerances in deg, times in s.
+    """
+
+    max_attempts: int = 3
+    keep_settle_windows: bool = False
+    position_tolerance_deg: float = 0.02
+    move_timeout_s: float = 120.0
+    limits: CheckLimits = field(default_factory=CheckLimits)
+    temp_window_s: float = 1.0
+
+
+@dataclass(frozen=True)
+class StepOutcome:
+    """How one step ended: ``status`` is complete or flagged; ``problems`` say why it was flagged."""
+
+    index: int
+    status: str
+    n_samples: int
+    problems: list[str] = field(default_factory=list)
+
+
+@dataclass
+class RunContext:
+    """The state a run shares between its steps.
+
+    ``recorder`` is the session writer (``event``, ``append_samples``, ``complete_step``);
+    ``t0_s`` is the rig-clock time of session time 0 (earlier than now on a resume, so session
+    time continues); ``estimates_s`` the expected duration of every step (for the run's ETA).
+    """
+
+    procedure: object
+    rig: Rig
+    recorder: object
+    operator: Operator
+    options: EngineOptions
+    t0_s: float
+    total_steps: int
+    estimates_s: list[float]
+    magnetometer_samples: int = 0
+    io_retries_seen: int = 0
+    outcomes: list[StepOutcome] = field(default_factory=list)
+    wall0_s: float = field(default_factory=time.monotonic)
+
+    def session_time(self) -> float:
+        """Seconds since the session started (continues across resumes)."""
+        return self.rig.clock.now() - self.t0_s
+
+    def event(self, kind: str, **fields) -> None:
+        """Record an event stamped with the session time."""
+        self.recorder.event(kind, t_s=self.session_time(), **fields)
+
+    def warn(self, step, message: str, **fields) -> None:
+        """A warning in the session's events and on the operator's screen."""
+        self.recorder.event("warning", t_s=self.session_time(), step=step.index, message=message, **fields)
+        self.operator.warn(message)
+
+    def progress(self, step, phase: str, **fields) -> None:
+        eta_s = fields.get("eta_s")
+        current = self.estimates_s[step.index] if eta_s is None else eta_s
+        run_eta = sum(self.estimates_s[step.index + 1:]) + current
+        self.operator.progress(StepProgress(index=step.index, total=self.total_steps, name=step.name, phase=phase,
+                                            run_eta_s=run_eta, **fields))
+
+    def finish(self, step, stats: dict, status: str, n_samples: int, problems: list[str]) -> None:
+        """Commit a captured step (durable on return) and note its outcome."""
+        self.recorder.complete_step(step.index, stats, status=status)
+        self.event("capture", step=step.index, n_samples=n_samples, status=status)
+        self.outcomes.append(StepOutcome(step.index, status, n_samples, problems))

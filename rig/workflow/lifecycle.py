@@ -1,0 +1,150 @@
+"""The one run-into-session lifecycle that ``rig run`` and ``rig replay`` share.
+
+    open a rig -> start (or resume) a session -> engine: preflight, prepare, steps -> close the rig
+    -> solve -> mark the session complete
+
+Whatever fails on the way, the motors are stopped (by the engine), the session is marked aborted
+and what is on disk stays valid and resumable.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+
+from calib.errors import CalibError
+from rig import __version__
+from rig.analysis.solve import solve_session
+from rig.devices.rig import Rig
+from rig.execution.context import EngineOptions, RunError, StepOutcome
+from rig.execution.engine import Engine
+from rig.execution.executors.static import MAG_COUNTS_PER_UT
+from rig.execution.operator import Operator
+from rig.session.store import BASE_COLUMNS, SessionWriter
+
+
+@dataclass
+class RunResult:
+    """Where a run's session is and how it ended (``calibration`` is None without a solve)."""
+
+    session_dir: Path
+    status: str  # complete | aborted
+    outcomes: list[StepOutcome]
+    calibration_path: Path | None
+    calibration: object | None
+    warnings: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class NewSession:
+    """A session to create: where, under which id, with which extra manifest fields."""
+
+    sessions_root: Path
+    session_id: str
+    procedure_text: str
+    procedure_file: str | None
+    extra: dict = field(default_factory=dict)
+
+
+def session_columns(procedure, rig: Rig) -> tuple[str, ...]:
+    """CSV columns: the base ones, the gyroscope's when the sensor has one, the magnetometer's when
+    the procedure reads it, and the stage angles."""
+    cols = BASE_COLUMNS
+    if getattr(rig.sensor, "has_gyro", False):
+        cols += ("wx", "wy", "wz")
+    if procedure.sensor.magnetometer:
+        cols += ("mx", "my", "mz")
+    return cols + ("a1_deg", "a2_deg", "a3_deg")
+
+
+def configure_devices(procedure, rig: Rig) -> dict | None:
+    """Configure the sensor (and the magnetometer when the procedure reads it); return the
+    magnetometer's description for the manifest (None when not read)."""
+    rig.sensor.configure(procedure.sensor_settings())
+    if not procedure.sensor.magnetometer:
+        return None
+    if rig.magnetometer is None:
+        raise RunError(f"the procedure reads the magnetometer, but the {rig.sensor.model} on this rig has none")
+    rig.magnetometer.configure()
+    return {"model": "AK8975", "address": int(rig.magnetometer.address),
+            "asa_factor": [float(x) for x in rig.magnetometer.asa_factor], "mag_lsb_per_ut": MAG_COUNTS_PER_UT}
+
+
+def start_session(procedure, rig: Rig, new: NewSession) -> SessionWriter:
+    """Configure the devices, write the manifest (rig identity, planned steps) and the attachments."""
+    magnetometer = configure_devices(procedure, rig)
+    rig_info = rig.describe()
+    if magnetometer is not None:
+        rig_info["sensor"]["magnetometer"] = magnetometer
+    manifest = {
+        "id": new.session_id,
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "status": "running",
+        **new.extra,
+        "procedure": {"name": procedure.name, "file": new.procedure_file,
+                      "sha256": hashlib.sha256(new.procedure_text.encode()).hexdigest(), "text": new.procedure_text},
+        "software": {"name": "rig-calibration", "version": __version__},
+        "steps": [step.to_manifest() for step in procedure.expanded_steps()],
+        "rig": rig_info,
+    }
+    writer = SessionWriter.create(new.sessions_root, new.session_id, manifest,
+                                  columns=session_columns(procedure, rig))
+    for name, text in rig.attachments.items():
+        (writer.session_dir / name).write_text(text)
+    return writer
+
+
+def execute(procedure, rig: Rig, writer: SessionWriter, operator: Operator, *, first_step: int = 0,
+            resuming: bool = False, time_offset_s: float = 0.0,
+            options: EngineOptions = EngineOptions()) -> list[StepOutcome]:
+    """Run the engine into ``writer``; on any failure mark the session aborted and re-raise."""
+    _record_stage_events(rig, writer)
+    engine = Engine(procedure, rig, writer, operator, first_step=first_step, options=options,
+                    time_offset_s=time_offset_s,
+                    magnetometer_samples=procedure.sensor.mag_samples if procedure.sensor.magnetometer else 0)
+    try:
+        engine.prepare(resuming=resuming)
+        return engine.run()
+    except BaseException as exc:
+        try:  # best effort: on a full disk even this may fail; what is on disk stays valid
+            writer.event("abort", t_s=engine.session_time(), reason=_one_line(exc))
+            writer.set_status("aborted")
+        except OSError:
+            pass
+        raise
+
+
+def finish(procedure, writer: SessionWriter, outcomes: list[StepOutcome], *, solve: bool = True) -> RunResult:
+    """Solve the session when the procedure asks for it, then mark it complete."""
+    cal = cal_path = None
+    if solve and procedure.solve is not None:
+        flagged = [o.index + 1 for o in outcomes if o.status == "flagged"]
+        try:
+            cal, cal_path = solve_session(writer.session_dir)
+        except CalibError as exc:
+            writer.event("error", message=f"cannot solve: {exc}")
+            writer.set_status("complete")
+            if flagged:
+                raise RunError(f"cannot solve: {exc} (steps {', '.join(map(str, flagged))} were flagged "
+                               f"for bad data; session {writer.session_dir})") from None
+            raise
+        writer.event("solve", path=str(cal_path))
+    writer.set_status("complete")
+    return RunResult(writer.session_dir, "complete", outcomes, cal_path, cal)
+
+
+def _record_stage_events(rig: Rig, writer: SessionWriter) -> None:
+    """Recovered turntable faults (retries, resynchronisation) become session events."""
+    def on_event(kind: str, detail: dict) -> None:
+        writer.event("warning" if kind != "info" else "info", source="turntable", what=kind, **detail)
+
+    for axis in rig.axes.values():
+        if hasattr(axis.stage, "on_event"):
+            axis.stage.on_event = on_event
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0] if text else ''}"

@@ -1,0 +1,37 @@
+"""``rig replay``: re-run a recorded session's procedure on the replay rig into a new session."""
+
+from __future__ import annotations
+
+from datetime import datetime, timezone
+from pathlib import Path
+
+import rig.simulation  # noqa: F401 - provides the "replay" rig kind
+from rig.config.procedure import load_procedure_text
+from rig.devices import open_rig
+from rig.errors import RigInputError
+from rig.execution.operator import Operator, SilentOperator
+from rig.session.store import load_session
+from rig.workflow.lifecycle import NewSession, RunResult, execute, finish, start_session
+
+
+def replay_session(session_dir, *, out_dir=None, ui: Operator | None = None) -> RunResult:
+    """Replay a session into a new session directory (beside the original by default) and solve it."""
+    original = load_session(session_dir)
+    recorded = original.manifest["procedure"]
+    if not recorded.get("text") or original.manifest["rig"].get("turntable") is None:
+        raise RigInputError(str(session_dir), None, "procedure", "the session has no recorded procedure to replay "
+                            "(an imported recording: solve or discover it instead)")
+    procedure = load_procedure_text(recorded["text"], recorded.get("file") or "<session>")
+    rig = open_rig("replay", original)
+    try:
+        stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+        new = NewSession(Path(out_dir) if out_dir is not None else Path(session_dir).resolve().parent,
+                         f"{original.id}-replay-{stamp}", recorded["text"], recorded.get("file"),
+                         extra={"replay_of": original.id})
+        writer = start_session(procedure, rig, new)
+        # recorded sample times are session times: the session clock starts at 0 now
+        outcomes = execute(procedure, rig, writer, ui or SilentOperator(answer=True),
+                           time_offset_s=rig.clock.now())
+    finally:
+        rig.close()
+    return finish(procedure, writer, outcomes)

@@ -1,0 +1,85 @@
+"""``rig run``: open the rig, create or resume a session, run the procedure, solve."""
+
+from __future__ import annotations
+
+import secrets
+from datetime import datetime, timezone
+from pathlib import Path
+
+import rig.simulation  # noqa: F401 - provides the "sim" and "replay" rig kinds
+from rig.config.procedure import load_procedure, load_procedure_text
+from rig.config.rigfile import load_rig_file
+from rig.devices import open_rig_file
+from rig.execution.context import EngineOptions
+from rig.execution.operator import Operator, SilentOperator
+from rig.session.store import SessionWriter
+from rig.workflow.lifecycle import NewSession, RunResult, configure_devices, execute, finish, start_session
+
+DEFAULT_RIG = Path(__file__).resolve().parents[2] / "rigs" / "sim.yaml"
+
+
+def resolve_rig(spec: str | None) -> Path:
+    """``sim`` (or nothing) means the embedded simulated rig; otherwise a rig-file path."""
+    return DEFAULT_RIG if spec in (None, "sim") else Path(spec)
+
+
+def new_session_id(procedure_name: str, seed: int | None) -> str:
+    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+    tail = f"s{seed}" if seed is not None else secrets.token_hex(2)
+    return f"{procedure_name}-{stamp}-{tail}"
+
+
+def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, out_dir="sessions",
+                  seed: int | None = None, resume_dir=None, ui: Operator | None = None,
+                  time_scale: float | None = None, solve: bool = True,
+                  options: EngineOptions = EngineOptions()) -> RunResult:
+    """Run (or resume) a procedure; return where the session is and how it ended.
+
+    Raises the drivers' errors (TurntableError, SensorError), RigInputError, RunError and
+    RunAborted; motors are stopped and the session marked aborted before any of them leaves.
+    """
+    operator = ui or SilentOperator()
+    if resume_dir is not None:
+        return _resume(resume_dir, rig_spec=rig_spec, seed=seed, operator=operator, time_scale=time_scale,
+                       solve=solve, options=options)
+    procedure = load_procedure(procedure_path)
+    rig_file = load_rig_file(resolve_rig(rig_spec))
+    seed = 0 if seed is None else seed
+    rig = open_rig_file(rig_file, seed=seed, time_scale=time_scale)
+    try:
+        new = NewSession(Path(out_dir), new_session_id(procedure.name, seed), Path(procedure_path).read_text(),
+                         str(procedure_path), extra={"seed": rig.seed})
+        writer = start_session(procedure, rig, new)
+        operator.info(f"session {writer.session_dir}")
+        outcomes = execute(procedure, rig, writer, operator, options=options)
+    finally:
+        rig.close()
+    return finish(procedure, writer, outcomes, solve=solve)
+
+
+def _resume(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, solve: bool,
+            options: EngineOptions) -> RunResult:
+    writer, first_step = SessionWriter.resume(resume_dir)
+    manifest = writer.manifest
+    procedure = load_procedure_text(manifest["procedure"]["text"], manifest["procedure"].get("file") or "<session>")
+    rig_file = load_rig_file(resolve_rig(manifest.get("rig", {}).get("rig_file") if rig_spec is None else rig_spec))
+    seed = manifest.get("seed", 0) if seed is None else seed
+    time_offset = _resume_time_offset(manifest)
+    writer.event("resume", t_s=time_offset, first_step=first_step)
+    operator.info(f"resuming {writer.session_dir} at step {first_step + 1}")
+    rig = open_rig_file(rig_file, seed=seed, time_scale=time_scale)
+    try:
+        configure_devices(procedure, rig)
+        outcomes = execute(procedure, rig, writer, operator, first_step=first_step, resuming=True,
+                           time_offset_s=time_offset, options=options)
+    finally:
+        rig.close()
+    return finish(procedure, writer, outcomes, solve=solve)
+
+
+def _resume_time_offset(manifest: dict) -> float:
+    """Session time to continue from: 1 s after the last recorded step ended."""
+    ends = [s.get("stats", {}).get("t_end_s") for s in manifest.get("steps", [])
+            if s.get("status") in ("complete", "flagged")]
+    ends = [e for e in ends if e is not None]
+    return (max(ends) + 1.0) if ends else 0.0
