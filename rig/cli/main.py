@@ -23,6 +23,7 @@ from rig.cli.common import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
 from rig.errors import RigInputError, SessionFormatError
 from rig.execution.context import RunAborted, RunError
 from rig.execution.operator import OperatorAbsent
+from rig.session.lock import SessionLocked
 
 
 class _Parser(argparse.ArgumentParser):
@@ -72,7 +73,7 @@ EXIT_CODES: list[tuple[tuple[type, ...], int, object]] = [
     ((IsADirectoryError,), EXIT_BAD_INPUT, lambda exc, first: f"{exc.filename}: is a directory, expected a file"),
     ((yaml.YAMLError,), EXIT_BAD_INPUT, lambda exc, first: f"not valid YAML: {first}"),
     ((RunAborted,), EXIT_FAILURE, lambda exc, first: f"aborted: {first}"),
-    ((TurntableError, SensorError, RunError), EXIT_FAILURE, None),
+    ((TurntableError, SensorError, RunError, SessionLocked), EXIT_FAILURE, None),
     ((OSError,), EXIT_FAILURE,
      lambda exc, first: f"{exc.strerror or first}" + (f": {exc.filename}" if exc.filename else "")),
 ]

@@ -82,6 +82,7 @@ class Rig:
     attachments: dict[str, str] = field(default_factory=dict)
     step_listeners: list[Callable[[int], None]] = field(default_factory=list)
     closers: list[Callable[[], None]] = field(default_factory=list)
+    closed: bool = False
 
     @property
     def stages(self) -> dict[str, Any]:
@@ -109,7 +110,10 @@ class Rig:
         return out
 
     def close(self) -> None:
-        """Close every driver and stop what the opener started; never raises."""
+        """Close every driver and stop what the opener started; never raises; idempotent."""
+        if self.closed:
+            return
+        self.closed = True
         for axis in self.axes.values():
             _quietly(axis.stage.close)
         for closer in reversed(self.closers):

@@ -11,7 +11,7 @@ from __future__ import annotations
 from rig.devices.rig import Rig
 from rig.execution.context import EngineOptions, RunAborted, RunContext, StepOutcome
 from rig.execution.estimate import step_durations_s
-from rig.execution.executors import EXECUTORS
+from rig.execution.executors import EXECUTORS, temperature
 from rig.execution.motion import check_reachable, stop_motors
 from rig.execution.operator import Operator, SilentOperator
 from rig.planning.kinematics import AXES
@@ -89,6 +89,14 @@ class Engine:
             for name in AXES:
                 self.ctx.event("zero", axis=name)
                 rig.axes[name].stage.command_zero()
+        if resuming:
+            self._restore_temperature()
+
+    def _restore_temperature(self) -> None:
+        """A resume continues at the temperature of the last temperature step before it."""
+        before = [s for s in self.steps[:self.first_step] if s.kind == "thermal"]
+        if before and self.first_step < len(self.steps) and self.steps[self.first_step].kind != "thermal":
+            temperature.restore(self.ctx, before[-1])
 
     def run(self) -> list[StepOutcome]:
         """Execute the steps from ``first_step`` on; stop all motors on any error."""

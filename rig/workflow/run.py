@@ -12,6 +12,7 @@ from rig.config.rigfile import load_rig_file
 from rig.devices import open_rig_file
 from rig.execution.context import EngineOptions
 from rig.execution.operator import Operator, SilentOperator
+from rig.session.lock import SessionLock
 from rig.session.store import SessionWriter
 from rig.workflow.lifecycle import NewSession, RunResult, configure_devices, execute, finish, start_session
 
@@ -24,8 +25,9 @@ def resolve_rig(spec: str | None) -> Path:
 
 
 def new_session_id(procedure_name: str, seed: int | None) -> str:
+    """``<procedure>-<UTC stamp>-s<seed>-<4 hex>``: unique even for runs started in the same second."""
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
-    tail = f"s{seed}" if seed is not None else secrets.token_hex(2)
+    tail = f"s{seed}-{secrets.token_hex(2)}" if seed is not None else secrets.token_hex(3)
     return f"{procedure_name}-{stamp}-{tail}"
 
 
@@ -46,19 +48,36 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     rig_file = load_rig_file(resolve_rig(rig_spec))
     seed = 0 if seed is None else seed
     rig = open_rig_file(rig_file, seed=seed, time_scale=time_scale)
+    lock = SessionLock(None)
     try:
         new = NewSession(Path(out_dir), new_session_id(procedure.name, seed), Path(procedure_path).read_text(),
                          str(procedure_path), extra={"seed": rig.seed})
         writer = start_session(procedure, rig, new)
+        lock = SessionLock(writer.session_dir).acquire()
         operator.info(f"session {writer.session_dir}")
-        outcomes = execute(procedure, rig, writer, operator, options=options)
+        try:
+            outcomes = execute(procedure, rig, writer, operator, options=options)
+        finally:
+            rig.close()
+        return finish(procedure, writer, outcomes, solve=solve)
     finally:
         rig.close()
-    return finish(procedure, writer, outcomes, solve=solve)
+        lock.release()
 
 
 def _resume(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, solve: bool,
             options: EngineOptions) -> RunResult:
+    """Continue an interrupted session: lock it first (a second resume touches nothing)."""
+    with SessionLock(resume_dir) as lock:
+        if lock.stale:
+            operator.warn(f"took over the lock of pid {lock.stale.get('pid', '?')} on {lock.stale.get('host', '?')}, "
+                          "which is no longer running")
+        return _resume_locked(resume_dir, rig_spec=rig_spec, seed=seed, operator=operator, time_scale=time_scale,
+                              solve=solve, options=options)
+
+
+def _resume_locked(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, solve: bool,
+                   options: EngineOptions) -> RunResult:
     writer, first_step = SessionWriter.resume(resume_dir)
     manifest = writer.manifest
     procedure = load_procedure_text(manifest["procedure"]["text"], manifest["procedure"].get("file") or "<session>")

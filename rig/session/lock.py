@@ -1,0 +1,80 @@
+"""A session being recorded is locked: one writer at a time, across processes.
+
+The lock is an OS file lock (``flock``) on ``SESSION/session.lock``, held for the whole run, so the
+kernel releases it when the holder dies however it dies (kill -9 included). The file also names
+the holder (pid, host, command, since when): a second run is refused with those details, and a
+lock left by a dead process is taken over, saying so.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import socket
+import sys
+from datetime import datetime, timezone
+from pathlib import Path
+
+LOCK_NAME = "session.lock"
+
+
+class SessionLocked(Exception):
+    """Another process is recording this session (the message names it; exit 1)."""
+
+
+class SessionLock:
+    """Hold the lock of ``session_dir`` (a context manager); :attr:`stale` describes a dead holder
+    whose lock was taken over (None when the lock was free)."""
+
+    def __init__(self, session_dir) -> None:
+        self.path = Path(session_dir) / LOCK_NAME if session_dir is not None else None
+        self._fh = None
+        self.stale: dict | None = None
+
+    def acquire(self) -> "SessionLock":
+        fh = open(self.path, "a+")
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = _holder(fh)
+            fh.close()
+            raise SessionLocked(f"{self.path.parent}: being recorded by pid {holder.get('pid', '?')} on "
+                                f"{holder.get('host', '?')} since {holder.get('since', '?')} "
+                                f"({holder.get('command', '?')}); wait for it or stop it first") from None
+        self.stale = _holder(fh) or None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(json.dumps({"pid": os.getpid(), "host": socket.gethostname(), "command": " ".join(sys.argv[:4]),
+                             "since": datetime.now(timezone.utc).isoformat(timespec="seconds")}))
+        fh.flush()
+        os.fsync(fh.fileno())
+        self._fh = fh
+        return self
+
+    def release(self) -> None:
+        if self._fh is None:
+            return
+        try:
+            self._fh.seek(0)
+            self._fh.truncate()
+            self._fh.flush()
+        except OSError:
+            pass  # a full disk must not keep the lock: closing releases it
+        fcntl.flock(self._fh.fileno(), fcntl.LOCK_UN)
+        self._fh.close()
+        self._fh = None
+
+    def __enter__(self) -> "SessionLock":
+        return self.acquire()
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+def _holder(fh) -> dict:
+    fh.seek(0)
+    try:
+        return json.loads(fh.read() or "{}")
+    except ValueError:
+        return {}

@@ -1,0 +1,44 @@
+"""A session being recorded is locked: a second writer is refused, a dead holder's lock is taken over."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from rig.session.lock import SessionLock, SessionLocked
+
+
+def test_a_second_holder_is_refused_with_the_holder_named(tmp_path):
+    with SessionLock(tmp_path):
+        code = ("import sys; from rig.session.lock import SessionLock, SessionLocked\n"
+                f"try:\n    SessionLock({str(tmp_path)!r}).acquire()\nexcept SessionLocked as e:\n"
+                "    print(e); sys.exit(3)\n")
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 3
+    assert f"pid {os.getpid()}" in proc.stdout and "being recorded" in proc.stdout
+
+
+def test_the_lock_of_a_killed_process_is_taken_over_and_reported(tmp_path):
+    code = (f"from rig.session.lock import SessionLock; import os, signal; SessionLock({str(tmp_path)!r}).acquire(); "
+            "os.kill(os.getpid(), signal.SIGKILL)")
+    proc = subprocess.run([sys.executable, "-c", code], timeout=60)
+    assert proc.returncode == -9
+    dead_pid = json.loads((tmp_path / "session.lock").read_text())["pid"]
+    lock = SessionLock(tmp_path).acquire()
+    try:
+        assert lock.stale["pid"] == dead_pid
+    finally:
+        lock.release()
+    assert SessionLock(tmp_path).acquire().stale is None  # released cleanly: nothing stale
+
+
+def test_released_lock_can_be_taken_again_in_the_same_process(tmp_path):
+    SessionLock(tmp_path).acquire().release()
+    with SessionLock(tmp_path) as lock:
+        with pytest.raises(SessionLocked):
+            SessionLock(tmp_path).acquire()
+        assert lock.stale is None

@@ -1,0 +1,67 @@
+"""The code a lab runs on real stages is the code CI runs: a rig file of kind ``hardware``.
+
+The simulated world is started in this process (three emulated controllers on pseudo-terminals,
+a simulated MPU-9150 on an in-process I2C bus that the world publishes as ``bus: simbus``). The rig
+file names those pseudo-terminals as its controllers' ports, exactly as a lab names
+``/dev/ximc/...``, and ``rig run --rig`` opens it through the hardware opener (real-time clock,
+pyserial stages, the bus by name). Nothing in the run knows it is simulated.
+"""
+
+from __future__ import annotations
+
+import yaml
+
+from calib import calfile
+from rig.cli import main
+from rig.simulation.simrig import SimSettings, SimulatedRig
+from rig.simulation.simulated import publish_bus, withdraw_bus
+
+PROCEDURE = """format: rig-procedure/1
+name: six_position_quick
+description: The six faces, 1 s each (real time).
+sensor: {accel_range_g: 4, sample_rate_hz: 100}
+dwell: {seconds: 1}
+settle: {window_s: 0.3, threshold_g: 0.01, timeout_s: 10}
+steps:
+  - pose: "+Z up"
+  - pose: "+X up"
+  - pose: "-Z up"
+  - pose: "-X up"
+  - pose: "+Y up"
+  - pose: "-Y up"
+solve: {model: triangular, method: pinv, thermal: off}
+"""
+
+
+def test_a_hardware_rig_file_on_emulator_ports_and_a_named_bus_runs_end_to_end(tmp_path, capsys):
+    sim = SimulatedRig(SimSettings(time_scale=1.0), seed=11)
+    ports = sim.start()
+    publish_bus(sim, "simbus")
+    try:
+        axis = {"sign": 1, "speed_deg_s": 48, "accel_deg_s2": 200, "soft_limits_deg": [-400, 400],
+                "cable_wrap_deg": 400}
+        rig_file = {"format": "rig-file/1", "name": "lab-table-on-emulators", "kind": "hardware", "home": "zero",
+                    "turntable": {"axes": {n: {"port": ports[n], "serial": sim.emulators[i].serial_number, **axis}
+                                           for i, n in enumerate(("a1", "a2", "a3"))}},
+                    "sensor": {"model": "MPU-9150", "bus": "simbus", "address": 0x68}}
+        (tmp_path / "lab.yaml").write_text(yaml.safe_dump(rig_file, sort_keys=False))
+        (tmp_path / "quick.yaml").write_text(PROCEDURE)
+        code = main(["run", str(tmp_path / "quick.yaml"), "--rig", str(tmp_path / "lab.yaml"),
+                     "--out", str(tmp_path / "sessions"), "--quiet"])
+        assert code == 0, capsys.readouterr().err
+    finally:
+        withdraw_bus("simbus")
+        sim.stop()
+    (session,) = (tmp_path / "sessions").iterdir()
+    manifest = yaml.safe_load((session / "session.yaml").read_text())
+    assert manifest["status"] == "complete"
+    assert manifest["rig"]["turntable"]["kind"] == "standa-8smc"
+    assert [manifest["rig"]["turntable"]["axes"][n]["port"] for n in ("a1", "a2", "a3")] == \
+        [ports[n] for n in ("a1", "a2", "a3")]
+    assert not (session / "sim_truth.yaml").exists()  # a hardware rig has no hidden truth to attach
+    cal = calfile.read(session / "calibration.yaml").accelerometer
+    truth = sim.truth()["accelerometer"]
+    lsb = cal.lsb_per_g
+    for j in range(3):  # 1 s per pose: the bias is within a few sigma of the simulator's
+        true_bias = truth["bias_g"][j] * lsb
+        assert abs(cal.bias_counts[j] - true_bias) < 6 * cal.sigma["bias_counts"][j] + 2.0
