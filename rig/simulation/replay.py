@@ -9,8 +9,6 @@ ones a live run uses (``rig.workflow.replay``), so a replay gives the identical 
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
 from drivers.clock import VirtualClock
@@ -23,8 +21,8 @@ from rig.devices.rig import Rig
 from rig.planning.kinematics import AXES
 
 #: the replay table moves fast and has no limits: the recording already proved the poses legal
-REPLAY_AXIS = AxisConfig(port=None, speed_deg_s=48.0, accel_deg_s2=200.0, soft_limits_deg=(-1e6, 1e6),
-                         cable_wrap_deg=1e6)
+REPLAY_AXIS = AxisConfig(port=None, speed_deg_s=48.0, accel_deg_s2=200.0, soft_limits_deg=(-36000.0, 36000.0),
+                         cable_wrap_deg=36000.0)
 
 
 class ReplaySensor:
@@ -161,7 +159,7 @@ def open_replay_rig(session, *, seed: int | None = None, time_scale: float | Non
 
 
 def _replay_axis(port: str, serial: int) -> AxisConfig:
-    return dataclasses.replace(REPLAY_AXIS, port=port, serial=serial)
+    return REPLAY_AXIS.with_port(port, serial)
 
 
 register_rig_kind("replay", open_replay_rig)

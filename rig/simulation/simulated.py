@@ -3,10 +3,10 @@ in-process I2C bus, opened through the same stage and sensor drivers as hardware
 
 from __future__ import annotations
 
-import dataclasses
-
 import yaml
 
+from drivers.ximc.sim.protocol_ximcsim import attach, detach
+from rig.config.rigfile import AxisConfig
 from rig.devices.buses import register_bus, unregister_bus
 from rig.devices.hardware import attach_sensors, open_stages
 from rig.devices.registry import register_rig_kind
@@ -35,8 +35,7 @@ def open_simulated_rig(rig_file, *, seed: int | None = None, time_scale: float |
     seed = 0 if seed is None else int(seed)
     sim = start_simulated_rig(rig_file, seed=seed, time_scale=time_scale)
     try:
-        axes_config = {n: dataclasses.replace(rig_file.axes[n], port=sim.ports[n],
-                                              serial=sim.emulators[i].serial_number)
+        axes_config = {n: rig_file.axes[n].with_port(sim.ports[n], sim.emulators[i].serial_number)
                        for i, n in enumerate(AXES)}
         axes = open_stages(axes_config, sim.clock)
     except Exception:
@@ -68,3 +67,18 @@ def withdraw_bus(name: str = "sim") -> None:
 
 
 register_rig_kind("sim", open_simulated_rig)
+
+
+def open_in_process_rig(sim: SimulatedRig, name: str = "mem") -> Rig:
+    """The simulated world of ``sim`` (not started: no pseudo-terminals) as a :class:`Rig` whose stages
+    talk to the emulated controllers in memory (``ximcsim://`` URLs) through the real ``Stage``
+    driver: the engine's unit tests run through hardware code in milliseconds."""
+    axes_config = {}
+    for i, n in enumerate(AXES):
+        url = attach(f"{name}-{n}", sim.emulators[i].controller)
+        axes_config[n] = AxisConfig(port=url, serial=sim.emulators[i].serial_number)
+    rig = Rig(kind="sim", clock=sim.clock, axes=open_stages(axes_config, sim.clock), sensor=None,
+              turntable="sim:8smc5-controller-in-memory", chamber=sim.chamber, seed=sim.seed)
+    rig.closers.extend(lambda n=n: detach(f"{name}-{n}") for n in AXES)
+    attach_sensors(rig, sim.sensor_model, sim.bus, sim.sensor_address)
+    return rig
