@@ -12,6 +12,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from drivers.clock import VirtualClock  # noqa: E402
 from drivers.sensors import SensorSettings, open_sensor  # noqa: E402
+from drivers.sensors.chips import CHIPS  # noqa: E402
 from drivers.sensors.sim.adxl345 import Adxl345Model  # noqa: E402
 from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
 from drivers.sensors.sim.bus import SimulatedI2CBus  # noqa: E402
@@ -26,7 +27,7 @@ def run(model: str, rate_hz: float, seconds: float = 60.0, poll_s: float = 0.02)
     if model == "MPU-9150":
         Mpu9150Model(StaticPhysics(), errors, clock=clock, seed=1).attach(bus)
     else:
-        bus.add_device(0x53, Adxl345Model(StaticPhysics(), errors, clock=clock, seed=1))
+        bus.add_device(CHIPS[model].default_address, Adxl345Model(StaticPhysics(), errors, clock=clock, seed=1))
     s = open_sensor(model, bus, clock=clock)
     s.configure(SensorSettings(accel_range_g=4, sample_rate_hz=rate_hz))
     s.start()

@@ -1,4 +1,5 @@
-"""Command round trip over the pseudo-terminal: our Stage driver <-> the emulated 8SMC5 (real time)."""
+"""Command round trip over the pseudo-terminal: our Stage driver <-> the emulated 8SMC5 (real time),
+and, for comparison, the same requests through the sans-I/O controller in memory (no pty, no thread)."""
 
 from __future__ import annotations
 
@@ -11,8 +12,21 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from drivers.ximc import protocol as P  # noqa: E402
+from drivers.ximc.sim.controller import Controller  # noqa: E402
 from drivers.ximc.sim.emulator import ControllerEmulator  # noqa: E402
 from drivers.ximc.stage import Stage  # noqa: E402
+
+
+def in_memory(n: int = 20000) -> None:
+    """Encode, controller ``receive``, decode: the protocol and emulation cost alone."""
+    ctrl = Controller(1)
+    for cmd, obj in ((b"gets", None), (b"gpos", None), (b"move", P.Move(0, 0))):
+        frame = P.encode_request(cmd, obj)
+        t0 = time.perf_counter()
+        for _ in range(n):
+            P.decode_answer(cmd, ctrl.receive(frame))
+        dt = (time.perf_counter() - t0) / n * 1e3
+        print(f"in memory {cmd.decode()} (encode, receive, decode)  n={n}  mean {dt:.4f} ms")
 
 
 def main(n: int = 2000) -> None:
@@ -37,3 +51,4 @@ def main(n: int = 2000) -> None:
 
 if __name__ == "__main__":
     main()
+    in_memory()

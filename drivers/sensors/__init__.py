@@ -1,19 +1,13 @@
-"""I2C sensor drivers (MPU-9150, ADXL345) and their register-level simulators."""
+"""I2C sensor drivers (MPU-9150, ADXL345, AK8975); their simulators live in ``drivers.sensors.sim``.
+
+Layout: ``base`` (the ``AccelSensor`` interface, errors, sample blocks), ``regs/`` (register maps
+and scales, shared with the simulators), one driver module per chip, ``chips`` (the registry:
+``CHIPS``, ``SENSOR_MODELS``, ``open_sensor``).
+"""
 
 from drivers.sensors.base import (AccelSensor, CaptureStats, SampleBlock, SensorError, SensorIdentity,
                                   SensorSettings)
+from drivers.sensors.chips import CHIPS, SENSOR_MODELS, ChipSpec, chip_spec, open_sensor
 
-
-def open_sensor(model: str, bus, address: int | None = None, clock=None):
-    """A driver for ``model`` ("MPU-9150" or "ADXL345") on ``bus`` (smbus2.SMBus or SimulatedI2CBus)."""
-    if model == "MPU-9150":
-        from drivers.sensors.mpu9150 import Mpu9150
-        return Mpu9150(bus, address if address is not None else 0x68, clock=clock)
-    if model == "ADXL345":
-        from drivers.sensors.adxl345 import Adxl345
-        return Adxl345(bus, address if address is not None else 0x53, clock=clock)
-    raise SensorError(f"unknown sensor model {model!r} (known: MPU-9150, ADXL345)")
-
-
-__all__ = ["AccelSensor", "CaptureStats", "SampleBlock", "SensorError", "SensorIdentity", "SensorSettings",
-           "open_sensor"]
+__all__ = ["AccelSensor", "CaptureStats", "CHIPS", "ChipSpec", "SampleBlock", "SENSOR_MODELS", "SensorError",
+           "SensorIdentity", "SensorSettings", "chip_spec", "open_sensor"]

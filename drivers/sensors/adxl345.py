@@ -5,20 +5,31 @@ from __future__ import annotations
 import numpy as np
 
 from drivers.clock import Clock, MonotonicClock
-from drivers.sensors.sim.adxl345 import BW_RATE, DATA_FORMAT, DATAX0, DEVID, FIFO_CTL, FIFO_STATUS, INT_SOURCE, POWER_CTL
-from drivers.sensors.base import BusRetry, check_identity, CaptureStats, SampleBlock, SensorError, SensorIdentity, SensorSettings
-
-RANGE_BITS = {2: 0, 4: 1, 8: 2, 16: 3}
-RATE_CODES = {3200 / 2 ** (15 - c): c for c in range(6, 16)}  # 6.25 .. 3200 Hz
+from drivers.sensors.base import (BusRetry, CaptureStats, SampleBlock, SensorError, SensorIdentity, SensorSettings,
+                                  check_identity)
+from drivers.sensors.regs.adxl345 import (BW_RATE, DATA_FORMAT, DATAX0, DEFAULT_ADDRESS, DEVID, DEVID_VALUE, FIFO_CTL,
+                                          FIFO_DEPTH, FIFO_STATUS, FULL_RES_LSB_PER_G, INT_SOURCE, POWER_CTL,
+                                          RANGE_BITS, RATE_CODES)
 
 
 class Adxl345:
+    """One ADXL345 accelerometer in full-resolution mode (256 counts/g at every range).
+
+    Parameters
+    ----------
+    bus : smbus2.SMBus or SimulatedI2CBus
+    address : int
+        0x53 (ALT ADDRESS low) or 0x1D.
+    clock : Clock
+        Timestamps (clock seconds).
+    """
+
     model = "ADXL345"
     has_temperature = False
     has_gyro = False
     gyro_lsb_per_dps = None
 
-    def __init__(self, bus, address: int = 0x53, *, clock: Clock | None = None) -> None:
+    def __init__(self, bus, address: int = DEFAULT_ADDRESS, *, clock: Clock | None = None) -> None:
         self.bus = bus
         self.address = address
         self.clock = clock or MonotonicClock()
@@ -26,12 +37,12 @@ class Adxl345:
         self._io = BusRetry(bus, address, self.model, self.stats)
         self.accel_range_g = 4
         self.sample_rate_hz = 100.0
-        self.accel_lsb_per_g = 256.0
+        self.accel_lsb_per_g = FULL_RES_LSB_PER_G
         self._n = 0
         self._t0 = 0.0
 
     def identify(self) -> SensorIdentity:
-        return check_identity(self.bus, self.address, self.model, DEVID, "DEVID", 0xE5)
+        return check_identity(self.bus, self.address, self.model, DEVID, "DEVID", DEVID_VALUE)
 
     def configure(self, settings: SensorSettings = SensorSettings()) -> None:
         if settings.accel_range_g not in RANGE_BITS:
@@ -50,7 +61,7 @@ class Adxl345:
             raise SensorError(f"{self.model} at 0x{self.address:02x}: DATA_FORMAT did not take the new range")
         self.accel_range_g = settings.accel_range_g
         self.sample_rate_hz = float(settings.sample_rate_hz)
-        self.accel_lsb_per_g = 256.0
+        self.accel_lsb_per_g = FULL_RES_LSB_PER_G
 
     def start(self) -> None:
         self._io("write_byte_data", FIFO_CTL, 0x00)  # bypass clears the FIFO
@@ -66,7 +77,7 @@ class Adxl345:
         src = self._io("read_byte_data", INT_SOURCE)
         if src & 0x01:
             self.stats.overflows += 1
-            lost = max(0, int(round((self.clock.now() - self._t0) * self.sample_rate_hz)) - self._n - 32)
+            lost = max(0, int(round((self.clock.now() - self._t0) * self.sample_rate_hz)) - self._n - FIFO_DEPTH)
             self.stats.dropped += lost
             self.start()
             return SampleBlock(np.empty(0), np.empty((0, 3), np.int64), np.empty(0))

@@ -12,15 +12,15 @@ from __future__ import annotations
 import numpy as np
 
 from drivers.clock import Clock, MonotonicClock
-from drivers.sensors.base import BusRetry, check_identity, CaptureStats, SampleBlock, SensorError, SensorIdentity, SensorSettings
-from drivers.sensors.sim.mpu9150 import (ACCEL_CONFIG, ACCEL_LSB_PER_G, CONFIG, FIFO_COUNTH, FIFO_EN, FIFO_R_W,
-                                           GYRO_CONFIG, GYRO_LSB_PER_DPS, INT_ENABLE, INT_PIN_CFG, INT_STATUS,
-                                           PWR_MGMT_1, SMPLRT_DIV, USER_CTRL, WHO_AM_I)
+from drivers.sensors.base import (BusRetry, CaptureStats, SampleBlock, SensorError, SensorIdentity, SensorSettings,
+                                  check_identity)
+from drivers.sensors.regs.mpu9150 import (ACCEL_CONFIG, ACCEL_LSB_PER_G, ACCEL_RANGES, CONFIG, DEFAULT_ADDRESS,
+                                          FIFO_COUNTH, FIFO_EN, FIFO_EN_ALL, FIFO_R_W, GYRO_CONFIG, GYRO_LSB_PER_DPS,
+                                          GYRO_RANGES, INT_ENABLE, INT_FIFO_OFLOW, INT_PIN_CFG, INT_STATUS,
+                                          PWR_MGMT_1, SMPLRT_DIV, TEMP_LSB_PER_C, TEMP_OFFSET_C, TEMP_OUT_H,
+                                          USER_CTRL, WHO_AM_I, WHO_AM_I_VALUE)
 
-ACCEL_RANGES = {2: 0, 4: 1, 8: 2, 16: 3}
-GYRO_RANGES = {250: 0, 500: 1, 1000: 2, 2000: 3}
 SAMPLE_BYTES = 14  # accel (6) + temp (2) + gyro (6), in register order
-FIFO_EN_ALL = 0x80 | 0x40 | 0x20 | 0x10 | 0x08
 
 
 class Mpu9150:
@@ -29,15 +29,17 @@ class Mpu9150:
     Parameters
     ----------
     bus : smbus2.SMBus or SimulatedI2CBus
-    address : 0x68 (AD0 low) or 0x69
-    clock : Clock for timestamps
+    address : int
+        0x68 (AD0 low) or 0x69.
+    clock : Clock
+        Timestamps (clock seconds).
     """
 
     model = "MPU-9150"
     has_temperature = True
     has_gyro = True
 
-    def __init__(self, bus, address: int = 0x68, *, clock: Clock | None = None) -> None:
+    def __init__(self, bus, address: int = DEFAULT_ADDRESS, *, clock: Clock | None = None) -> None:
         self.bus = bus
         self.address = address
         self.clock = clock or MonotonicClock()
@@ -53,7 +55,7 @@ class Mpu9150:
         self._pending = bytearray()
 
     def identify(self) -> SensorIdentity:
-        return check_identity(self.bus, self.address, self.model, WHO_AM_I, "WHO_AM_I", 0x68)
+        return check_identity(self.bus, self.address, self.model, WHO_AM_I, "WHO_AM_I", WHO_AM_I_VALUE)
 
     def configure(self, settings: SensorSettings = SensorSettings()) -> None:
         """Wake, set ranges, output rate (SMPLRT_DIV with DLPF on: 1 kHz base) and low-pass."""
@@ -85,10 +87,10 @@ class Mpu9150:
 
     def read_temperature_c(self) -> float:
         """One thermometer reading (TEMP_OUT_H/L), C."""
-        hi, lo = self._io("read_i2c_block_data", 0x41, 2)
+        hi, lo = self._io("read_i2c_block_data", TEMP_OUT_H, 2)
         raw = (hi << 8) | lo
         raw = raw - 65536 if raw & 0x8000 else raw
-        return raw / 340.0 + 35.0
+        return raw / TEMP_LSB_PER_C + TEMP_OFFSET_C
 
     def start(self) -> None:
         """Reset and enable the FIFO; samples from now on are captured."""
@@ -108,7 +110,7 @@ class Mpu9150:
     def read(self) -> SampleBlock:
         """Every sample produced since the last read."""
         status = self._io("read_byte_data", INT_STATUS)
-        if status & 0x10:
+        if status & INT_FIFO_OFLOW:
             # FIFO overflowed: data was lost and the byte stream may be misaligned; restart it
             self.stats.overflows += 1
             lost = max(0, int(round((self.clock.now() - self._t0) * self.sample_rate_hz)) - self._n)
@@ -129,7 +131,7 @@ class Mpu9150:
         t = self._t0 + (self._n + np.arange(n)) / self.sample_rate_hz
         self._n += n
         self.stats.received += n
-        return SampleBlock(t_s=t, accel_counts=words[:, 0:3], temp_c=words[:, 3] / 340.0 + 35.0,
+        return SampleBlock(t_s=t, accel_counts=words[:, 0:3], temp_c=words[:, 3] / TEMP_LSB_PER_C + TEMP_OFFSET_C,
                            gyro_counts=words[:, 4:7])
 
 

@@ -1,37 +1,31 @@
 """``Stage``: one turntable axis (Standa 8SMC4/8SMC5 + 8MR191) over pyserial.
 
-Method names follow libximc (``get_status``, ``command_move``,
-``command_wait_for_stop``, ...). Degrees at the degree API, full steps +
-microsteps on the wire. Every transaction is retried a bounded number of
-times with the protocol's zero-byte resynchronisation; after that a
-:class:`TurntableError` names the axis, port, command and what came back.
-A value is never returned unless its frame decoded with a good CRC.
+Method names follow libximc (``get_status``, ``command_move``, ``command_wait_for_stop``, ...).
+Degrees at the degree API (``move_deg``, ``set_position_deg``, ``get_speed_deg_s``, ...), full
+steps + microsteps on the wire. Transactions, retries and resynchronisation are
+:class:`~drivers.ximc.link.XimcLink`'s; stage facts (0.01 deg/step, 48 deg/s) are in
+:mod:`drivers.ximc.stages`.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, replace
 from typing import Callable
 
-import serial
-
 from drivers.clock import Clock, MonotonicClock
 from drivers.ximc import protocol as P
+from drivers.ximc.errors import TurntableError
+from drivers.ximc.link import RECOVERABLE, XimcLink
+from drivers.ximc.stages import MR191
 
-
-class TurntableError(Exception):
-    """A turntable command failed; one line naming axis, port, command and detail."""
-
-    def __init__(self, port: str, command: str, detail: str, name: str = "") -> None:
-        self.port, self.command, self.detail, self.name = port, command, detail, name
-        axis = f"{name} " if name else ""
-        super().__init__(f"{axis}{port}: {command}: {detail}")
+__all__ = ["RECOVERABLE", "Stage", "StageIdentity", "TurntableError"]
 
 
 @dataclass(frozen=True)
 class StageIdentity:
+    """Who answers on a port: serial number, firmware "major.minor.release", device information."""
+
     port: str
     serial_number: int
     firmware: str
@@ -42,47 +36,40 @@ class StageIdentity:
                 "device": dict(self.device)}
 
 
-RECOVERABLE = (P.CrcError, P.EchoError)
-
-
-class Stage:
+class Stage(XimcLink):
     """One axis over a serial port (a device path or a pyserial URL).
 
     Parameters
     ----------
     port : str
-    clock : Clock used for waiting (default real time).
-    deg_per_step : degrees per full motor step at the table (8MR191: 0.01).
-    timeout_s : per-read timeout, s (wall time).
-    retries : attempts per transaction before giving up.
-    name : axis name for messages (a1, a2, a3).
-    on_event : callback(kind, detail) for recovered faults (e.g. the session's event log).
-    reopen_s : how long to keep trying to reopen a vanished port (wall seconds).
+    clock : Clock
+        Used for waiting (default real time).
+    deg_per_step : float
+        Degrees per full motor step at the table (8MR191: 0.01).
+    timeout_s : float
+        Per-read timeout, s (wall time).
+    retries : int
+        Attempts per transaction before giving up.
+    name : str
+        Axis name for messages (a1, a2, a3).
+    on_event : callable or None
+        ``on_event(kind, detail)`` for recovered faults (e.g. the session's event log).
+    reopen_s : float
+        How long to keep trying to reopen a vanished port, wall seconds.
     """
 
-    def __init__(self, port: str, *, clock: Clock | None = None, deg_per_step: float = 0.01,
+    def __init__(self, port: str, *, clock: Clock | None = None, deg_per_step: float = MR191.deg_per_step,
                  timeout_s: float = 0.3, retries: int = 4, name: str = "",
                  on_event: Callable[[str, dict], None] | None = None, reopen_s: float = 5.0) -> None:
-        self.port = port
+        super().__init__(port, timeout_s=timeout_s, retries=retries, name=name, on_event=on_event,
+                         reopen_s=reopen_s)
         self.clock = clock or MonotonicClock()
         self.deg_per_step = float(deg_per_step)
-        self.timeout_s = timeout_s
-        self.retries = retries
-        self.name = name
-        self.on_event = on_event
-        self.reopen_s = reopen_s
-        self._ser: serial.Serial | None = None
-        self._microstep_mode = P.MICROSTEP_MODE_FRAC_256
-        self.recovered = 0
 
     # -- port ---------------------------------------------------------------------------------
     def open(self) -> "Stage":
-        try:
-            self._ser = serial.serial_for_url(self.port, baudrate=115200, bytesize=8, parity="N", stopbits=2,
-                                              timeout=self.timeout_s, write_timeout=1.0, rtscts=False, xonxoff=False)
-        except (serial.SerialException, OSError, ValueError) as exc:
-            raise TurntableError(self.port, "open", f"cannot open port ({exc})", self.name) from None
-        self._ser.reset_input_buffer()
+        """Open the port and read the controller's microstep mode."""
+        self._open_port()
         try:
             self._microstep_mode = self.get_engine_settings().MicrostepMode
         except TurntableError:
@@ -90,105 +77,11 @@ class Stage:
             raise
         return self
 
-    def close(self) -> None:
-        if self._ser is not None:
-            try:
-                self._ser.close()
-            except Exception:  # noqa: BLE001
-                pass
-            self._ser = None
-
     def __enter__(self) -> "Stage":
         return self.open()
 
     def __exit__(self, *exc) -> None:
         self.close()
-
-    def reconnect(self) -> None:
-        """Reopen the port (e.g. after a USB replug), trying for ``reopen_s`` wall seconds."""
-        self.close()
-        deadline = time.monotonic() + self.reopen_s
-        last = None
-        while time.monotonic() < deadline:
-            try:
-                self._ser = serial.serial_for_url(self.port, baudrate=115200, bytesize=8, parity="N", stopbits=2,
-                                                  timeout=self.timeout_s, write_timeout=1.0)
-                self._ser.reset_input_buffer()
-                self._event("reconnected", {"port": self.port})
-                return
-            except (serial.SerialException, OSError) as exc:
-                last = exc
-                time.sleep(0.05)
-        raise TurntableError(self.port, "reconnect", f"port did not come back within {self.reopen_s:g} s ({last})",
-                             self.name)
-
-    # -- transactions -------------------------------------------------------------------------
-    def _event(self, kind: str, detail: dict) -> None:
-        if self.on_event is not None:
-            self.on_event(kind, dict(detail, axis=self.name, port=self.port))
-
-    def _read_answer(self, cmd: bytes) -> bytes:
-        parser = P.AnswerParser(cmd)
-        deadline = time.monotonic() + max(self.timeout_s * 3, 1.0)
-        while True:
-            want = max(parser.missing(), 1)
-            chunk = self._ser.read(want)
-            if chunk:
-                done, frame = parser.feed(chunk)
-                if done:
-                    return frame
-            elif time.monotonic() > deadline or not chunk:
-                got = bytes(parser.buf)
-                raise TimeoutError(f"no complete answer (got {len(got)} bytes: {got[:12].hex(' ')})")
-
-    def _resync(self) -> None:
-        """Send zeros until the controller echoes a zero: its input buffer is then empty."""
-        try:
-            self._ser.reset_input_buffer()
-            self._ser.write(b"\x00" * 64)
-            deadline = time.monotonic() + 0.5
-            while time.monotonic() < deadline:
-                b = self._ser.read(64)
-                if b and 0 in b:
-                    break
-            time.sleep(0.005)
-            self._ser.reset_input_buffer()
-        except (serial.SerialException, OSError):
-            pass
-
-    def transact(self, cmd: bytes, obj=None):
-        """Send one request and return its decoded answer (None for echo-only commands)."""
-        if self._ser is None:
-            raise TurntableError(self.port, cmd.decode(), "port is not open", self.name)
-        frame = P.encode_request(cmd, obj, self._microstep_mode)
-        last = ""
-        for attempt in range(1, self.retries + 1):
-            try:
-                self._ser.write(frame)
-                answer = self._read_answer(cmd)
-                result = P.decode_answer(cmd, answer)
-                if attempt > 1:
-                    self.recovered += 1
-                    self._event("recovered", {"command": cmd.decode(), "attempts": attempt, "fault": last})
-                return result
-            except P.ErrorAnswer as exc:
-                if exc.code == b"errv":
-                    raise TurntableError(self.port, cmd.decode(), f"controller rejected a value ({exc})",
-                                         self.name) from None
-                last = str(exc)
-                self._resync()
-            except (P.CrcError, P.EchoError, TimeoutError) as exc:
-                last = str(exc)
-                self._resync()
-            except (serial.SerialException, OSError) as exc:
-                last = f"port error ({exc})"
-                try:
-                    self.reconnect()
-                except TurntableError as exc2:
-                    raise TurntableError(self.port, cmd.decode(), f"port vanished and did not come back ({exc2.detail})",
-                                         self.name) from None
-        raise TurntableError(self.port, cmd.decode(), f"no valid answer after {self.retries} tries (last: {last})",
-                             self.name)
 
     # -- libximc-style API ----------------------------------------------------------------------
     def get_status(self) -> P.Status:
@@ -273,6 +166,7 @@ class Stage:
     # -- degrees --------------------------------------------------------------------------------
     @property
     def usteps_per_step(self) -> int:
+        """Microsteps per full step in the controller's current microstep mode."""
         return 1 << (self._microstep_mode - 1)
 
     def _steps_to_deg(self, steps: int, usteps: int) -> float:
@@ -284,15 +178,29 @@ class Stage:
         return steps, int(total - steps * self.usteps_per_step)
 
     def get_position_deg(self) -> float:
+        """Position counter, deg."""
         p = self.get_position()
         return self._steps_to_deg(p.Position, p.uPosition)
 
+    def set_position_deg(self, angle_deg: float) -> None:
+        """Renumber the current position as ``angle_deg`` (deg) without moving (``spos``)."""
+        if not math.isfinite(angle_deg):
+            raise TurntableError(self.port, "spos", f"angle {angle_deg!r} is not a finite number", self.name)
+        self.set_position(P.SetPosition(*self._deg_to_steps(angle_deg)))
+
+    def get_speed_deg_s(self) -> float:
+        """Current speed from the status, deg/s (signed: negative turning left)."""
+        st = self.get_status()
+        return (st.CurSpeed + st.uCurSpeed / self.usteps_per_step) * self.deg_per_step
+
     def move_deg(self, angle_deg: float) -> None:
+        """Move to ``angle_deg`` (deg, absolute); returns at once (see ``command_wait_for_stop``)."""
         if not math.isfinite(angle_deg):
             raise TurntableError(self.port, "move", f"angle {angle_deg!r} is not a finite number", self.name)
         self.command_move(*self._deg_to_steps(angle_deg))
 
     def movr_deg(self, delta_deg: float) -> None:
+        """Move by ``delta_deg`` (deg, relative)."""
         self.command_movr(*self._deg_to_steps(delta_deg))
 
     def set_speed_deg_s(self, speed_deg_s: float, accel_deg_s2: float | None = None,
@@ -322,6 +230,7 @@ class Stage:
         self.command_right() if rate_deg_s >= 0 else self.command_left()
 
     def identify(self) -> StageIdentity:
+        """Serial number, firmware and device information of the controller on this port."""
         info = self.get_device_information()
         fw = self.get_firmware_version()
         return StageIdentity(port=self.port, serial_number=self.get_serial_number(),

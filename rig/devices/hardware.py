@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from drivers.clock import Clock, MonotonicClock
 from drivers.sensors import open_sensor
+from drivers.sensors.chips import chip_spec
 from drivers.sensors.ak8975 import Ak8975
 from drivers.ximc.stage import Stage
 from rig.devices.buses import open_bus
@@ -31,7 +32,7 @@ def open_stages(axes_config: dict, clock: Clock, on_event=None) -> dict[str, Axi
 def attach_sensors(rig: Rig, model: str, bus, address: int | None) -> None:
     """Open the sensor (and the AK8975 behind an MPU-9150's bypass) on ``bus``."""
     rig.sensor = open_sensor(model, bus, address, clock=rig.clock)
-    if model == "MPU-9150":
+    if chip_spec(model).has_magnetometer:  # the AK8975 behind the MPU-9150's I2C bypass
         rig.magnetometer = Ak8975(bus, clock=rig.clock)
 
 

@@ -14,6 +14,7 @@ import numpy as np
 from drivers.clock import VirtualClock
 from drivers.sensors.base import CaptureStats, SampleBlock, SensorError, SensorIdentity
 from drivers.ximc.sim.emulator import ControllerEmulator
+from drivers.ximc.stages import MAX_SPEED_DEG_S
 from rig.config.rigfile import AxisConfig
 from rig.devices.hardware import open_stages
 from rig.devices.registry import register_rig_kind
@@ -21,7 +22,7 @@ from rig.devices.rig import Rig
 from rig.planning.kinematics import AXES
 
 #: the replay table moves fast and has no limits: the recording already proved the poses legal
-REPLAY_AXIS = AxisConfig(port=None, speed_deg_s=48.0, accel_deg_s2=200.0, soft_limits_deg=(-36000.0, 36000.0),
+REPLAY_AXIS = AxisConfig(port=None, speed_deg_s=MAX_SPEED_DEG_S, accel_deg_s2=200.0, soft_limits_deg=(-36000.0, 36000.0),
                          cable_wrap_deg=36000.0)
 
 

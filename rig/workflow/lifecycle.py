@@ -18,7 +18,7 @@ from calib.errors import CalibError
 from rig import __version__
 from rig.analysis.solve import solve_session
 from rig.devices.rig import Rig
-from rig.execution.context import EngineOptions, RunError, StepOutcome
+from rig.execution.context import EngineOptions, RunAborted, RunError, StepOutcome
 from rig.execution.engine import Engine
 from rig.execution.executors.static import MAG_COUNTS_PER_UT
 from rig.execution.operator import Operator
@@ -108,6 +108,8 @@ def execute(procedure, rig: Rig, writer: SessionWriter, operator: Operator, *, f
         engine.prepare(resuming=resuming)
         return engine.run()
     except BaseException as exc:
+        if isinstance(exc, RunAborted):
+            exc.session_dir = writer.session_dir  # for the resume command the user is shown
         try:  # best effort: on a full disk even this may fail; what is on disk stays valid
             writer.event("abort", t_s=engine.session_time(), reason=_one_line(exc))
             writer.set_status("aborted")

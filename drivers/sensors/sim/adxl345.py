@@ -5,38 +5,44 @@ DEVID 0x00 = 0xE5, OFSX/OFSY/OFSZ 0x1E..0x20 (15.6 mg/LSB, added to the output),
 INT_SOURCE 0x30 (DATA_READY bit 7, Overrun bit 0), DATA_FORMAT 0x31 (range bits 1:0, JUSTIFY bit 2,
 FULL_RES bit 3), DATAX0..DATAZ1 0x32..0x37 little-endian (reading them pops one FIFO entry),
 FIFO_CTL 0x38 (mode bits 7:6: bypass/FIFO/stream), FIFO_STATUS 0x39 (entries bits 5:0). No thermometer.
+Addresses and scales: :mod:`drivers.sensors.regs.adxl345`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from drivers.sensors.regs.adxl345 import (BW_RATE, DATA_FORMAT, DATAX0, DEVID, DEVID_VALUE, FIFO_CTL, FIFO_DEPTH,
+                                          FIFO_STATUS, INT_SOURCE, OFS_G_PER_LSB, OFSX, POWER_CTL, REGISTER_COUNT,
+                                          lsb_per_g, rate_hz)
+from drivers.sensors.sim.bus import I2CDevice
 from drivers.sensors.sim.error_model import AccelErrorModel
 from drivers.sensors.sim.faults import FaultInjector, SensorFaults
-from drivers.sensors.sim.bus import I2CDevice
 from drivers.sensors.sim.sampler import LazySampler
-
-DEVID, OFSX, BW_RATE, POWER_CTL, INT_SOURCE, DATA_FORMAT = 0x00, 0x1E, 0x2C, 0x2D, 0x30, 0x31
-DATAX0, FIFO_CTL, FIFO_STATUS = 0x32, 0x38, 0x39
-FIFO_DEPTH = 32
-
-
-def lsb_per_g(data_format: int) -> float:
-    rng = data_format & 3
-    if data_format & 0x08:
-        return 256.0  # full resolution: 3.9 mg/LSB at every range
-    return 512.0 / (2 ** rng)  # 10-bit: +-2 g -> 256 LSB/g ... +-16 g -> 32 LSB/g
 
 
 class Adxl345Model(I2CDevice):
+    """Simulated ADXL345.
+
+    Parameters
+    ----------
+    physics : PhysicsSource
+        Specific force (g, sensor frame) and temperature (C) at clock times.
+    accel_errors : AccelErrorModel
+    clock : Clock
+    seed : int
+        Noise seed.
+    faults : SensorFaults or None
+    """
+
     def __init__(self, physics, accel_errors: AccelErrorModel, *, clock, seed: int = 0,
                  faults: SensorFaults | None = None) -> None:
         self.clock = clock
         self.sampler = LazySampler(physics, accel_errors, clock, seed)
         self.faults = FaultInjector(faults, clock)
         self.pointer = 0
-        self.regs = bytearray(0x3A)
-        self.regs[DEVID] = 0xE5
+        self.regs = bytearray(REGISTER_COUNT)
+        self.regs[DEVID] = DEVID_VALUE
         self.regs[BW_RATE] = 0x0A
         self.regs[INT_SOURCE] = 0x02
         self.fifo: list[np.ndarray] = []
@@ -48,7 +54,7 @@ class Adxl345Model(I2CDevice):
         self.faults.check_access()
 
     def rate_hz(self) -> float:
-        return 3200.0 / 2 ** (15 - (self.regs[BW_RATE] & 0x0F))
+        return rate_hz(self.regs[BW_RATE])
 
     def _range_counts(self) -> tuple[int, int]:
         df = self.regs[DATA_FORMAT]
@@ -61,7 +67,7 @@ class Adxl345Model(I2CDevice):
         if s is None:
             return
         t = s["t_s"]
-        ofs = np.frombuffer(bytes(self.regs[OFSX:OFSX + 3]), dtype=np.int8).astype(float) * 0.0156
+        ofs = np.frombuffer(bytes(self.regs[OFSX:OFSX + 3]), dtype=np.int8).astype(float) * OFS_G_PER_LSB
         lo, hi = self._range_counts()
         a = np.clip(np.round((s["accel_g"] + ofs) * lsb_per_g(self.regs[DATA_FORMAT])), lo, hi).astype(np.int64)
         f = self.faults.f

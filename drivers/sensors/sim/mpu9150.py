@@ -1,6 +1,7 @@
 """Register-level model of the MPU-9150 (MPU-6050 register map) with the AK8975 behind its bypass.
 
-Registers honoured (addresses from the MPU-6000/6050 register map, rev 4.2):
+Registers honoured (addresses in :mod:`drivers.sensors.regs.mpu9150`, from the MPU-6000/6050
+register map, rev 4.2):
 SMPLRT_DIV 0x19, CONFIG 0x1A (DLPF_CFG), GYRO_CONFIG 0x1B, ACCEL_CONFIG 0x1C, FIFO_EN 0x23,
 INT_PIN_CFG 0x37 (I2C_BYPASS_EN exposes the AK8975 at 0x0C), INT_ENABLE 0x38, INT_STATUS 0x3A
 (DATA_RDY bit 0, FIFO_OFLOW bit 4, cleared on read), data 0x3B..0x48 big-endian, USER_CTRL 0x6A
@@ -12,21 +13,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from drivers.sensors.regs.mpu9150 import (ACCEL_CONFIG, ACCEL_LSB_PER_G, ACCEL_XOUT_H, AK8975_ADDRESS, CONFIG,
+                                          DATA_LAST, DEFAULT_ADDRESS, DLPF_BW_HZ, FIFO_COUNTH, FIFO_COUNTL, FIFO_EN,
+                                          FIFO_R_W, FIFO_SIZE, GYRO_CONFIG, GYRO_LSB_PER_DPS, INT_PIN_CFG,
+                                          INT_STATUS, PWR_MGMT_1, SMPLRT_DIV, TEMP_LSB_PER_C, TEMP_OFFSET_C,
+                                          USER_CTRL, WHO_AM_I, WHO_AM_I_VALUE)
+from drivers.sensors.sim.ak8975 import Ak8975Model
+from drivers.sensors.sim.bus import I2CDevice
 from drivers.sensors.sim.error_model import AccelErrorModel, MagErrorModel
 from drivers.sensors.sim.faults import FaultInjector, SensorFaults
-from drivers.sensors.sim.bus import I2CDevice
 from drivers.sensors.sim.sampler import LazySampler
-
-SMPLRT_DIV, CONFIG, GYRO_CONFIG, ACCEL_CONFIG = 0x19, 0x1A, 0x1B, 0x1C
-FIFO_EN, INT_PIN_CFG, INT_ENABLE, INT_STATUS = 0x23, 0x37, 0x38, 0x3A
-ACCEL_XOUT_H, TEMP_OUT_H, GYRO_XOUT_H = 0x3B, 0x41, 0x43
-USER_CTRL, PWR_MGMT_1, PWR_MGMT_2 = 0x6A, 0x6B, 0x6C
-FIFO_COUNTH, FIFO_COUNTL, FIFO_R_W, WHO_AM_I = 0x72, 0x73, 0x74, 0x75
-FIFO_SIZE = 1024
-ACCEL_LSB_PER_G = {0: 16384.0, 1: 8192.0, 2: 4096.0, 3: 2048.0}
-GYRO_LSB_PER_DPS = {0: 131.0, 1: 65.5, 2: 32.8, 3: 16.4}
-DLPF_BW_HZ = {0: 260.0, 1: 184.0, 2: 94.0, 3: 44.0, 4: 21.0, 5: 10.0, 6: 5.0, 7: 260.0}
-AK8975_ADDRESS = 0x0C
 
 
 def _i16(x: np.ndarray) -> np.ndarray:
@@ -57,7 +53,7 @@ class Mpu9150Model(I2CDevice):
         self.fifo_overflows = 0
         self._reset()
 
-    def attach(self, bus, address: int = 0x68) -> None:
+    def attach(self, bus, address: int = DEFAULT_ADDRESS) -> None:
         """Plug into a SimulatedI2CBus (the AK8975 appears when the bypass is enabled)."""
         self._bus = bus
         bus.add_device(address, self)
@@ -65,7 +61,7 @@ class Mpu9150Model(I2CDevice):
     def _reset(self) -> None:
         self.regs = bytearray(128)
         self.regs[PWR_MGMT_1] = 0x40
-        self.regs[WHO_AM_I] = 0x68
+        self.regs[WHO_AM_I] = WHO_AM_I_VALUE
         self.fifo = bytearray()
         self.sampler.stop()
         self._last = {"a": np.zeros(3, np.int64), "t": 0, "g": np.zeros(3, np.int64)}
@@ -118,7 +114,7 @@ class Mpu9150Model(I2CDevice):
             return
         if reg == FIFO_R_W:
             return
-        if reg in (WHO_AM_I, INT_STATUS) or ACCEL_XOUT_H <= reg <= 0x48:
+        if reg in (WHO_AM_I, INT_STATUS) or ACCEL_XOUT_H <= reg <= DATA_LAST:
             return  # read-only
         self.regs[reg & 0x7F] = v
         if reg in (SMPLRT_DIV, CONFIG) and not self.regs[PWR_MGMT_1] & 0x40:
@@ -151,13 +147,14 @@ class Mpu9150Model(I2CDevice):
         return (6 if en & 0x08 else 0) + (2 if en & 0x80 else 0) + 2 * bin(en & 0x70).count("1")
 
     def _catch_up(self) -> None:
+        """Produce the samples due by now: data registers, INT_STATUS, FIFO (with overflow)."""
         size = max(self._sample_bytes(), 1)
         s = self.sampler.catch_up(keep_last=FIFO_SIZE // size + 2)
         if s is None:
             return
         t = s["t_s"]
         a = _i16(s["accel_g"] * self.accel_lsb_per_g)
-        temp = _i16((s["temp_c"] - 35.0) * 340.0)
+        temp = _i16((s["temp_c"] - TEMP_OFFSET_C) * TEMP_LSB_PER_C)
         g = _i16(s["gyro_dps"] * self.gyro_lsb_per_dps) if s["gyro_dps"] is not None else np.zeros_like(a)
         f = self.faults
         if f.f.saturate_after_s is not None:
@@ -198,57 +195,3 @@ class Mpu9150Model(I2CDevice):
                 del self.fifo[:drop]
                 self.regs[INT_STATUS] |= 0x10
                 self.fifo_overflows += 1
-
-
-class Ak8975Model(I2CDevice):
-    """AK8975 magnetometer: WIA 0x48, ST1 DRDY, HXL..HZH little-endian, ST2, CNTL, fuse-ROM ASA."""
-
-    def __init__(self, physics, errors: MagErrorModel, *, clock, seed: int = 0) -> None:
-        self.physics = physics
-        self.errors = errors
-        self.clock = clock
-        self.rng = np.random.default_rng(seed)
-        self.asa = bytes(int(x) for x in self.rng.integers(150, 190, 3))
-        self.regs = bytearray(0x13)
-        self.regs[0x00] = 0x48
-        self.regs[0x01] = 0x9A
-        self.pointer = 0
-        self._ready_at: float | None = None
-
-    def _factor(self) -> np.ndarray:
-        return np.array([(b - 128) * 0.5 / 128 + 1 for b in self.asa])
-
-    def _update(self) -> None:
-        if self._ready_at is not None and self.clock.now() >= self._ready_at:
-            t = np.array([self._ready_at])
-            m = self.errors.output_ut(self.physics(t).magnetic_field_ut)[0]
-            m = m + self.rng.normal(0, self.errors.noise_ut, 3)
-            raw = np.clip(np.round(m / 0.3 / self._factor()), -4095, 4095).astype("<i2")
-            self.regs[0x03:0x09] = raw.tobytes()
-            self.regs[0x02] = 0x01  # DRDY
-            self.regs[0x09] = 0x08 if np.any(np.abs(m) > 1229) else 0
-            self.regs[0x0A] = 0x00  # powers down after a single measurement
-            self._ready_at = None
-
-    def read_registers(self, register: int, length: int) -> bytes:
-        self._update()
-        out = bytearray()
-        for i in range(length):
-            r = register + i
-            if 0x10 <= r <= 0x12:
-                out.append(self.asa[r - 0x10] if self.regs[0x0A] == 0x0F else 0)
-            elif r < len(self.regs):
-                out.append(self.regs[r])
-            else:
-                out.append(0)
-            if r == 0x09:
-                self.regs[0x02] = 0  # reading ST2 ends the data read
-        return bytes(out)
-
-    def write_registers(self, register: int, data: bytes) -> None:
-        for i, v in enumerate(data):
-            r = register + i
-            if r == 0x0A:
-                self.regs[0x0A] = v & 0x0F
-                if v & 0x0F == 0x01:
-                    self._ready_at = self.clock.now() + 0.0073

@@ -16,6 +16,8 @@ import numpy as np
 
 @dataclass(frozen=True)
 class Phase:
+    """From clock time ``t`` (s): position ``p`` (usteps), speed ``v`` (usteps/s), acceleration ``a`` (usteps/s^2)."""
+
     t: float
     p: float
     v: float
@@ -23,6 +25,8 @@ class Phase:
 
 
 class Profile:
+    """A motion as phases in time order; ``position(t)`` and ``velocity(t)`` take scalars or arrays."""
+
     def __init__(self, phases: list[Phase]) -> None:
         self.phases = phases
         self._t = np.array([ph.t for ph in phases])
@@ -35,6 +39,7 @@ class Profile:
         return np.clip(np.searchsorted(self._t, t, side="right") - 1, 0, len(self.phases) - 1)
 
     def position(self, t):
+        """Position at clock time(s) ``t``, usteps."""
         t = np.asarray(t, float)
         i = self._idx(t)
         ph = np.array([(p.t, p.p, p.v, p.a) for p in self.phases])[i]
@@ -42,6 +47,7 @@ class Profile:
         return ph[..., 1] + ph[..., 2] * dt + 0.5 * ph[..., 3] * dt * dt
 
     def velocity(self, t):
+        """Speed at clock time(s) ``t``, usteps/s."""
         t = np.asarray(t, float)
         i = self._idx(t)
         ph = np.array([(p.t, p.v, p.a) for p in self.phases])[i]

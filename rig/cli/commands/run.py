@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import signal
 import sys
 
@@ -27,6 +28,10 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     if args.procedure is None and args.resume is None:
         raise UsageError("give a procedure file, or --resume DIR")
+    if args.seed is not None and not 0 <= args.seed < 2**32:
+        raise UsageError(f"--seed: expected an integer from 0 to {2**32 - 1}, got {args.seed}")
+    if args.time_scale is not None and not (math.isfinite(args.time_scale) and 0 <= args.time_scale <= 1000):
+        raise UsageError(f"--time-scale: expected 0 (virtual time) or a speed-up from 0 to 1000, got {args.time_scale:g}")
     stop_on_signals()
     ui = ConsoleUI(assume_yes=args.yes, quiet=args.quiet)
     try:
@@ -34,8 +39,9 @@ def run(args) -> int:
                                resume_dir=args.resume, ui=ui, time_scale=args.time_scale)
     except RunAborted as exc:
         ui.close()
-        print(f"rig run: aborted: {exc}; motors stopped. Resume with: rig run --resume <session dir>",
-              file=sys.stderr)
+        where = getattr(exc, "session_dir", None)
+        resume = f"rig run --resume {where}" if where is not None else "rig run --resume <session dir>"
+        print(f"rig run: aborted: {exc}; motors stopped. Resume with: {resume}", file=sys.stderr)
         return EXIT_FAILURE
     finally:
         ui.close()
@@ -51,9 +57,15 @@ def run(args) -> int:
 
 def stop_on_signals() -> None:
     """Ctrl-C (SIGINT) and SIGTERM stop the motors and abort the run, even when the shell that started
-    us ignores SIGINT (a background job does): the turntable must stop whoever asks."""
+    us ignores SIGINT (a background job does): the turntable must stop whoever asks. A second
+    Ctrl-C while the run is stopping does not cut the cleanup short (motors, session status)."""
+    stopping = []
 
     def interrupt(signum, frame):
+        if stopping:
+            print("rig run: stopping the motors and closing the session; please wait", file=sys.stderr)
+            return
+        stopping.append(signum)
         raise KeyboardInterrupt
 
     signal.signal(signal.SIGINT, interrupt)

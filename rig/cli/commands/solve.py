@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import json
+import sys
+from pathlib import Path
 
 from calib.errors import CalibError
 from calib.redundancy import pair_biases
 from rig.analysis.solve import solve_session
-from rig.cli.common import EXIT_OK, format_calibration, json_default, parse_thermal
+from rig.cli.common import EXIT_OK, UsageError, format_calibration, json_default, parse_thermal
 from rig.session.store import load_session
 
 
@@ -20,12 +22,25 @@ def add_parser(sub) -> None:
                    help="magnitude: |f| = 1 g in every static step, poses not needed (imported recordings)")
     s.add_argument("--thermal", default=None, help="auto | off | ORDER")
     s.add_argument("--json", action="store_true")
+    s.add_argument("--force", action="store_true",
+                   help="replace SESSION/calibration.yaml (otherwise a re-solve is written beside it)")
+
+
+#: option pairs that contradict each other: (option, value, other option, value or None for any, why)
+CONFLICTS = [
+    ("method", "flip", "model", "full", "the flip method fits biases and scale factors only (no cross-axis terms)"),
+    ("method", "magnitude", "thermal", None, "the magnitude method fits no temperature model"),
+]
 
 
 def run(args) -> int:
     thermal = parse_thermal(args.thermal)
-    cal, path = solve_session(args.session, model=args.model, method=args.method, thermal=thermal,
-                              out=args.output)
+    for key, value, other, other_value, why in CONFLICTS:
+        given = getattr(args, other)
+        if getattr(args, key) == value and given is not None and (other_value is None or given == other_value):
+            raise UsageError(f"--{key} {value} cannot be combined with --{other} {given}: {why}")
+    out = args.output if args.output is not None else default_output(args)
+    cal, path = solve_session(args.session, model=args.model, method=args.method, thermal=thermal, out=out)
     if args.json:
         print(json.dumps({"calibration": str(path), **cal.to_dict()}, indent=2, default=json_default))
     else:
@@ -34,6 +49,19 @@ def run(args) -> int:
         if args.method != "magnitude":
             print_redundancy(args.session)
     return EXIT_OK
+
+
+def default_output(args) -> Path:
+    """SESSION/calibration.yaml, unless one is there already (written by ``rig run``): then a file
+    beside it named after the options, so a re-solve never silently replaces the run's result."""
+    first = Path(args.session) / "calibration.yaml"
+    if args.force or not first.exists():
+        return first
+    tag = "-".join(str(v) for v in (args.model, args.method, args.thermal and f"thermal-{args.thermal}") if v)
+    beside = Path(args.session) / f"calibration-{tag or 'resolved'}.yaml"
+    print(f"note: {first} exists (the run's calibration); writing {beside.name} beside it "
+          "(use --force to replace it, or -o FILE)", file=sys.stderr)
+    return beside
 
 
 def print_redundancy(session_dir) -> None:

@@ -12,7 +12,7 @@ from rig.errors import RigInputError
 from rig.execution.capture import Samples, capture
 from rig.execution.context import RunContext, RunError
 from rig.execution.motion import move_to, wrap_position
-from rig.config.rigfile import STAGE_MAX_SPEED_DEG_S
+from drivers.ximc.stages import MAX_SPEED_DEG_S as STAGE_MAX_SPEED_DEG_S
 
 
 def preflight(procedure, step, rig) -> None:

@@ -41,8 +41,9 @@ def _measure(ctx: RunContext, step) -> tuple[Capture, int, list[str]]:
         except SensorError as exc:
             if attempts >= ctx.options.max_attempts:
                 raise
-            ctx.warn(step, f"step {step.index + 1} ({step.name}): sensor error, measuring again: {exc}",
-                     source="sensor")
+            ctx.event("warning", step=step.index, source="sensor",
+                      message=f"sensor error, measuring step {step.index + 1} again: {exc}")
+            ctx.operator.warn(f"step {step.index + 1} ({step.name}): {exc}; measuring again")
             ctx.rig.clock.sleep(1.0)
             continue
         s = capture.samples
@@ -51,8 +52,9 @@ def _measure(ctx: RunContext, step) -> tuple[Capture, int, list[str]]:
         problems = capture.problems + check.problems
         if not problems or attempts >= ctx.options.max_attempts:
             return capture, attempts, problems
-        ctx.warn(step, f"step {step.index + 1} ({step.name}): {'; '.join(problems)}; measuring again",
-                 attempt=attempts)
+        ctx.event("warning", step=step.index, attempt=attempts,
+                  message=f"re-measuring step {step.index + 1} ({step.name}): " + "; ".join(problems))
+        ctx.operator.warn(f"step {step.index + 1} ({step.name}): {'; '.join(problems)}; measuring again")
 
 
 def _note_bus_retries(ctx: RunContext, step) -> None:

@@ -1,12 +1,9 @@
-"""The emulator on its own: the command that starts it, the 400 ms request gap, and its physical state."""
+"""The emulator on its pty: several side by side, the 400 ms request gap, and its physical state."""
 
 from __future__ import annotations
 
 import os
 import re
-import signal
-import subprocess
-import sys
 import time
 
 import numpy as np
@@ -17,24 +14,22 @@ from drivers.clock import VirtualClock
 from drivers.ximc import protocol as P
 from drivers.ximc.sim.emulator import ControllerEmulator
 
-from conftest import REPO
 
-
-def test_the_command_starts_n_emulators_and_prints_their_paths():
-    env = dict(os.environ, PYTHONPATH=str(REPO))
-    proc = subprocess.Popen([sys.executable, "-m", "drivers.ximc.sim.emulator", "--count", "2", "--serial-base", "100"],
-                            cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+def test_emulators_side_by_side_each_answer_on_their_own_pty():
+    """What ``rig sim`` (the one command line that starts emulators) relies on: N emulators,
+    N distinct pty paths and stable paths, each answering with its own serial number."""
+    emus = [ControllerEmulator(100 + i, clock=VirtualClock()) for i in range(2)]
     try:
-        lines = [proc.stdout.readline() for _ in range(2)]
-        paths = [re.search(r"(/dev/pts/\d+)", line).group(1) for line in lines]
-        assert [re.search(r"serial (\d+)", line).group(1) for line in lines] == ["100", "101"]
-        with serial.Serial(paths[1], 115200, stopbits=2, timeout=1) as s:
-            s.write(b"gser")
-            assert P.decode_answer(b"gser", s.read(10)).SerialNumber == 101
+        paths = [e.start() for e in emus]
+        assert all(re.fullmatch(r"/dev/pts/\d+", p) for p in paths) and len(set(paths)) == 2
+        assert [os.path.realpath(e.stable_path) for e in emus] == [os.path.realpath(p) for p in paths]
+        for e, path in zip(emus, paths):
+            with serial.Serial(path, 115200, stopbits=2, timeout=1) as s:
+                s.write(b"gser")
+                assert P.decode_answer(b"gser", s.read(10)).SerialNumber == e.serial_number
     finally:
-        proc.send_signal(signal.SIGINT)
-        proc.wait(timeout=10)
-    assert proc.returncode == 0
+        for e in emus:
+            e.stop()
 
 
 @pytest.fixture

@@ -145,7 +145,7 @@ def test_port_that_vanishes_mid_move_and_comes_back_is_reopened_by_its_stable_pa
         stage.move_deg(45.0)
         stage.command_wait_for_stop()  # the port disappears at t=1 s and returns at 1.5 s
         assert stage.get_position_deg() == pytest.approx(45.0)
-        assert emu._vanish_done  # the pty really went away and a new one was made
+        assert emu.replugged  # the pty really went away and a new one was made
         assert "reconnected" in events
     finally:
         stage.close()
@@ -176,3 +176,26 @@ def test_unknown_command_and_bad_crc_get_controller_error_answers(rig):
     bad[-1] ^= 0xFF
     ser.write(bytes(bad))
     assert ser.read(4) == b"errd"
+
+
+def test_set_position_deg_renumbers_the_current_position_without_moving(rig):
+    clock, emu, stage, _ = rig
+    stage.move_deg(30.0)
+    stage.command_wait_for_stop()
+    stage.set_position_deg(-12.5)
+    assert stage.get_position_deg() == pytest.approx(-12.5, abs=1e-12)
+    assert emu.position_deg_at(clock.now()) == pytest.approx(30.0, abs=1e-12)
+    assert not stage.get_status().running
+    with pytest.raises(TurntableError, match="a2 .*: spos: angle nan is not a finite number"):
+        stage.set_position_deg(float("nan"))
+
+
+def test_get_speed_deg_s_reads_the_signed_current_speed(rig):
+    clock, emu, stage, _ = rig
+    assert stage.get_speed_deg_s() == 0.0
+    stage.set_speed_deg_s(12.345, accel_deg_s2=40.0)
+    stage.rotate_continuous(-12.345)
+    clock.sleep(2.0)
+    assert stage.get_speed_deg_s() == pytest.approx(emu.speed_deg_s_at(clock.now()), abs=0.01 / 256)
+    assert stage.get_speed_deg_s() == pytest.approx(-12.345, abs=0.01 / 256)
+    stage.command_stop()

@@ -1,0 +1,103 @@
+"""The chip registry: one :class:`ChipSpec` per supported sensor, the single list of models.
+
+Everything that needs to know which chips exist (``open_sensor``, rig-file and procedure
+validation, ``rig ports``, the simulated rig) reads it here::
+
+    from drivers.sensors.chips import CHIPS, SENSOR_MODELS
+    CHIPS["ADXL345"].sample_rates_hz     # (6.25, 12.5, ..., 3200.0)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+from drivers.sensors.adxl345 import Adxl345
+from drivers.sensors.base import AccelSensor, SensorError
+from drivers.sensors.mpu9150 import Mpu9150
+from drivers.sensors.regs import adxl345 as adxl345_regs
+from drivers.sensors.regs import mpu9150 as mpu9150_regs
+
+
+@dataclass(frozen=True)
+class ChipSpec:
+    """What the rig needs to know about one sensor chip.
+
+    Attributes
+    ----------
+    model : str
+        Name used in rig files, procedures and sessions ("MPU-9150").
+    default_address : int
+        7-bit I2C address when the rig file gives none.
+    addresses : tuple of int
+        Every address the chip can be strapped to.
+    identity_register, identity_value : int
+        Register that identifies the chip and the value it reads (WHO_AM_I = 0x68 ...).
+    accel_ranges_g : tuple of int
+        Accelerometer full-scale ranges, g.
+    sample_rates_hz : tuple of float
+        Output rates the chip can be configured to, Hz.
+    has_temperature, has_gyro, has_magnetometer : bool
+        Thermometer, gyroscope, magnetometer (the MPU-9150's AK8975) on board.
+    driver : callable
+        ``driver(bus, address, clock=clock) -> AccelSensor``.
+    """
+
+    model: str
+    default_address: int
+    addresses: tuple[int, ...]
+    identity_register: int
+    identity_value: int
+    accel_ranges_g: tuple[int, ...]
+    sample_rates_hz: tuple[float, ...]
+    has_temperature: bool
+    has_gyro: bool
+    has_magnetometer: bool
+    driver: Callable[..., AccelSensor]
+
+    def accepts_rate(self, rate_hz: float) -> bool:
+        """Whether the chip can run at ``rate_hz`` (Hz, within 1e-9 relative)."""
+        return any(math.isclose(rate_hz, r, rel_tol=1e-9) for r in self.sample_rates_hz)
+
+
+CHIPS: dict[str, ChipSpec] = {
+    "MPU-9150": ChipSpec(
+        model="MPU-9150", default_address=mpu9150_regs.DEFAULT_ADDRESS, addresses=mpu9150_regs.ADDRESSES,
+        identity_register=mpu9150_regs.WHO_AM_I, identity_value=mpu9150_regs.WHO_AM_I_VALUE,
+        accel_ranges_g=tuple(mpu9150_regs.ACCEL_RANGES), sample_rates_hz=mpu9150_regs.SAMPLE_RATES_HZ,
+        has_temperature=True, has_gyro=True, has_magnetometer=True, driver=Mpu9150),
+    "ADXL345": ChipSpec(
+        model="ADXL345", default_address=adxl345_regs.DEFAULT_ADDRESS, addresses=adxl345_regs.ADDRESSES,
+        identity_register=adxl345_regs.DEVID, identity_value=adxl345_regs.DEVID_VALUE,
+        accel_ranges_g=tuple(adxl345_regs.RANGE_BITS), sample_rates_hz=adxl345_regs.SAMPLE_RATES_HZ,
+        has_temperature=False, has_gyro=False, has_magnetometer=False, driver=Adxl345),
+}
+
+#: every supported model name, in the registry's order
+SENSOR_MODELS: tuple[str, ...] = tuple(CHIPS)
+
+
+def chip_spec(model: str) -> ChipSpec:
+    """The spec of ``model``; SensorError (one line, naming the known models) for an unknown one."""
+    try:
+        return CHIPS[model]
+    except KeyError:
+        raise SensorError(f"unknown sensor model {model!r} (known: {', '.join(SENSOR_MODELS)})") from None
+
+
+def open_sensor(model: str, bus, address: int | None = None, clock=None) -> AccelSensor:
+    """A driver for ``model`` on ``bus`` (smbus2.SMBus or SimulatedI2CBus).
+
+    Parameters
+    ----------
+    model : str
+        One of :data:`SENSOR_MODELS`.
+    bus : smbus2.SMBus or SimulatedI2CBus
+    address : int or None
+        I2C address; None for the chip's default.
+    clock : Clock or None
+        Timestamps (default real time).
+    """
+    spec = chip_spec(model)
+    return spec.driver(bus, address if address is not None else spec.default_address, clock=clock)
