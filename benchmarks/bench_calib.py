@@ -21,9 +21,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import calib  # noqa: E402
-from calib.data import StepMeans  # noqa: E402
+from calib.accel import StepMeans, solve_batch  # noqa: E402
 from calib.evaluation import roll_pitch_deg  # noqa: E402
-from calib.solvers import solve_batch  # noqa: E402
 from calib.synthetic import f_from_roll_pitch, six_faces  # noqa: E402
 from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
 

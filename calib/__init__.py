@@ -1,14 +1,19 @@
 """Calibration math (pure numpy): models, solvers, uncertainty, observability, evaluation, calibration file.
 
-Imports nothing from ``rig`` or ``drivers``.
+One package per sensor, each with ``inputs`` (step means), ``result`` (a
+:class:`calib.section.CalibrationSection`) and ``solve``: :mod:`calib.accel`, :mod:`calib.gyro`,
+:mod:`calib.mag`. Imports nothing from ``rig`` or ``drivers``.
 """
 
+from calib.accel import AccelCalibration, FitSummary, StepMeans, ThermalModel, solve, solve_batch
 from calib.calfile import CalibrationFile
-from calib.data import StepMeans
 from calib.errors import CalibError, CalibrationFileError, ObservabilityError
 from calib.evaluation import Evaluation, evaluate
-from calib.models import AccelCalibration, FitSummary, ThermalModel
-from calib.solvers import solve, solve_batch
+from calib.gyro import GyroCalibration, RateStepMeans, solve_gyro
+from calib.mag import MagCalibration, MagStepMeans, solve_mag_ellipsoid, solve_mag_positions
+from calib.section import CalibrationSection
 
-__all__ = ["AccelCalibration", "CalibError", "CalibrationFile", "CalibrationFileError", "Evaluation",
-           "FitSummary", "ObservabilityError", "StepMeans", "ThermalModel", "evaluate", "solve", "solve_batch"]
+__all__ = ["AccelCalibration", "CalibError", "CalibrationFile", "CalibrationFileError", "CalibrationSection",
+           "Evaluation", "FitSummary", "GyroCalibration", "MagCalibration", "MagStepMeans", "ObservabilityError",
+           "RateStepMeans", "StepMeans", "ThermalModel", "evaluate", "solve", "solve_batch", "solve_gyro",
+           "solve_mag_ellipsoid", "solve_mag_positions"]

@@ -14,12 +14,14 @@ discrepancy workflow adds are all just term lists; one solver serves them.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from calib.data import StepMeans
 from calib.errors import ObservabilityError
+
+if TYPE_CHECKING:  # type hints only: calib.accel imports this module
+    from calib.accel.inputs import StepMeans
 
 AXES = "xyz"
 

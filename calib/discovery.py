@@ -34,7 +34,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from calib.data import StepMeans
+from calib.accel.inputs import StepMeans
+from calib.accel.solve import TRIANGULAR_NAMES, assemble
 from calib.design import AxisFit
 from calib.effects import LIBRARY, EffectInputs
 from calib.errors import CalibError
@@ -307,8 +308,35 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
     base_fit = prob.fit([])
     if not prob.pose_free:
         prob.matrix_g = _matrix_from(prob, base_fit) / prob.lsb
-    unobservable, why = [], {}
-    observable = []
+    observable, unobservable, why = _triage(prob, names, steps, ctx)
+    selected, aliases = _select(prob, observable, false_alarm)
+
+    # re-linearise the M-dependent terms at the final M and refit
+    final = prob.fit(selected)
+    if not prob.pose_free:
+        prob.matrix_g = _matrix_from(prob, final) / prob.lsb
+        prob.build_columns(selected)
+        final = prob.fit(selected)
+    cov = final.cov0 * _inflation(final)
+    sig = np.sqrt(np.diag(cov))
+    prefix = [prob.fit(selected[:i]) for i in range(len(selected) + 1)]  # the model after each addition
+    effects = _found_effects(prob, final, sig, selected, prefix)
+    z0 = (base_fit.resid * prob.w).reshape(3, k).T
+    rows = _step_rows(steps, prob, ctx, base_fit, final)
+    history = [("baseline", _rms_g(prob, base_fit), base_fit.rss / base_fit.dof)]
+    history += [(e.name, e.rms_after_g, prefix[i + 1].rss / prefix[i + 1].dof) for i, e in enumerate(effects)]
+    noise = float(np.sqrt(np.mean(np.asarray(steps.sem_counts, float) ** 2)) / prob.lsb)
+    cal = None if prob.pose_free else _calibration(steps, prob, final, cov, selected, t0, t_ref, ctx)
+    return Discovery(rms_before_g=_rms_g(prob, base_fit), rms_after_g=_rms_g(prob, final), noise_rms_g=noise,
+                     chi2_per_dof_before=base_fit.rss / base_fit.dof, chi2_per_dof_after=final.rss / final.dof,
+                     effects=effects, aliases=aliases, unobservable=unobservable, unobservable_why=why,
+                     steps=rows, where=localise(steps, ctx, z0), history=history, false_alarm=false_alarm,
+                     calibration=cal, not_named=dict(getattr(prob, "last_pass", {})))
+
+
+def _triage(prob: "_Problem", names: list, steps: StepMeans, ctx: StepContext) -> tuple[list, list, dict]:
+    """Split the candidate effects into observable ones and unobservable ones (with the reason)."""
+    unobservable, why, observable = [], {}, []
     prob.build_columns(names)
     for n in names:
         problem = coverage_problem(n, steps, ctx, prob.pose_free)
@@ -323,18 +351,11 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
             why[n] = problem
         else:
             observable.append(n)
+    return observable, unobservable, why
 
-    selected, aliases = _select(prob, observable, false_alarm)
 
-    # re-linearise the M-dependent terms at the final M and refit
-    final = prob.fit(selected)
-    if not prob.pose_free:
-        prob.matrix_g = _matrix_from(prob, final) / prob.lsb
-        prob.build_columns(selected)
-        final = prob.fit(selected)
-    cov = final.cov0 * _inflation(final)
-    sig = np.sqrt(np.diag(cov))
-    prefix = [prob.fit(selected[:i]) for i in range(len(selected) + 1)]  # the model after each addition
+def _found_effects(prob: "_Problem", final, sig: np.ndarray, selected: list, prefix: list) -> list:
+    """One :class:`FoundEffect` per selected effect: estimates and 1-sigma, RMS after it (g), its F-test p."""
     effects = []
     for i, n in enumerate(selected):
         lib = LIBRARY[n]
@@ -345,24 +366,21 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
                 est[idx], sd[idx] = final.theta[col], sig[col]
         effects.append(FoundEffect(n, list(lib.params), lib.unit, est.tolist(), sd.tolist(),
                                    _rms_g(prob, prefix[i + 1]), f_test(prefix[i], prefix[i + 1])[1]))
+    return effects
 
+
+def _step_rows(steps: StepMeans, prob: "_Problem", ctx: StepContext, base_fit, final) -> list:
+    """Per-step residuals (g) and normalised residuals before and after the selected effects."""
+    k = len(steps)
+    temps = None if steps.temp_c is None else np.asarray(steps.temp_c, float)
     z0 = (base_fit.resid * prob.w).reshape(3, k).T
     z1 = (final.resid * prob.w).reshape(3, k).T
     r0 = base_fit.resid.reshape(3, k).T / prob.lsb
     r1 = final.resid.reshape(3, k).T / prob.lsb
-    rows = [StepRow(str(steps.names[i]), None if temps is None else float(temps[i]),
+    return [StepRow(str(steps.names[i]), None if temps is None else float(temps[i]),
                     None if ctx.heating is None else int(ctx.heating[i]), float(steps.t_s[i]),
                     None if prob.pose_free else prob.f[i].tolist(), r0[i].tolist(), r1[i].tolist(),
                     z0[i].tolist(), z1[i].tolist()) for i in range(k)]
-    history = [("baseline", _rms_g(prob, base_fit), base_fit.rss / base_fit.dof)]
-    history += [(e.name, e.rms_after_g, prefix[i + 1].rss / prefix[i + 1].dof) for i, e in enumerate(effects)]
-    noise = float(np.sqrt(np.mean(np.asarray(steps.sem_counts, float) ** 2)) / prob.lsb)
-    cal = None if prob.pose_free else _calibration(steps, prob, final, cov, selected, t0, t_ref, ctx)
-    return Discovery(rms_before_g=_rms_g(prob, base_fit), rms_after_g=_rms_g(prob, final), noise_rms_g=noise,
-                     chi2_per_dof_before=base_fit.rss / base_fit.dof, chi2_per_dof_after=final.rss / final.dof,
-                     effects=effects, aliases=aliases, unobservable=unobservable, unobservable_why=why,
-                     steps=rows, where=localise(steps, ctx, z0), history=history, false_alarm=false_alarm,
-                     calibration=cal, not_named=dict(getattr(prob, "last_pass", {})))
 
 
 def _select(prob: _Problem, observable: list, alpha: float) -> tuple[list, list]:
@@ -437,7 +455,6 @@ def _matrix_from(prob: _Problem, fit: _Fit) -> np.ndarray:
 
 def _calibration(steps, prob, final, cov, selected, t0, t_ref, ctx):
     """The augmented calibration: the seed's model, its thermal polynomial and the other effects."""
-    from calib.solvers import TRIANGULAR_NAMES, assemble
     order = 2 if "bias_tempco_quadratic" in selected else (1 if "bias_tempco" in selected else 0)
     k = prob.k
     fits = {}

@@ -38,6 +38,8 @@ from typing import Callable
 
 import numpy as np
 
+from calib.errors import CalibError
+
 AXES = ("x", "y", "z")
 
 
@@ -211,7 +213,6 @@ def effect_counts(effects: list, f_g, temp_c, t_s, lsb_per_g: float, matrix_coun
     (a clear error otherwise). Hysteresis follows the temperature series given.
     ``table_tilt`` (a property of the rig) contributes nothing here.
     """
-    from calib.errors import CalibError
     f = np.atleast_2d(np.asarray(f_g, float))
     n = len(f)
     out = np.zeros((n, 3))

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.data import StepMeans
+from calib.accel.inputs import StepMeans
 
 GIMBAL_LOCK_COS = 0.05  # |cos pitch| below this: roll is undefined and not scored
 

@@ -70,14 +70,8 @@ def fit_magnitude(mean_counts, sem_counts=None, *, radius: float = 1.0, min_inte
 
     a = np.asarray(mean_counts, float)
     k = len(a)
-    n_par = 9
-    if k < max(min_intervals, n_par + 1):
-        raise ObservabilityError(f"the magnitude method needs at least {max(min_intervals, n_par + 1)} static "
-                                 f"intervals in different directions; got {k}")
+    _check_intervals(a, min_intervals)
     sem = np.ones_like(a) if sem_counts is None else np.asarray(sem_counts, float)
-    spread = np.linalg.svd(a - a.mean(axis=0), compute_uv=False)
-    if spread[-1] < 1e-3 * spread[0]:
-        raise ObservabilityError("the static intervals lie in a plane: turn the sensor through all three axes")
     b0 = 0.5 * (a.max(axis=0) + a.min(axis=0))
     half = np.maximum(0.5 * (a.max(axis=0) - a.min(axis=0)), 1e-9)
     u0 = np.diag(radius / half)
@@ -110,24 +104,42 @@ def fit_magnitude(mean_counts, sem_counts=None, *, radius: float = 1.0, min_inte
     cov[np.ix_(keep, keep)] = cov_q
     b, u, r = _unpack(p, radius)
     m = np.linalg.inv(u)
-    # sigma of M = U^-1 by first-order propagation: dM = -M dU M
-    sig_m = np.zeros((3, 3))
-    cov_u = cov[3:9, 3:9]
+    sig_m = _sigma_matrix(m, cov[3:9, 3:9])
+    f = (a - b) @ u.T
+    resid = np.linalg.norm(f, axis=1) - r
+    _check_coverage(f)
+    return MagnitudeFit(matrix=m, bias=b, radius=float(r), cov=cov, residual_rms=float(np.sqrt(np.mean(resid**2))),
+                        chi2_per_dof=chi2 / dof if dof > 0 else float("nan"), n_intervals=k,
+                        converged=bool(sol.success), sigma_bias=np.sqrt(np.diag(cov)[:3]), sigma_matrix=sig_m)
+
+
+def _check_intervals(a: np.ndarray, min_intervals: int) -> None:
+    """Enough interval means (K, 3), not all in one plane."""
+    k, n_par = len(a), 9
+    if k < max(min_intervals, n_par + 1):
+        raise ObservabilityError(f"the magnitude method needs at least {max(min_intervals, n_par + 1)} static "
+                                 f"intervals in different directions; got {k}")
+    spread = np.linalg.svd(a - a.mean(axis=0), compute_uv=False)
+    if spread[-1] < 1e-3 * spread[0]:
+        raise ObservabilityError("the static intervals lie in a plane: turn the sensor through all three axes")
+
+
+def _sigma_matrix(m: np.ndarray, cov_u: np.ndarray) -> np.ndarray:
+    """1-sigma (3, 3) of ``M = U^-1`` by first-order propagation (``dM = -M dU M``) of U's (6, 6) covariance."""
     jm = np.zeros((9, 6))
     for j, (r_, c_) in enumerate(zip(*_IU)):
         du = np.zeros((3, 3))
         du[r_, c_] = 1.0
         jm[:, j] = (-m @ du @ m).ravel()
-    sig_m = np.sqrt(np.maximum(np.diag(jm @ cov_u @ jm.T), 0)).reshape(3, 3)
-    f = (a - b) @ u.T
-    resid = np.linalg.norm(f, axis=1) - r
-    # the directions must cover the sphere, or scale and bias trade off freely (e.g. one pose only)
+    return np.sqrt(np.maximum(np.diag(jm @ cov_u @ jm.T), 0)).reshape(3, 3)
+
+
+def _check_coverage(f: np.ndarray) -> None:
+    """The calibrated directions (K, 3) must cover the sphere, or scale and bias trade off freely."""
+    k = len(f)
     unit = f / np.maximum(np.linalg.norm(f, axis=1), 1e-12)[:, None]
     coverage = float(np.linalg.svd(unit, compute_uv=False)[-1] / np.sqrt(k))
     if coverage < MIN_DIRECTION_COVERAGE:
         raise ObservabilityError(f"the {k} static intervals do not point in enough different directions (coverage "
                                  f"{coverage:.2f} < {MIN_DIRECTION_COVERAGE}): turn the sensor so each axis points up "
                                  "and down in some of them")
-    return MagnitudeFit(matrix=m, bias=b, radius=float(r), cov=cov, residual_rms=float(np.sqrt(np.mean(resid**2))),
-                        chi2_per_dof=chi2 / dof if dof > 0 else float("nan"), n_intervals=k,
-                        converged=bool(sol.success), sigma_bias=np.sqrt(np.diag(cov)[:3]), sigma_matrix=sig_m)

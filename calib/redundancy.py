@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from calib.data import StepMeans
+from calib.accel.inputs import StepMeans
+from calib.errors import ObservabilityError
 
 AXES = "xyz"
 
@@ -62,7 +63,6 @@ def pair_biases(steps: StepMeans, tol: float = 0.05) -> Redundancy:
             sm = np.sqrt(np.sum(s[minus] ** 2, axis=0)) / len(minus)
             pairs.append(PairBias(AXES[k], 0.5 * (ap + am), 0.5 * np.hypot(sp, sm)))
     if len(pairs) < 2:
-        from calib.errors import ObservabilityError
         raise ObservabilityError("the redundancy check needs at least two pairs of opposite poses")
     b = np.array([p.bias_counts for p in pairs])
     sg = np.array([p.sigma_counts for p in pairs])

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.data import StepMeans
+from calib.accel.inputs import StepMeans
 
 
 def triangular_matrix(scale_counts_per_g, alpha_yz: float, alpha_zy: float, alpha_zx: float) -> np.ndarray:

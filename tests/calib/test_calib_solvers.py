@@ -8,7 +8,7 @@ import pytest
 
 import calib
 from calib.design import Inputs
-from calib.solvers import solve_batch, triangular_model
+from calib.accel.solve import solve_batch, triangular_model
 from calib.synthetic import Truth, make_steps, six_faces, triangular_matrix
 
 LSB = 8192.0

@@ -16,11 +16,12 @@ import itertools
 
 import numpy as np
 
-from calib.data import StepMeans
-from calib.design import (AXES, Inputs, LinearModel, check_model, check_rank, const_term, force_term, solve_wls,
-                          temp_term)
+from calib.accel.inputs import StepMeans
+from calib.accel.result import AccelCalibration, FitSummary, ThermalModel
+from calib.design import (AXES, AxisFit, Inputs, LinearModel, check_model, check_rank, const_term, force_term,
+                          solve_wls, temp_term)
 from calib.errors import CalibError, ObservabilityError
-from calib.models import AccelCalibration, FitSummary, ThermalModel
+from calib.magnitude import fit_magnitude
 
 THERMAL_AUTO_MIN_SPAN_C = 2.0
 
@@ -141,7 +142,7 @@ def assemble(steps: StepMeans, model: str, fits: dict, order: int, t0_c: float, 
     sigma = {"bias_counts": sb.tolist(), "scale_counts_per_g": np.diag(sm).tolist(),
              "matrix_counts_per_g": sm.tolist(), "misalignment": smis,
              "temperature": {"coefficients": scoef[:, :order].tolist()} if order else None}
-    thermal = ThermalModel(float(t0_c), order, coef[:, :order]) if order else None
+    thermal = ThermalModel(t0_c=float(t0_c), order=order, coefficients=coef[:, :order]) if order else None
     fit = FitSummary(steps=len(steps), samples=int(np.sum(steps.n_samples)),
                      residual_rms_g=float(np.sqrt(np.mean(res**2)) / steps.lsb_per_g),
                      chi2_per_dof=float(chi2 / dof) if dof > 0 else float("nan"), method=method)
@@ -188,7 +189,6 @@ def solve_flip(steps: StepMeans, *, thermal="off", tol: float = 0.05) -> AccelCa
         raise CalibError("the flip method has no thermal model: use thermal off")
     f = steps.f_nominal_g
     fits = {}
-    from calib.design import AxisFit
     for j, a in enumerate(AXES):
         e = np.zeros(3); e[j] = 1
         plus = np.flatnonzero(np.linalg.norm(f - e, axis=1) < tol)
@@ -249,7 +249,6 @@ def solve_combinations(steps: StepMeans, *, model: str = "triangular", thermal="
             break
     if count == 0:
         raise ObservabilityError("no subset of the poses determines the model exactly")
-    from calib.design import AxisFit
     fits = {}
     for j, a in enumerate(AXES):
         amap = maps[a] / count
@@ -297,8 +296,6 @@ def solve_magnitude(steps: StepMeans) -> AccelCalibration:
     triangular model) by :func:`calib.magnitude.fit_magnitude`; the poses (``f_nominal_g``)
     are not used. No temperature terms. Needs at least 10 well-spread static steps.
     """
-    from calib.magnitude import fit_magnitude
-
     fit = fit_magnitude(steps.mean_counts, steps.sem_counts, radius=1.0)
     m = np.asarray(fit.matrix, float)
     m[np.tril_indices(3, -1)] = 0.0  # exactly upper triangular (U^-1 of an upper-triangular U)

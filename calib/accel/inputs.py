@@ -1,0 +1,72 @@
+"""Inputs of the solvers: per-step means of a static calibration session."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from calib.errors import CalibError
+
+
+@dataclass(frozen=True)
+class StepMeans:
+    """One row per static step.
+
+    Attributes
+    ----------
+    names : step names.
+    f_nominal_g : (K, 3) nominal specific force, sensor frame, g; a row of NaN where the pose is unknown.
+    mean_counts : (K, 3) mean raw accelerometer counts.
+    sem_counts : (K, 3) standard error of each mean (sample std / sqrt(n)), counts.
+    n_samples : (K,) samples per step.
+    temp_c : (K,) mean temperature per step, C, or None (no thermometer).
+    t_s : (K,) mid-time of each step, s from session start.
+    lsb_per_g : nominal sensitivity at the recorded range, counts per g.
+    """
+
+    names: tuple
+    f_nominal_g: np.ndarray
+    mean_counts: np.ndarray
+    sem_counts: np.ndarray
+    n_samples: np.ndarray
+    temp_c: np.ndarray | None
+    t_s: np.ndarray
+    lsb_per_g: float
+
+    def __post_init__(self) -> None:
+        k = len(self.names)
+        for name, shape in (("f_nominal_g", (k, 3)), ("mean_counts", (k, 3)), ("sem_counts", (k, 3)),
+                            ("n_samples", (k,)), ("t_s", (k,))):
+            v = np.asarray(getattr(self, name))
+            if v.shape != shape:
+                raise CalibError(f"StepMeans.{name}: expected shape {shape}, got {v.shape}")
+            finite = np.isfinite(v)
+            if name == "f_nominal_g":  # a step with an unknown pose has a whole row of NaN
+                finite = finite.all(axis=1) | np.isnan(v).all(axis=1)
+            if not np.all(finite):
+                raise CalibError(f"StepMeans.{name}: contains NaN or infinity")
+        if self.temp_c is not None:
+            t = np.asarray(self.temp_c)
+            if t.shape != (k,) or not np.all(np.isfinite(t)):
+                raise CalibError("StepMeans.temp_c: expected K finite temperatures, or None")
+        if not np.all(np.asarray(self.sem_counts) > 0):
+            raise CalibError("StepMeans.sem_counts: every standard error must be > 0")
+        if not self.lsb_per_g > 0:
+            raise CalibError("StepMeans.lsb_per_g: must be > 0")
+
+    @property
+    def pose_known(self) -> np.ndarray:
+        """(K,) True where the step's nominal specific force is known."""
+        return np.isfinite(np.asarray(self.f_nominal_g, float)).all(axis=1)
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def subset(self, idx) -> "StepMeans":
+        idx = np.asarray(idx)
+        return StepMeans(names=tuple(np.asarray(self.names, dtype=object)[idx]),
+                         f_nominal_g=self.f_nominal_g[idx], mean_counts=self.mean_counts[idx],
+                         sem_counts=self.sem_counts[idx], n_samples=self.n_samples[idx],
+                         temp_c=None if self.temp_c is None else self.temp_c[idx], t_s=self.t_s[idx],
+                         lsb_per_g=self.lsb_per_g)
