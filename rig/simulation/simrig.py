@@ -12,9 +12,6 @@ solves or searches may read them.
 from __future__ import annotations
 
 import dataclasses
-import dataclasses
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -23,82 +20,10 @@ from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, Mag
 from drivers.sensors.sim.bus import SimulatedI2CBus
 from drivers.ximc.sim.emulator import ControllerEmulator, XimcFaults
 from rig.errors import RigInputError
-from rig.simulation.world import AxisLink, ChamberConfig, FieldConfig, RingingConfig, SimChamber, WorldModel
+from rig.simulation.settings import EFFECT_FIELDS, WORLD_EFFECTS, SimSettings  # noqa: F401 - SimSettings re-exported
+from rig.simulation.world import AxisLink, SimChamber, WorldModel
 
 AXES = ("a1", "a2", "a3")
-
-#: Canonical names of hidden effects a rig file may switch on, and how each
-#: maps onto the sensor error model (field, shape) or the world model.
-EFFECT_FIELDS: dict[str, str] = {
-    "bias_tempco": "bias_tempco_g_per_c",
-    "bias_tempco_quadratic": "bias_tempco2_g_per_c2",
-    "scale_tempco": "scale_tempco_per_c",
-    "scale_nonlinearity": "scale_nonlinearity",
-    "cross_axis_nonlinearity": "cross_axis_nonlinearity",
-    "bias_drift": "bias_drift_g_per_s",
-    "thermal_hysteresis": "thermal_hysteresis_g",
-}
-WORLD_EFFECTS = ("table_tilt", "full_misalignment")
-
-SIM_KEYS = {"time_scale", "sensor", "chamber", "table_tilt_deg", "field", "ringing", "effects",
-            "errors", "gyro_errors", "mag_errors", "serial_base"}
-
-
-@dataclass
-class SimSettings:
-    """The ``sim:`` section of a rig file, validated."""
-
-    time_scale: float = 1.0  # 0 = virtual time
-    chamber: ChamberConfig = dataclasses.field(default_factory=ChamberConfig)
-    ringing: RingingConfig = dataclasses.field(default_factory=RingingConfig)
-    magnetic_field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
-    table_tilt_deg: tuple[float, float] = (0.0, 0.0)
-    effects: dict[str, Any] = dataclasses.field(default_factory=dict)
-    errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # AccelErrorModel overrides
-    gyro_errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # GyroErrorModel overrides
-    mag_errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # MagErrorModel overrides
-    serial_base: int = 0x5A00
-
-    @classmethod
-    def from_mapping(cls, m: dict | None, where: str) -> "SimSettings":
-        m = dict(m or {})
-        _check_keys(m, SIM_KEYS, where)
-        out = cls()
-        if "time_scale" in m:
-            out.time_scale = _number(m["time_scale"], f"{where}.time_scale", minimum=0.0)
-        if "chamber" in m:
-            out.chamber = _dataclass_from(ChamberConfig, m["chamber"], f"{where}.chamber")
-        if "ringing" in m:
-            out.ringing = _dataclass_from(RingingConfig, m["ringing"], f"{where}.ringing")
-        if "field" in m:
-            out.magnetic_field = _dataclass_from(FieldConfig, m["field"], f"{where}.field")
-        if "table_tilt_deg" in m:
-            v = m["table_tilt_deg"]
-            if not (isinstance(v, list) and len(v) == 2):
-                raise RigInputError(None, None, f"{where}.table_tilt_deg", "expected [tilt_x_deg, tilt_y_deg]")
-            out.table_tilt_deg = (_number(v[0], f"{where}.table_tilt_deg[0]"),
-                                  _number(v[1], f"{where}.table_tilt_deg[1]"))
-        if "effects" in m:
-            eff = m["effects"] or {}
-            if not isinstance(eff, dict):
-                raise RigInputError(None, None, f"{where}.effects", "expected a mapping of effect name to magnitude")
-            _check_keys(eff, set(EFFECT_FIELDS) | set(WORLD_EFFECTS), f"{where}.effects")
-            out.effects = dict(eff)
-        if "errors" in m:
-            if not isinstance(m["errors"], dict):
-                raise RigInputError(None, None, f"{where}.errors", "expected a mapping of error-model fields")
-            allowed = {f.name for f in dataclasses.fields(AccelErrorModel)}
-            _check_keys(m["errors"], allowed, f"{where}.errors")
-            out.errors = dict(m["errors"])
-        for key, cls_ in (("gyro_errors", GyroErrorModel), ("mag_errors", MagErrorModel)):
-            if key in m:
-                if not isinstance(m[key], dict):
-                    raise RigInputError(None, None, f"{where}.{key}", "expected a mapping of error-model fields")
-                _check_keys(m[key], {f.name for f in dataclasses.fields(cls_)}, f"{where}.{key}")
-                setattr(out, key, dict(m[key]))
-        if "serial_base" in m:
-            out.serial_base = int(_number(m["serial_base"], f"{where}.serial_base", minimum=1))
-        return out
 
 
 class SimulatedRig:
@@ -247,25 +172,3 @@ def _broadcast_like(value, like, name):
 
 def _plain(v):
     return np.asarray(v).tolist() if not isinstance(v, (int, float, str)) else v
-
-
-def _check_keys(m: dict, allowed: set[str], where: str) -> None:
-    for k in m:
-        if k not in allowed:
-            raise RigInputError(None, None, f"{where}.{k}", f"unknown key (allowed: {', '.join(sorted(allowed))})")
-
-
-def _number(v, where: str, minimum: float | None = None) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise RigInputError(None, None, where, f"expected a number, got {v!r}")
-    if minimum is not None and v < minimum:
-        raise RigInputError(None, None, where, f"expected >= {minimum:g}, got {v!r}")
-    return float(v)
-
-
-def _dataclass_from(cls, m, where: str):
-    if not isinstance(m, dict):
-        raise RigInputError(None, None, where, "expected a mapping")
-    allowed = {f.name for f in dataclasses.fields(cls)}
-    _check_keys(m, allowed, where)
-    return cls(**{k: _number(v, f"{where}.{k}") for k, v in m.items()})

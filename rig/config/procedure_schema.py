@@ -1,0 +1,280 @@
+"""The ``rig-procedure/1`` schema (pydantic v2): what a procedure file may say, with its bounds.
+
+The leaf specs (:class:`Dwell`, :class:`Settle`, :class:`TemperatureTarget`, :class:`SensorSpec`,
+:class:`SolveSpec`) are the values the runner reads; the step models and :class:`ProcedureDoc`
+describe the file and are expanded into ``PlannedStep`` by :mod:`rig.config.procedure`.
+``docs/schemas/procedure.schema.json`` is generated from here (``python -m rig.config.schemas``).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, ClassVar, Optional, Union
+
+from pydantic import BeforeValidator, Discriminator, Field, Tag, WithJsonSchema, model_validator
+
+from drivers.sensors.chips import CHIPS, SENSOR_MODELS
+from drivers.ximc.stages import MR191
+from rig.config.schema import Strict, choice, fail, flag, label, number, text
+from rig.planning.poses import POSE_NAMES
+
+FORMAT = "rig-procedure/1"
+GYRO_RANGES_DPS = (250, 500, 1000, 2000)
+ADXL345_RATES_HZ = CHIPS["ADXL345"].sample_rates_hz
+ACCEL_RANGES_G = tuple(sorted({r for c in CHIPS.values() for r in c.accel_ranges_g}))
+MODELS = ("triangular", "full")
+METHODS = ("pinv", "flip", "combinations")
+RATE_MAX_DEG_S = MR191.max_speed_deg_s  # 8MR191: 4800 full steps/s at 0.01 deg/step
+DAY_S = 86400.0
+MAX_SAMPLES = 86_400_000  # a day at 1 kHz
+MIN_DWELL_SAMPLES = 2
+
+Angle = number(ge=-3600, le=3600, description="degrees")
+Seconds = number(gt=0, le=DAY_S, description="seconds")
+
+
+def _pose(v):
+    if v not in POSE_NAMES:
+        raise fail(f"unknown pose {v!r} (allowed: {', '.join(POSE_NAMES[:6])}, "
+                   "or any cube direction such as '+X+Y up', '-X+Y+Z up')")
+    return v
+
+
+PoseName = Annotated[str, BeforeValidator(_pose), WithJsonSchema({
+    "enum": list(POSE_NAMES), "description": "the sensor axis (or cube direction) that points up"})]
+
+
+def _angles(v):
+    if not (isinstance(v, (list, tuple)) and len(v) == 3):
+        raise fail("expected [a1, a2, a3] in degrees")
+    return v
+
+
+Angles = Annotated[tuple[Angle, Angle, Angle], BeforeValidator(_angles)]
+
+
+class Dwell(Strict):
+    """How long to capture at a pose: exactly one of seconds, samples, sem_g."""
+
+    mapping_hint: ClassVar[str] = "expected a mapping with one of seconds, samples, sem_g"
+    seconds: Optional[Seconds] = None
+    samples: Optional[number(gt=0, ge=MIN_DWELL_SAMPLES, le=MAX_SAMPLES, integer=True)] = None
+    sem_g: Optional[number(gt=0, le=1.0, description="standard error of the mean to reach, g")] = None
+    max_seconds: Optional[Seconds] = None  # cap for sem_g
+
+    @model_validator(mode="after")
+    def _exactly_one(self):
+        given = [k for k in ("seconds", "samples", "sem_g") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise fail(f"give exactly one of seconds, samples, sem_g (got {', '.join(given) or 'none'})")
+        if self.sem_g is not None and self.max_seconds is None:
+            raise fail("a sem_g dwell needs max_seconds too (the cap)", at=("max_seconds",))
+        return self
+
+    def max_duration_s(self, rate_hz: float) -> float | None:
+        """Longest capture in seconds at ``rate_hz`` (None: unknown)."""
+        if self.samples is not None:
+            return self.samples / rate_hz
+        return self.seconds if self.seconds is not None else self.max_seconds
+
+
+class Settle(Strict):
+    """Settle rule (see rig.execution.settle.SettleRule); a step's ``settle`` overrides single keys."""
+
+    window_s: number(gt=0, le=3600) = 0.5
+    threshold_g: number(gt=0, le=16) = 0.01
+    mean_tol_sigma: number(gt=0, le=1000) = 4.0
+    timeout_s: number(gt=0, le=DAY_S) = 30.0
+    min_s: number(ge=0, le=3600) = 0.0
+
+
+class TemperatureTarget(Strict):
+    mapping_hint: ClassVar[str] = "expected a mapping with target_c (tolerance_c, hold_s, timeout_s, mode)"
+    target_c: number(ge=-40, le=85)
+    tolerance_c: number(gt=0, le=50) = 0.3
+    hold_s: number(ge=0, le=DAY_S) = 60.0
+    timeout_s: number(gt=0, le=7 * DAY_S) = 3600.0
+    mode: choice(("wait", "operator"), "expected wait or operator, got {got}") = "wait"
+
+    @model_validator(mode="after")
+    def _hold_fits(self):
+        if self.hold_s > self.timeout_s:
+            raise fail(f"hold_s {self.hold_s:g} s is longer than timeout_s {self.timeout_s:g} s: the hold "
+                       "could never complete", at=("hold_s",))
+        return self
+
+
+class SensorSpec(Strict):
+    mapping_hint: ClassVar[str] = "expected a mapping (model, accel_range_g, sample_rate_hz, gyro_range_dps)"
+    model: Optional[choice(SENSOR_MODELS, f"expected {' or '.join(SENSOR_MODELS)}, got {{got}}")] = None  # None: any
+    accel_range_g: choice(ACCEL_RANGES_G) = 4
+    sample_rate_hz: number(gt=0, le=100_000) = 100.0
+    gyro_range_dps: choice(GYRO_RANGES_DPS) = 250
+    magnetometer: flag("read the AK8975 at every static step") = False
+    mag_samples: number(gt=0, le=1000, integer=True) = 20  # magnetometer readings per static step
+
+    @model_validator(mode="after")
+    def _fits_the_chip(self):
+        chip = CHIPS[self.model or "MPU-9150"]
+        if not chip.accepts_rate(self.sample_rate_hz):
+            rates = chip.sample_rates_hz
+            told = (", ".join(f"{r:g}" for r in sorted(rates)) if len(rates) <= 12 else
+                    f"1000/(1+n), {min(rates):g}..{max(rates):g}")
+            raise fail(f"the {chip.model} runs at {told} Hz; got {self.sample_rate_hz:g}", at=("sample_rate_hz",))
+        if self.accel_range_g not in chip.accel_ranges_g:
+            raise fail(f"the {chip.model} has ranges {', '.join(map(str, chip.accel_ranges_g))} g", at=("accel_range_g",))
+        if self.magnetometer and self.model is not None and not chip.has_magnetometer:
+            raise fail(f"the {chip.model} has no magnetometer (the AK8975 sits behind the MPU-9150)",
+                       at=("magnetometer",))
+        return self
+
+
+def _thermal(v):
+    if v is False:
+        return "off"
+    if v in ("auto", "off") or (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 3):
+        return v
+    raise fail(f"expected auto, off or an order 1..3, got {v!r}")
+
+
+Thermal = Annotated[Any, BeforeValidator(_thermal), WithJsonSchema({"anyOf": [
+    {"enum": ["auto", "off", False]}, {"type": "integer", "minimum": 1, "maximum": 3}]})]
+
+
+class SolveSpec(Strict):
+    mapping_hint: ClassVar[str] = "expected a mapping (model, method, thermal) or null"
+    model: choice(MODELS) = "triangular"
+    method: choice(METHODS) = "pinv"
+    thermal: Thermal = "auto"  # auto | off | int
+    magnetometer: Optional[choice(("positions", "ellipsoid"), "expected positions or ellipsoid, got {got}")] = None
+
+    def get(self, key, default=None):
+        return getattr(self, key, default)
+
+
+# -- steps -------------------------------------------------------------------------------------------
+StepName = Optional[label(description="the step's name in the session (default: from the pose)")]
+
+
+class PoseStep(Strict):
+    pose: PoseName
+    a1_deg: Angle = 0.0
+    name: StepName = None
+    dwell: Optional[Dwell] = None
+    settle: Optional[Settle] = None
+
+
+class AnglesStep(Strict):
+    refused_keys: ClassVar[dict[str, str]] = {"a1_deg": "a1_deg goes with pose; angles_deg already gives a1"}
+    angles_deg: Angles
+    name: StepName = None
+    dwell: Optional[Dwell] = None
+    settle: Optional[Settle] = None
+
+
+class RateSpec(Strict):
+    mapping_hint: ClassVar[str] = "expected a mapping {axis, rate_deg_s, seconds}"
+    axis: choice(("a1", "a2", "a3"), "expected a1, a2 or a3, got {got}")
+    rate_deg_s: number(description=f"non-zero, at most {RATE_MAX_DEG_S:g} deg/s either way")
+    seconds: Optional[number(gt=0, le=3600)] = None  # default: the procedure's dwell seconds
+    spin_up_s: number(ge=0, le=60) = 0.5
+
+    @model_validator(mode="after")
+    def _within_the_stage(self):
+        if self.rate_deg_s == 0 or abs(self.rate_deg_s) > RATE_MAX_DEG_S:
+            raise fail(f"expected a non-zero rate within the 8MR191's limit of +-{RATE_MAX_DEG_S:g} deg/s, "
+                       f"got {self.rate_deg_s:g}", at=("rate_deg_s",))
+        return self
+
+
+class RateStep(Strict):
+    rate: RateSpec
+    pose: Optional[PoseName] = None
+    angles_deg: Optional[Angles] = None
+    a1_deg: Angle = 0.0
+    name: StepName = None
+
+
+class TemperatureStep(Strict):
+    temperature: TemperatureTarget
+    name: StepName = None
+
+
+class PromptStep(Strict):
+    prompt: text()
+    name: StepName = None
+
+
+STEP_KINDS = ("pose", "angles_deg", "repeat", "temperature", "prompt", "rate")
+_TAGS = {"pose": "pose step", "angles_deg": "angles step", "repeat": "repeat step",
+         "temperature": "temperature step", "prompt": "prompt step", "rate": "rate step"}
+
+
+def step_kind(item) -> str | None:
+    """Which kind of step a mapping is (None when it is not exactly one)."""
+    if not isinstance(item, dict):
+        return None
+    kinds = [k for k in STEP_KINDS if k in item]
+    if "rate" in kinds and len(kinds) == 2 and ("pose" in kinds or "angles_deg" in kinds):
+        return "rate"  # a rate step may give the pose it spins from
+    return kinds[0] if len(kinds) == 1 else None
+
+
+def _one_kind(item):
+    if not isinstance(item, dict):
+        raise fail("expected a mapping: a pose, angles_deg, repeat, temperature or prompt step")
+    if step_kind(item) is None:
+        kinds = [k for k in STEP_KINDS if k in item]
+        raise fail("each step needs exactly one of pose, angles_deg, repeat, temperature, prompt, rate"
+                   + (f" (got {', '.join(kinds)})" if kinds else ""))
+    return item
+
+
+def _tag(item):
+    kind = step_kind(item) if isinstance(item, dict) else None
+    return _TAGS[kind] if kind else None
+
+
+Step = Annotated[Union[
+    Annotated[PoseStep, Tag(_TAGS["pose"])], Annotated[AnglesStep, Tag(_TAGS["angles_deg"])],
+    Annotated["RepeatStep", Tag(_TAGS["repeat"])], Annotated[TemperatureStep, Tag(_TAGS["temperature"])],
+    Annotated[PromptStep, Tag(_TAGS["prompt"])], Annotated[RateStep, Tag(_TAGS["rate"])],
+], Discriminator(_tag), BeforeValidator(_one_kind)]
+
+
+def _step_list(v):
+    if not isinstance(v, list) or not v:
+        raise fail("expected a non-empty list of steps")
+    return v
+
+
+Steps = Annotated[list[Step], BeforeValidator(_step_list), Field(min_length=1)]
+
+
+class RepeatStep(Strict):
+    repeat: number(gt=0, le=1000, integer=True)
+    steps: Steps
+
+
+RepeatStep.model_rebuild()
+
+
+class ProcedureDoc(Strict):
+    """A ``rig-procedure/1`` file (docs/procedures.md)."""
+
+    model_config = Strict.model_config | {"title": FORMAT}
+    mapping_hint: ClassVar[str] = "expected a mapping with format, name, steps, ..."
+    format: choice((FORMAT,), f"expected {FORMAT!r}, got {{got}}")
+    name: text(100, "letters, digits, _ and -")
+    description: Optional[text()] = None
+    sensor: Optional[SensorSpec] = None
+    dwell: Dwell = Dwell(seconds=10.0)
+    settle: Settle = Settle()
+    order: choice(("as_written", "shortest"), "expected as_written or shortest, got {got}") = "as_written"
+    steps: Steps
+    solve: Optional[SolveSpec] = None
+
+    @model_validator(mode="after")
+    def _plain_name(self):
+        if not self.name.replace("_", "").replace("-", "").isalnum():
+            raise fail("use letters, digits, '_' and '-' only", at=("name",))
+        return self
