@@ -16,14 +16,17 @@ import dataclasses
 import numpy as np
 
 from drivers.clock import MonotonicClock, VirtualClock
-from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, MagErrorModel
+from drivers.sensors.chips import chip_spec
+from drivers.sensors.sim.adxl345 import Adxl345Model
 from drivers.sensors.sim.bus import SimulatedI2CBus
+from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, MagErrorModel
+from drivers.sensors.sim.faults import SensorFaults
+from drivers.sensors.sim.mpu9150 import Mpu9150Model
 from drivers.ximc.sim.emulator import ControllerEmulator, XimcFaults
 from rig.errors import RigInputError
+from rig.planning.kinematics import AXES
 from rig.simulation.settings import EFFECT_FIELDS, WORLD_EFFECTS, SimSettings  # noqa: F401 - SimSettings re-exported
 from rig.simulation.world import AxisLink, SimChamber, WorldModel
-
-AXES = ("a1", "a2", "a3")
 
 
 class SimulatedRig:
@@ -103,26 +106,11 @@ class SimulatedRig:
         return tilt
 
     def _make_chip(self, sensor_faults):
-        from drivers.sensors.sim import faults as sensor_faults_mod
-        faults = sensor_faults_mod.SensorFaults(**sensor_faults) if sensor_faults else None
-        if self.sensor_model == "MPU-9150":
-            from drivers.sensors.sim.mpu9150 import Mpu9150Model
-            chip = Mpu9150Model(self.world, self.accel_errors, clock=self.clock, seed=self.seed,
-                                gyro_errors=self.gyro_errors, mag_errors=self.mag_errors, faults=faults)
-            addr = self.sensor_address or 0x68
-            if hasattr(chip, "attach"):
-                chip.attach(self.bus, addr)
-            else:
-                self.bus.add_device(addr, chip)
-        elif self.sensor_model == "ADXL345":
-            from drivers.sensors.sim.adxl345 import Adxl345Model
-            chip = Adxl345Model(self.world, self.accel_errors, clock=self.clock, seed=self.seed, faults=faults)
-            addr = self.sensor_address or 0x53
-            self.bus.add_device(addr, chip)
-        else:
-            raise RigInputError(None, None, "sensor.model", f"unknown sensor {self.sensor_model!r} (allowed: MPU-9150, ADXL345)")
-        self.sensor_address = addr
-        return chip
+        """The register-level chip of ``sensor_model`` on the simulated bus (``SIM_CHIPS``)."""
+        faults = SensorFaults(**sensor_faults) if sensor_faults else None
+        spec = chip_spec(self.sensor_model)
+        self.sensor_address = self.sensor_address or spec.default_address
+        return SIM_CHIPS[spec.model](self, faults)
 
     # -- lifecycle ----------------------------------------------------------------------
     def start(self) -> dict[str, str]:
@@ -172,3 +160,21 @@ def _broadcast_like(value, like, name):
 
 def _plain(v):
     return np.asarray(v).tolist() if not isinstance(v, (int, float, str)) else v
+
+
+def _mpu9150(sim: "SimulatedRig", faults):
+    """The MPU-9150 attaches itself and the AK8975 behind its I2C bypass."""
+    chip = Mpu9150Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.seed, gyro_errors=sim.gyro_errors,
+                        mag_errors=sim.mag_errors, faults=faults)
+    chip.attach(sim.bus, sim.sensor_address)
+    return chip
+
+
+def _adxl345(sim: "SimulatedRig", faults):
+    chip = Adxl345Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.seed, faults=faults)
+    sim.bus.add_device(sim.sensor_address, chip)
+    return chip
+
+
+#: sensor model -> builder of its simulated chip on the rig's bus
+SIM_CHIPS = {"MPU-9150": _mpu9150, "ADXL345": _adxl345}
