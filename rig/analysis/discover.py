@@ -17,8 +17,10 @@ import numpy as np
 from calib import calfile
 from calib.discovery import Discovery, StepContext, discover, summary_lines
 from calib.effects import LIBRARY, heating_state
+from calib.errors import CalibError
+from rig.analysis.solve import SOFTWARE, sensor_section
 from rig.planning.kinematics import sensor_to_world
-from rig.session.store import Session, load_session
+from rig.session import Session, load_session, step_means
 
 BAND_C = 0.5
 
@@ -41,8 +43,8 @@ def read_events(session_dir) -> list[dict]:
 
 def step_context(session: Session, step_indices: list[int]) -> StepContext:
     """Pose rotations and heating legs of the given steps."""
-    steps = session.manifest["steps"]
-    angles = [steps[i].get("angles_deg") for i in step_indices]
+    steps = session.info.steps
+    angles = [steps[i].angles_deg for i in step_indices]
     b2s = None
     if all(a is not None for a in angles):
         b2s = np.transpose(sensor_to_world(np.asarray(angles, float)), (0, 2, 1))
@@ -69,10 +71,10 @@ def step_context(session: Session, step_indices: list[int]) -> StepContext:
             if pos is not None:
                 heating[pos] = h
     groups = None
-    if any(steps[i].get("f_nominal") is None for i in step_indices):
+    if any(steps[i].f_nominal is None for i in step_indices):
         # steps sharing one unknown pose carry the same pose_group; otherwise each is its own
-        groups = np.array([int(steps[i]["pose_group"]) if isinstance(steps[i].get("pose_group"), int)
-                           else 1_000_000 + i for i in step_indices])
+        groups = np.array([steps[i].pose_group if steps[i].pose_group is not None else 1_000_000 + i
+                           for i in step_indices])
     return StepContext(heating=heating, base_to_sensor=b2s, pose_group=groups, band_c=BAND_C)
 
 
@@ -81,7 +83,7 @@ def discover_session(session_dir, *, false_alarm: float = 0.01) -> tuple[Session
     idx = session.static_step_indices()
     if not idx:  # an imported recording without known poses: the pose-free baseline
         idx = session.static_step_indices(unknown_pose=True)
-    steps = session.step_means(idx)
+    steps = step_means(session, idx)
     ctx = step_context(session, idx)
     return session, discover(steps, ctx, false_alarm=false_alarm)
 
@@ -171,14 +173,9 @@ def write_plot(d: Discovery, path) -> Path:
 
 
 def write_calibration(session: Session, d: Discovery, path) -> Path:
-    from rig.analysis.solve import SOFTWARE
     if d.calibration is None:
-        from calib.errors import CalibError
         raise CalibError("cannot write a calibration: the session's poses are unknown")
-    sensor = session.manifest["rig"]["sensor"]
     cal = calfile.CalibrationFile(created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                                  software=dict(SOFTWARE), session=session.id,
-                                  sensor={"model": sensor.get("model"), "address": sensor.get("address"),
-                                          "serial": sensor.get("serial")},
+                                  software=dict(SOFTWARE), session=session.id, sensor=sensor_section(session),
                                   accelerometer=d.calibration)
     return calfile.write(path, cal)

@@ -7,8 +7,11 @@ from pathlib import Path
 
 import calib
 from calib import calfile
+from calib.errors import ObservabilityError
+from calib.gyro import solve_gyro
+from calib.magnetometer import solve_mag_ellipsoid, solve_mag_positions
 from rig import __version__
-from rig.session.store import load_session
+from rig.session import Session, load_session, mag_step_means, rate_step_means, step_means
 
 SOFTWARE = {"name": "rig-calibration", "version": __version__}
 
@@ -34,18 +37,16 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
     method = method or spec.get("method") or "pinv"
     thermal = thermal if thermal is not None else spec.get("thermal", "auto")
     if method == "magnitude":
-        steps = session.step_means(session.static_step_indices(unknown_pose=True))
+        steps = step_means(session, session.static_step_indices(unknown_pose=True))
     else:
-        steps = session.step_means()
+        steps = step_means(session)
     accel = calib.solve(steps, model=model, method=method, thermal=thermal)
     gyro, mag = solve_gyro_and_mag(session, spec, accel)
-    sensor = session.manifest["rig"]["sensor"]
     cal = calib.CalibrationFile(
         created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
         software=dict(SOFTWARE),
         session=session.id,
-        sensor={"model": sensor.get("model"), "address": sensor.get("address"),
-                "serial": sensor.get("serial")},
+        sensor=sensor_section(session),
         accelerometer=accel,
         gyroscope=gyro,
         magnetometer=mag,
@@ -55,25 +56,26 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
     return cal, path
 
 
-def solve_gyro_and_mag(session, spec: dict, accel=None) -> tuple[dict | None, dict | None]:
-    """The gyroscope (rate steps) and magnetometer sections, when the session has their data."""
-    from calib.gyro import solve_gyro
-    from calib.magnetometer import solve_mag_ellipsoid, solve_mag_positions
-    from rig.session.store import mag_step_means, rate_step_means
+def sensor_section(session: Session) -> dict:
+    """The calibration file's ``sensor`` section: which sensor the session recorded."""
+    sensor = session.info.rig.sensor
+    return {"model": sensor.model, "address": sensor.address, "serial": sensor.serial}
 
+
+def solve_gyro_and_mag(session: Session, spec: dict, accel=None) -> tuple[dict | None, dict | None]:
+    """The gyroscope (rate steps) and magnetometer sections, when the session has their data."""
     gyro = mag = None
-    if any(s.get("kind") == "rate" for s in session.manifest["steps"]):
+    if any(s.kind == "rate" for s in session.info.steps):
         gyro = solve_gyro(rate_step_means(session, accel)).to_dict()
     mag_steps = mag_step_means(session)
     if mag_steps is not None:
         method = spec.get("magnetometer") or ("positions" if mag_steps.field_nominal_ut is not None else "ellipsoid")
         if method == "positions":
             if mag_steps.field_nominal_ut is None:
-                from calib.errors import ObservabilityError
                 raise ObservabilityError("the magnetometer position method needs the local field: add a site: "
                                          "section to the rig file, or use solve: {magnetometer: ellipsoid}")
             mag = solve_mag_positions(mag_steps).to_dict()
         else:
-            site = session.manifest["rig"].get("site") or {}
-            mag = solve_mag_ellipsoid(mag_steps, float(site.get("field_ut", 1.0))).to_dict()
+            site = session.info.rig.site
+            mag = solve_mag_ellipsoid(mag_steps, float(site.field_ut if site is not None else 1.0)).to_dict()
     return gyro, mag

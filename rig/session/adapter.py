@@ -1,0 +1,169 @@
+"""The one session -> calib adapter: per-step means of a loaded session for calib's solvers.
+
+- :func:`step_means`: accelerometer, :class:`calib.data.StepMeans` (static steps);
+- :func:`rate_step_means`: gyroscope, :class:`calib.gyro.RateStepMeans` (rate steps);
+- :func:`mag_step_means`: magnetometer, :class:`calib.magnetometer.MagStepMeans` (static steps with readings).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from calib.data import StepMeans
+from calib.gyro import RateStepMeans
+from calib.magnetometer import MagStepMeans
+from rig.errors import SessionFormatError
+from rig.planning.kinematics import sensor_to_world
+from rig.session.manifest import SessionManifest, SiteInfo
+
+
+class Session(Protocol):
+    """What the adapter reads of a loaded session (:class:`rig.session.reader.Session`)."""
+
+    path: Path
+    info: SessionManifest
+    samples: dict
+
+    @property
+    def has_temperature(self) -> bool: ...
+
+    @property
+    def lsb_per_g(self) -> float: ...
+
+    def static_step_indices(self, include_flagged: bool = False, unknown_pose: bool = False) -> list[int]: ...
+
+#: the standard error of a mean never goes below the quantisation of one count
+_QUANTUM_SIGMA = 1.0 / np.sqrt(12.0)
+
+
+def _rows_by_step(step: np.ndarray):
+    """A function giving the row indices of one step (one stable sort, then binary searches)."""
+    order = np.argsort(step, kind="stable")
+    s_sorted = step[order]
+
+    def rows(i: int) -> np.ndarray:
+        return order[np.searchsorted(s_sorted, i, "left"):np.searchsorted(s_sorted, i, "right")]
+    return rows
+
+
+def step_means(session: Session, include=None) -> StepMeans:
+    """Per-step accelerometer means for the solver: the complete static steps with a known pose, or
+    the steps ``include`` (indices)."""
+    idx = session.static_step_indices() if include is None else list(include)
+    if not idx:
+        raise SessionFormatError(str(session.path), None, "steps", "no complete static step with a known pose to solve"
+                                 " (steps with unknown poses: use --method magnitude)")
+    rows_of = _rows_by_step(session.samples["step"])
+    csv_path = str(session.path / "samples.csv")
+    names, f_nom, means, sems, ns, temps, ts = [], [], [], [], [], [], []
+    for i in idx:
+        rows = rows_of(i)
+        n = len(rows)
+        if n < 2:
+            raise SessionFormatError(csv_path, None, f"step {i}", f"step {i + 1} is marked complete but has {n} samples")
+        a = session.samples["accel_counts"][rows].astype(float)
+        st = session.info.steps[i]
+        names.append(st.label)
+        f_nom.append(st.f_nominal if st.f_nominal is not None else [np.nan] * 3)
+        means.append(a.mean(axis=0))
+        sems.append(np.maximum(a.std(axis=0, ddof=1), _QUANTUM_SIGMA) / np.sqrt(n))
+        ns.append(n)
+        temps.append(_step_temperature(session, rows, i) if session.has_temperature else np.nan)
+        tt = session.samples["t_s"][rows]
+        ts.append(0.5 * (tt.min() + tt.max()))
+    return StepMeans(names=tuple(names), f_nominal_g=np.array(f_nom, float), mean_counts=np.array(means),
+                     sem_counts=np.array(sems), n_samples=np.array(ns, int),
+                     temp_c=np.array(temps) if session.has_temperature else None, t_s=np.array(ts),
+                     lsb_per_g=session.lsb_per_g)
+
+
+def _step_temperature(session: Session, rows: np.ndarray, i: int) -> float:
+    tc = session.samples["temp_c"][rows]
+    if not np.all(np.isfinite(tc)):
+        raise SessionFormatError(str(session.path / "samples.csv"), int(rows[~np.isfinite(tc)][0]) + 2,
+                                 "temp_c", f"step {i + 1} has rows without a temperature")
+    return float(np.mean(tc))
+
+
+def rate_step_means(session: Session, accel=None) -> RateStepMeans:
+    """Per-step gyroscope means of the complete rate steps, with the mean specific force of each step
+    (for the g-sensitivity): from the accelerometer calibration ``accel`` when given, else the raw
+    accelerometer divided by its nominal sensitivity."""
+    lsb = session.info.rig.sensor.gyro_lsb_per_dps
+    if "gyro_counts" not in session.samples or not lsb:
+        raise SessionFormatError(str(session.path), None, "rig.sensor", "the session has no gyroscope data")
+    steps = [s for s in session.info.steps if s.kind == "rate" and s.status == "complete"]
+    if not steps:
+        raise SessionFormatError(str(session.path), None, "steps", "no complete rate step")
+    names, w, means, sems, ns, fs = [], [], [], [], [], []
+    for st in steps:
+        rows = session.samples["step"] == st.index
+        g = session.samples["gyro_counts"][rows].astype(float)
+        fs.append(_mean_specific_force(session, rows, accel))
+        if len(g) < 2 or not np.all(np.isfinite(g)):
+            raise SessionFormatError(str(session.path / "samples.csv"), None, f"step {st.index}",
+                                     f"rate step {st.index + 1} has no usable gyroscope samples")
+        if st.rate_nominal_dps is None:
+            raise SessionFormatError(str(session.path / "session.yaml"), None, f"steps[{st.index}].rate_nominal_dps",
+                                     "a rate step needs its nominal body rate [x, y, z]")
+        names.append(st.name)
+        w.append(st.rate_nominal_dps)
+        means.append(g.mean(axis=0))
+        sems.append(np.maximum(g.std(axis=0, ddof=1), _QUANTUM_SIGMA) / np.sqrt(len(g)))
+        ns.append(len(g))
+    return RateStepMeans(names=tuple(names), rate_nominal_dps=np.array(w, float), mean_counts=np.array(means),
+                         sem_counts=np.array(sems), n_samples=np.array(ns), lsb_per_dps=float(lsb),
+                         f_mean_g=np.array(fs, float))
+
+
+def _mean_specific_force(session: Session, rows: np.ndarray, accel) -> np.ndarray:
+    """The mean specific force of the rows (g): calibrated by ``accel`` when given, else nominal."""
+    a_mean = session.samples["accel_counts"][rows].mean(axis=0)
+    if accel is None:
+        return a_mean / session.lsb_per_g
+    tc = session.samples["temp_c"][rows]
+    t_mean = float(np.mean(tc)) if np.all(np.isfinite(tc)) and len(tc) else None
+    return accel.apply(a_mean[None, :], temp_c=t_mean, t_s=float(np.mean(session.samples["t_s"][rows])))[0]
+
+
+def site_field_world(site: SiteInfo | None) -> np.ndarray | None:
+    """The local geomagnetic field in the world frame (uT), or None when the site is unknown."""
+    if site is None:
+        return None
+    inc, dec = np.radians(site.inclination_deg), np.radians(site.declination_deg)
+    hor = site.field_ut * np.cos(inc)
+    return np.array([hor * np.cos(dec), hor * np.sin(dec), -site.field_ut * np.sin(inc)])
+
+
+def mag_step_means(session: Session, known_field: bool = True) -> MagStepMeans | None:
+    """Per-step magnetometer means of the complete static steps that have readings; with
+    ``known_field`` the nominal field in the sensor frame from the site field and the step's stage
+    angles (None when the session records no site field). None when there are no readings."""
+    if "mag_counts" not in session.samples:
+        return None
+    mag_info = session.info.rig.sensor.magnetometer
+    lsb = float((mag_info.mag_lsb_per_ut if mag_info is not None else None) or 100.0)
+    h_world = site_field_world(session.info.rig.site) if known_field else None
+    names, h, means, sems, ns = [], [], [], [], []
+    for st in session.info.steps:
+        if not st.is_static or st.status != "complete":
+            continue
+        m = session.samples["mag_counts"][session.samples["step"] == st.index]
+        m = m[np.all(np.isfinite(m), axis=1)] / lsb
+        if len(m) < 2:
+            continue
+        names.append(st.name)
+        if h_world is not None and st.angles_deg is not None:
+            r = sensor_to_world(np.asarray([st.angles_deg], float))[0]
+            h.append(r.T @ h_world)
+        means.append(m.mean(axis=0))
+        sems.append(np.maximum(m.std(axis=0, ddof=1), 0.01) / np.sqrt(len(m)))
+        ns.append(len(m))
+    if not names:
+        return None
+    field = np.array(h, float) if len(h) == len(names) else None
+    return MagStepMeans(names=tuple(names), field_nominal_ut=field, mean_ut=np.array(means), sem_ut=np.array(sems),
+                        n_samples=np.array(ns))

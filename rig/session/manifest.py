@@ -1,0 +1,387 @@
+"""The ``session.yaml`` manifest of ``rig-session/1`` as a typed model (docs/session-format.md).
+
+:class:`SessionManifest` validates a loaded manifest (every problem is one
+:class:`rig.errors.SessionFormatError` line naming the file and the key path, e.g.
+``steps[3].status``) and is what a writer builds a new session from. Keys the
+model does not know are kept (forward compatible): ``model_extra`` holds them and
+:meth:`SessionManifest.to_dict` writes them back.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from datetime import date, datetime, timezone
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import yaml
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+
+from rig import __version__
+from rig.errors import SessionFormatError
+
+FORMAT = "rig-session/1"
+STATUSES = ("running", "complete", "aborted")
+STEP_STATUSES = ("pending", "complete", "failed", "flagged")
+#: the columns of samples.csv: always these, then optional ones (readers accept others too)
+BASE_COLUMNS = ("t_s", "step", "ax", "ay", "az", "temp_c")
+OPTIONAL_COLUMNS = ("wx", "wy", "wz", "mx", "my", "mz", "a1_deg", "a2_deg", "a3_deg")
+SOFTWARE_NAME = "rig-calibration"
+#: keys a manifest on disk must have (a new one gets defaults for created, status and software)
+REQUIRED = ("id", "created", "status", "procedure", "rig", "software", "steps")
+
+_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
+def utc_now() -> str:
+    """The current UTC time, ISO 8601 with milliseconds (the manifest's time stamps)."""
+    return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
+
+
+def _iso(v):
+    """YAML turns an unquoted time stamp into a datetime: keep it as the ISO text it was."""
+    return v.isoformat() if isinstance(v, (date, datetime)) else v
+
+
+def _finite3(v):
+    if v is None:
+        return v
+    if not (isinstance(v, (list, tuple)) and len(v) == 3 and all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)):
+        raise ValueError("expected [x, y, z] (three finite numbers), or null")
+    return [float(x) for x in v]
+
+
+def _number(v):
+    """An int or a float kept as it is (so a manifest read and written again is unchanged)."""
+    if v is None:
+        return v
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ValueError(f"expected a number, got {_short(v)}")
+    return v
+
+
+def _positive(v):
+    if v is None:
+        return v
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0 or not math.isfinite(v):
+        raise ValueError(f"expected a positive number, got {_short(v)}")
+    return v
+
+
+def _required(check):
+    def strict(v):
+        if v is None:
+            raise ValueError("expected a number, got None")
+        return check(v)
+    return strict
+
+
+Timestamp = Annotated[str, BeforeValidator(_iso)]
+Vec3 = Annotated[list[float] | None, BeforeValidator(_finite3)]
+Number = Annotated[float | int | None, BeforeValidator(_number)]
+RequiredNumber = Annotated[float | int, BeforeValidator(_required(_number))]
+PositiveNumber = Annotated[float | int | None, BeforeValidator(_positive)]
+RequiredPositive = Annotated[float | int, BeforeValidator(_required(_positive))]
+
+
+class _Section(BaseModel):
+    """A manifest section: unknown keys are kept, numbers are accepted where text is expected."""
+
+    model_config = ConfigDict(extra="allow", coerce_numbers_to_str=True, populate_by_name=True,
+                              validate_assignment=True)
+
+    def mark_set(self, *names: str) -> None:
+        """Always write these fields (even when left at their default)."""
+        self.model_fields_set.update(names)
+
+
+class ProcedureInfo(_Section):
+    """``procedure``: the procedure that was run, with its full text (a session replays without the file)."""
+
+    name: str | None = None
+    file: str | None = None
+    sha256: str | None = None
+    text: str | None = None
+
+    @classmethod
+    def from_text(cls, name: str, file, text: str | None) -> "ProcedureInfo":
+        digest = hashlib.sha256(text.encode()).hexdigest() if text is not None else None
+        return cls(name=name, file=None if file is None else str(file), sha256=digest, text=text)
+
+    def solve_spec(self) -> dict | None:
+        """The procedure's ``solve:`` section, or None (no text, not YAML, no such section)."""
+        if not self.text:
+            return None
+        try:
+            doc = yaml.load(self.text, Loader=_LOADER)
+        except yaml.YAMLError:
+            return None
+        spec = doc.get("solve") if isinstance(doc, dict) else None
+        return spec if isinstance(spec, dict) else None
+
+
+class SoftwareInfo(_Section):
+    """``software``: what wrote the session."""
+
+    name: str | None = SOFTWARE_NAME
+    version: str | None = __version__
+
+    @model_validator(mode="after")
+    def _always_written(self):
+        self.mark_set("name", "version")
+        return self
+
+
+class AxisInfo(_Section):
+    """``rig.turntable.axes.a1..a3``: one rotation stage."""
+
+    port: str | None = None
+    serial: int | str | None = None
+    firmware: str | None = None
+    device: Any = None
+    sign: Number = None
+    home_offset_deg: Number = None
+
+
+class TurntableInfo(_Section):
+    kind: str | None = None
+    axes: dict[str, AxisInfo] | None = None
+
+
+class MagnetometerInfo(_Section):
+    """``rig.sensor.magnetometer``: the AK8975 when it was read."""
+
+    model: str | None = None
+    address: int | None = None
+    asa_factor: Vec3 = None
+    mag_lsb_per_ut: PositiveNumber = None
+
+
+class SensorInfo(_Section):
+    """``rig.sensor``: the sensor's identity and settings."""
+
+    model: str | None = None
+    address: int | None = None
+    serial: int | str | None = None
+    identity: Any = None
+    accel_range_g: Number = None
+    accel_lsb_per_g: RequiredPositive
+    sample_rate_hz: RequiredPositive
+    has_temperature: bool = False
+    gyro_range_dps: Number = None
+    gyro_lsb_per_dps: PositiveNumber = None
+    magnetometer: MagnetometerInfo | None = None
+
+
+class SiteInfo(_Section):
+    """``rig.site``: the local geomagnetic field."""
+
+    field_ut: RequiredNumber
+    inclination_deg: RequiredNumber
+    declination_deg: RequiredNumber
+
+
+class RigInfo(_Section):
+    """``rig``: the turntable, the sensor, the site and the rig file (``kind: import`` for imports)."""
+
+    kind: str | None = None
+    turntable: TurntableInfo | None = None
+    sensor: SensorInfo
+    rig_file: str | None = None
+    site: SiteInfo | None = None
+
+
+class StepStats(_Section):
+    """``steps[].stats``: what the capture measured (all optional; unknown keys kept)."""
+
+    n_samples: Number = None
+    t_start_s: Number = None
+    t_end_s: Number = None
+    temp_c: Number = None
+    noise_g: list[Number] | None = None
+    settle_s: Number = None
+    attempts: int | None = None
+    problems: list[Any] | None = None
+    angles_measured_deg: list[Number] | None = None
+    stage_rate_deg_s: list[Number] | None = None
+
+
+class StepRecord(_Section):
+    """``steps[i]``: one step, planned (``status: pending``) then recorded."""
+
+    index: int
+    name: str | None = None
+    kind: str = "static"
+    angles_deg: Vec3 = None
+    f_nominal: Vec3 = None
+    status: Literal["pending", "complete", "failed", "flagged"] = "pending"
+    stats: StepStats | None = None
+    target_c: Number = None
+    prompt: str | None = None
+    axis: str | None = None
+    rate_deg_s: Number = None
+    rate_nominal_dps: Vec3 = None
+    pose_group: int | None = None
+
+    @model_validator(mode="after")
+    def _always_written(self):
+        self.mark_set("index", "name", "kind", "angles_deg", "f_nominal", "status")
+        return self
+
+    @property
+    def label(self) -> str:
+        return self.name if self.name is not None else f"step {self.index + 1}"
+
+    @property
+    def is_static(self) -> bool:
+        return self.kind == "static"
+
+    @property
+    def has_pose(self) -> bool:
+        return self.f_nominal is not None
+
+
+class ImportInfo(_Section):
+    """``import``: where an imported session came from (``rig import``)."""
+
+    source: str | None = None
+    file: str | None = None
+    units: str | None = None
+    g_ms2: Number = None
+    lsb_per_g: Number = None
+    steps_from: str | None = None
+    notes: list[str] = Field(default_factory=list)
+
+
+class SessionManifest(_Section):
+    """``session.yaml``. Build one for a new session; :meth:`load` validates one on disk."""
+
+    format: Literal["rig-session/1"] = FORMAT
+    id: str
+    created: Timestamp = Field(default_factory=utc_now)
+    status: Literal["running", "complete", "aborted"] = "running"
+    seed: int | None = None
+    replay_of: str | None = None
+    procedure: ProcedureInfo
+    software: SoftwareInfo = Field(default_factory=SoftwareInfo)
+    steps: list[StepRecord]
+    rig: RigInfo
+    import_: ImportInfo | None = Field(default=None, alias="import")
+    columns: list[str] | None = None
+    samples_committed_bytes: int | None = Field(default=None, ge=0)
+    ended: Timestamp | None = None
+
+    @model_validator(mode="after")
+    def _checked(self):
+        for i, s in enumerate(self.steps):
+            if s.index != i:
+                raise ValueError(f"steps[{i}]: expected a step mapping with index {i}, got index {s.index}")
+        self.mark_set("format", "id", "created", "status", "procedure", "software", "steps", "rig")
+        return self
+
+    # -- views used by the readers ----------------------------------------------------------------
+    @property
+    def sensor(self) -> SensorInfo:
+        return self.rig.sensor
+
+    def step(self, index: int) -> StepRecord:
+        return self.steps[index]
+
+    def to_dict(self) -> dict:
+        """The plain mapping written to ``session.yaml`` (fields left unset are not written)."""
+        return self.model_dump(mode="python", by_alias=True, exclude_unset=True)
+
+    # -- loading ----------------------------------------------------------------------------------
+    @classmethod
+    def from_mapping(cls, doc, path=None) -> "SessionManifest":
+        """Validate a parsed manifest; every problem is one SessionFormatError line."""
+        where = str(path) if path is not None else None
+        if not isinstance(doc, dict):
+            raise SessionFormatError(where, None, None, "expected a mapping")
+        if doc.get("format") != FORMAT:
+            raise SessionFormatError(where, None, "format", f"expected {FORMAT!r}, got {doc.get('format')!r}")
+        for key in REQUIRED:
+            if key not in doc:
+                raise SessionFormatError(where, None, key, "missing required field")
+        try:
+            return cls.model_validate(doc)
+        except ValidationError as exc:
+            key, message = describe_error(exc)
+            raise SessionFormatError(where, None, key, message) from None
+
+    @classmethod
+    def load(cls, session_dir) -> tuple["SessionManifest", dict]:
+        """Read and validate ``SESSION/session.yaml``: the model and the plain mapping as read."""
+        d = Path(session_dir)
+        path = d / "session.yaml"
+        if not d.is_dir():
+            raise SessionFormatError(str(d), None, None, "no such session directory")
+        if not path.is_file():
+            raise SessionFormatError(str(path), None, None, "missing: not a rig-session/1 directory")
+        try:
+            doc = yaml.load(path.read_text(errors="replace"), Loader=_LOADER)
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            raise SessionFormatError(str(path), mark.line + 1 if mark else None, None, "not valid YAML") from None
+        return cls.from_mapping(doc, path), doc
+
+
+def as_manifest(manifest, path=None) -> SessionManifest:
+    """A :class:`SessionManifest` from a model or a plain mapping (validated)."""
+    if isinstance(manifest, SessionManifest):
+        return manifest
+    return SessionManifest.from_mapping(manifest, path)
+
+
+_TYPE_TAGS = {"int", "str", "float", "bool", "none", "list", "dict"}
+_MESSAGES = {
+    "missing": "missing required field",
+    "literal_error": None,  # replaced by the allowed values
+    "model_type": "expected a mapping",
+    "model_attributes_type": "expected a mapping",
+    "dict_type": "expected a mapping",
+    "list_type": "expected a list",
+    "greater_than": "expected a positive number",
+    "greater_than_equal": "expected a number >= 0",
+    "string_type": "expected text",
+    "int_type": "expected an integer",
+    "int_from_float": "expected an integer",
+    "int_parsing": "expected an integer",
+    "float_type": "expected a number",
+    "bool_type": "expected true or false",
+    "bool_parsing": "expected true or false",
+}
+
+
+def describe_error(exc: ValidationError) -> tuple[str | None, str]:
+    """(key path, one-line message) of a validation error's first problem."""
+    err = exc.errors(include_url=False)[0]
+    key = ""
+    for part in err["loc"]:
+        if isinstance(part, str) and (part in _TYPE_TAGS or "[" in part or "(" in part):
+            continue  # a union member's or a validator's tag, not a key
+        if isinstance(part, int):
+            key += f"[{part}]"
+        else:
+            key += ("." if key else "") + str(part)
+    kind = err["type"]
+    got = _short(err.get("input"))
+    if kind == "literal_error":
+        allowed = STEP_STATUSES if key.endswith("].status") else STATUSES if key == "status" else None
+        message = f"expected one of {', '.join(allowed)}, got {got}" if allowed else f"{err['msg']}, got {got}"
+    elif kind == "value_error":
+        message = str(err["msg"]).removeprefix("Value error, ")
+        if message.startswith("steps["):  # the step check of the whole manifest names its own key
+            key, _, message = message.partition(": ")
+    elif kind in _MESSAGES:
+        message = _MESSAGES[kind] + ("" if kind == "missing" else f", got {got}")
+    else:
+        message = f"{err['msg']}, got {got}"
+    return key or None, " ".join(message.split())
+
+
+def _short(v) -> str:
+    text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."

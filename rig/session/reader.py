@@ -1,0 +1,260 @@
+"""Reading a session: :func:`load_session` (manifest and samples) and :func:`read_samples`.
+
+``samples.csv`` is read with pandas: CRLF line endings, a UTF-8 byte-order mark, quoted fields and
+columns in any order, with extra (even non-numeric) columns, load like the plain file. Every refusal
+is one :class:`rig.errors.SessionFormatError` line naming the file and the line: a bad header, a
+ragged row, a non-numeric cell, an empty or NaN ``t_s``/``step``/``ax``/``ay``/``az``, non-integer
+counts or step indices, a step not in the manifest. A torn last line (a crash while writing it) is
+dropped with a warning.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from rig.errors import SessionFormatError
+from rig.session import adapter
+from rig.session.manifest import BASE_COLUMNS, OPTIONAL_COLUMNS, SessionManifest, StepRecord
+
+REQUIRED_COLUMNS = ("t_s", "step", "ax", "ay", "az")
+_BOM = b"\xef\xbb\xbf"
+_NA = ["", "nan", "NaN", "NAN", "-nan", "+nan"]
+_BLOCK_LINES = 16384
+
+
+@dataclass
+class Session:
+    """A loaded, validated session: ``info`` is the typed manifest, ``samples`` the columns as arrays.
+
+    ``samples``: ``t_s`` (N,), ``step`` (N,) int, ``accel_counts`` (N, 3) int, ``temp_c`` (N,) (NaN
+    when absent), and ``gyro_counts``, ``mag_counts``, ``angles_deg`` (N, 3) when recorded.
+    ``manifest`` is the plain mapping as read (kept while callers move to ``info``).
+    """
+
+    path: Path
+    info: SessionManifest
+    samples: dict
+    warnings: list[str] = field(default_factory=list)
+    manifest: dict | None = None
+
+    def __post_init__(self) -> None:
+        if self.manifest is None:
+            self.manifest = self.info.to_dict()
+
+    @property
+    def id(self) -> str:
+        return self.info.id
+
+    @property
+    def steps(self) -> list[StepRecord]:
+        return self.info.steps
+
+    @property
+    def has_temperature(self) -> bool:
+        return bool(self.info.rig.sensor.has_temperature)
+
+    @property
+    def lsb_per_g(self) -> float:
+        return float(self.info.rig.sensor.accel_lsb_per_g)
+
+    @property
+    def solve_spec(self) -> dict | None:
+        return self.info.procedure.solve_spec()
+
+    def step_samples(self, index: int) -> dict:
+        sel = self.samples["step"] == index
+        return {k: (v[sel] if isinstance(v, np.ndarray) else v) for k, v in self.samples.items()}
+
+    def static_step_indices(self, include_flagged: bool = False, unknown_pose: bool = False) -> list[int]:
+        """Indices of complete static steps with a known pose (and, with ``unknown_pose``, without one)."""
+        ok = ("complete", "flagged") if include_flagged else ("complete",)
+        return [s.index for s in self.info.steps
+                if s.is_static and s.status in ok and (unknown_pose or s.has_pose)]
+
+    def step_means(self, include=None):
+        """Per-step means for the solver: :func:`rig.session.adapter.step_means`."""
+        return adapter.step_means(self, include)
+
+
+def load_session(path) -> Session:
+    """Load and validate a session directory (manifest, samples; events are not needed to solve)."""
+    d = Path(path)
+    info, raw = SessionManifest.load(d)
+    samples, warnings = read_samples(d / "samples.csv", n_steps=len(info.steps))
+    if info.rig.sensor.has_temperature:
+        t = samples["temp_c"]
+        if len(t) and not np.any(np.isfinite(t)):
+            raise SessionFormatError(str(d / "samples.csv"), 1, "temp_c",
+                                     "the manifest says the sensor has a thermometer, but there are no temperatures")
+    return Session(d, info, samples, warnings, raw)
+
+
+def read_samples(path: Path, n_steps: int | None = None) -> tuple[dict, list[str]]:
+    """Read samples.csv: the columns as arrays, and the warnings (a dropped torn last line)."""
+    path = Path(path)
+    if not path.is_file():
+        raise SessionFormatError(str(path), None, None, "missing samples.csv")
+    header, body, warnings = _split(path, path.read_bytes())
+    text = _Body(path, body)
+    ragged = text.first_ragged(len(header))
+    if ragged is not None:
+        raise SessionFormatError(str(path), ragged, None, f"expected {len(header)} comma-separated fields "
+                                                           "as in the header")
+    known = [c for c in header if c in BASE_COLUMNS + OPTIONAL_COLUMNS]
+    col = _parse(text, header, known)
+    del body
+    _check(text, col, n_steps)
+    return _arrays(col), warnings
+
+
+def _split(path: Path, raw: bytes) -> tuple[list[str], bytes, list[str]]:
+    """The header's column names and the body (a torn last line dropped, with a warning)."""
+    if raw.startswith(_BOM):
+        raw = raw[len(_BOM):]
+    if not raw:
+        raise SessionFormatError(str(path), 1, None, "empty file: expected a header line")
+    nl = raw.find(b"\n")
+    if nl < 0:
+        raise SessionFormatError(str(path), 1, None, "no header line")
+    line = raw[:nl].decode("utf-8", "replace")
+    header = [c.strip() for c in next(csv.reader([line.rstrip("\r")]), [])]
+    if not header or any(not c for c in header) or len(set(header)) != len(header):
+        raise SessionFormatError(str(path), 1, None, f"header has empty or repeated column names: {','.join(header)}")
+    for c in REQUIRED_COLUMNS:
+        if c not in header:
+            raise SessionFormatError(str(path), 1, c, f"missing column (header: {','.join(header)})")
+    body = raw[nl + 1:]
+    warnings = []
+    if body and not body.endswith(b"\n"):
+        cut = body.rfind(b"\n")
+        torn_line = body[:cut + 1].count(b"\n") + 2
+        body = body[:cut + 1] if cut >= 0 else b""
+        warnings.append(f"{path}:{torn_line}: dropped a torn last line (the run stopped while writing it)")
+    return header, body, warnings
+
+
+class _Body:
+    """The data lines of samples.csv: field counts per line and the file line of a data row."""
+
+    def __init__(self, path: Path, body: bytes) -> None:
+        self.path, self.body = path, body
+        self.quoted = b'"' in body
+        self._blank: np.ndarray | None = None
+
+    def _lines(self) -> tuple[np.ndarray, np.ndarray]:
+        """Start of every line, and whether it is blank (every line ends with a newline)."""
+        a = np.frombuffer(self.body, np.uint8)
+        ends = np.flatnonzero(a == 10)
+        starts = np.concatenate([[0], ends[:-1] + 1]).astype(np.int64)
+        length = ends - starts
+        has_cr = np.zeros(len(ends), bool)
+        has_cr[length > 0] = a[ends[length > 0] - 1] == 13
+        return starts, (length - has_cr) == 0
+
+    def _records(self):
+        """(file line, fields) of every non-blank record, quotes honoured (the slow path)."""
+        reader = csv.reader(io.StringIO(self.body.decode("utf-8", "replace"), newline=""))
+        try:
+            for row in reader:
+                if row:
+                    yield reader.line_num + 1, row
+        except csv.Error as exc:
+            raise SessionFormatError(str(self.path), reader.line_num + 1, None, f"cannot read it ({exc})") from None
+
+    def first_ragged(self, ncol: int) -> int | None:
+        """The file line of the first row whose field count is not the header's, or None."""
+        if not self.body:
+            return None
+        if self.quoted:
+            return next((line for line, row in self._records() if len(row) != ncol), None)
+        a = np.frombuffer(self.body, np.uint8)
+        starts, blank = self._lines()
+        ends = np.append(starts[1:], len(a))
+        for k in range(0, len(starts), _BLOCK_LINES):  # in blocks: reduceat casts its input to int64
+            first, last = starts[k], ends[min(k + _BLOCK_LINES, len(starts)) - 1]
+            commas = np.add.reduceat(a[first:last] == 44, starts[k:k + _BLOCK_LINES] - first, dtype=np.int64)
+            bad = np.flatnonzero((commas + 1 != ncol) & ~blank[k:k + _BLOCK_LINES])
+            if len(bad):
+                return k + int(bad[0]) + 2
+        return None
+
+    def line_of(self, row: int) -> int | None:
+        """The file line of data row ``row`` (0-based, blank lines skipped)."""
+        if self.quoted:
+            return next((line for k, (line, _) in enumerate(self._records()) if k == row), None)
+        _, blank = self._lines()
+        return int(np.flatnonzero(~blank)[row]) + 2
+
+    def first_non_number(self, header: list[str], known: list[str]) -> tuple[int | None, str | None, str]:
+        """Where a cell of a known column is not a number (the slow path, after pandas refused)."""
+        use = [header.index(c) for c in known]
+        for line, row in self._records():
+            for j in use:
+                cell = row[j].strip() if j < len(row) else ""
+                if cell in _NA:
+                    continue
+                try:
+                    float(cell)
+                except ValueError:
+                    return line, header[j], cell
+        return None, None, ""
+
+
+def _parse(text: _Body, header: list[str], known: list[str]) -> dict[str, np.ndarray]:
+    """The known columns as float arrays (empty cells are NaN)."""
+    import pandas as pd
+
+    if not text.body.strip():
+        return {c: np.empty(0) for c in known}
+    try:
+        df = pd.read_csv(io.BytesIO(text.body), header=None, names=header, usecols=known,
+                         dtype={c: "float64" for c in known}, na_values=_NA, keep_default_na=False,
+                         skip_blank_lines=True, encoding="utf-8", encoding_errors="replace")
+    except (ValueError, pd.errors.ParserError) as exc:
+        line, column, cell = text.first_non_number(header, known)
+        detail = f"expected a number, got {cell[:40]!r}" if line else f"cannot read it ({str(exc).splitlines()[0]})"
+        raise SessionFormatError(str(text.path), line, column, detail) from None
+    return {c: df[c].to_numpy(dtype=float, copy=True) for c in known}
+
+
+def _check(text: _Body, col: dict[str, np.ndarray], n_steps: int | None) -> None:
+    """Refuse NaN or empty required cells, non-integer counts and steps, and steps not in the manifest."""
+    path = str(text.path)
+    for c in REQUIRED_COLUMNS:
+        bad = ~np.isfinite(col[c])
+        if bad.any():
+            raise SessionFormatError(path, text.line_of(int(np.argmax(bad))), c,
+                                     "expected a number, got an empty field or NaN")
+    for c in ("ax", "ay", "az"):
+        bad = col[c] != np.round(col[c])
+        if bad.any():
+            raise SessionFormatError(path, text.line_of(int(np.argmax(bad))), c, "raw counts must be integers")
+    step = col["step"]
+    bad = step != np.round(step)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise SessionFormatError(path, text.line_of(k), "step", f"step indices must be integers, got {step[k]:g}")
+    if n_steps is not None and len(step):
+        bad = (step < 0) | (step >= n_steps)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise SessionFormatError(path, text.line_of(k), "step",
+                                     f"step {step[k]:.0f} is not in the manifest (0..{n_steps - 1})")
+
+
+def _arrays(col: dict[str, np.ndarray]) -> dict:
+    """The samples mapping of :class:`Session` from the parsed columns."""
+    n = len(col["step"])
+    out = {"t_s": col["t_s"], "step": col["step"].astype(np.int64),
+           "accel_counts": np.stack([col["ax"], col["ay"], col["az"]], axis=1).astype(np.int64),
+           "temp_c": col["temp_c"] if "temp_c" in col else np.full(n, np.nan)}
+    for key, names in (("gyro_counts", ("wx", "wy", "wz")), ("mag_counts", ("mx", "my", "mz")),
+                       ("angles_deg", ("a1_deg", "a2_deg", "a3_deg"))):
+        if all(c in col for c in names):
+            out[key] = np.stack([col[c] for c in names], axis=1)
+    return out
