@@ -8,14 +8,14 @@
 """
 
 from rig.session.adapter import mag_step_means, rate_step_means, step_means
-from rig.session.manifest import (BASE_COLUMNS, FORMAT, OPTIONAL_COLUMNS, STATUSES, STEP_STATUSES, AxisInfo,
+from rig.session.manifest import (BASE_COLUMNS, FORMAT, MAG_COUNTS_PER_UT, OPTIONAL_COLUMNS, STATUSES, STEP_STATUSES, AxisInfo,
                                   ImportInfo, MagnetometerInfo, ProcedureInfo, RigInfo, SensorInfo, SessionManifest,
                                   SiteInfo, SoftwareInfo, StepRecord, StepStats, TurntableInfo, utc_now)
 from rig.session.reader import Session, load_session, read_samples
 from rig.session.writer import SessionWriter, validate_session_id
 
 __all__ = [
-    "BASE_COLUMNS", "FORMAT", "OPTIONAL_COLUMNS", "STATUSES", "STEP_STATUSES",
+    "BASE_COLUMNS", "FORMAT", "MAG_COUNTS_PER_UT", "OPTIONAL_COLUMNS", "STATUSES", "STEP_STATUSES",
     "AxisInfo", "ImportInfo", "MagnetometerInfo", "ProcedureInfo", "RigInfo", "SensorInfo", "SessionManifest",
     "SiteInfo", "SoftwareInfo", "StepRecord", "StepStats", "TurntableInfo", "utc_now",
     "Session", "load_session", "read_samples", "SessionWriter", "validate_session_id",

@@ -17,7 +17,7 @@ from calib.gyro import RateStepMeans
 from calib.magnetometer import MagStepMeans
 from rig.errors import SessionFormatError
 from rig.planning.kinematics import sensor_to_world
-from rig.session.manifest import SessionManifest, SiteInfo
+from rig.session.manifest import MAG_COUNTS_PER_UT, SessionManifest, SiteInfo
 
 
 class Session(Protocol):
@@ -145,7 +145,7 @@ def mag_step_means(session: Session, known_field: bool = True) -> MagStepMeans |
     if "mag_counts" not in session.samples:
         return None
     mag_info = session.info.rig.sensor.magnetometer
-    lsb = float((mag_info.mag_lsb_per_ut if mag_info is not None else None) or 100.0)
+    lsb = float((mag_info.mag_lsb_per_ut if mag_info is not None else None) or MAG_COUNTS_PER_UT)
     h_world = site_field_world(session.info.rig.site) if known_field else None
     names, h, means, sems, ns = [], [], [], [], []
     for st in session.info.steps:

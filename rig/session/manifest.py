@@ -25,6 +25,8 @@ FORMAT = "rig-session/1"
 STATUSES = ("running", "complete", "aborted")
 STEP_STATUSES = ("pending", "complete", "failed", "flagged")
 #: the columns of samples.csv: always these, then optional ones (readers accept others too)
+#: magnetometer readings are stored as integers of 0.01 uT in the mx, my, mz columns
+MAG_COUNTS_PER_UT = 100.0
 BASE_COLUMNS = ("t_s", "step", "ax", "ay", "az", "temp_c")
 OPTIONAL_COLUMNS = ("wx", "wy", "wz", "mx", "my", "mz", "a1_deg", "a2_deg", "a3_deg")
 SOFTWARE_NAME = "rig-calibration"
@@ -190,6 +192,7 @@ class RigInfo(_Section):
     turntable: TurntableInfo | None = None
     sensor: SensorInfo
     rig_file: str | None = None
+    rig_file_sha256: str | None = None
     site: SiteInfo | None = None
 
 

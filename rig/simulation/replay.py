@@ -15,11 +15,13 @@ from drivers.clock import VirtualClock
 from drivers.sensors.base import CaptureStats, SampleBlock, SensorError, SensorIdentity
 from drivers.ximc.sim.emulator import ControllerEmulator
 from drivers.ximc.stages import MAX_SPEED_DEG_S
+from drivers.sensors.regs.ak8975 import DEFAULT_ADDRESS as AK8975_ADDRESS
 from rig.config.rigfile import AxisConfig
 from rig.devices.hardware import open_stages
 from rig.devices.registry import register_rig_kind
 from rig.devices.rig import Rig
 from rig.planning.kinematics import AXES
+from rig.session import MAG_COUNTS_PER_UT
 
 #: the replay table moves fast and has no limits: the recording already proved the poses legal
 REPLAY_AXIS = AxisConfig(port=None, speed_deg_s=MAX_SPEED_DEG_S, accel_deg_s2=200.0, soft_limits_deg=(-36000.0, 36000.0),
@@ -30,18 +32,18 @@ class ReplaySensor:
     """Serves a session's recorded samples, one step at a time, through the AccelSensor interface."""
 
     def __init__(self, session, clock) -> None:
-        s = session.manifest["rig"]["sensor"]
+        s = session.info.rig.sensor
         self.session = session
         self.clock = clock
-        self.model = s.get("model", "replay")
-        self.address = int(s.get("address") or 0)
-        self.has_temperature = bool(s.get("has_temperature"))
-        self.has_gyro = "gyro_counts" in session.samples and bool(s.get("gyro_lsb_per_dps"))
-        self.accel_lsb_per_g = float(s["accel_lsb_per_g"])
-        self.gyro_lsb_per_dps = float(s["gyro_lsb_per_dps"]) if self.has_gyro else None
-        self.gyro_range_dps = s.get("gyro_range_dps")
-        self.sample_rate_hz = float(s["sample_rate_hz"])
-        self.accel_range_g = int(s.get("accel_range_g") or 0)
+        self.model = s.model or "replay"
+        self.address = int(s.address or 0)
+        self.has_temperature = bool(s.has_temperature)
+        self.has_gyro = "gyro_counts" in session.samples and bool(s.gyro_lsb_per_dps)
+        self.accel_lsb_per_g = float(s.accel_lsb_per_g)
+        self.gyro_lsb_per_dps = float(s.gyro_lsb_per_dps) if self.has_gyro else None
+        self.gyro_range_dps = s.gyro_range_dps
+        self.sample_rate_hz = float(s.sample_rate_hz)
+        self.accel_range_g = int(s.accel_range_g or 0)
         self.stats = CaptureStats()
         self._step: int | None = None
         self._cursor = 0
@@ -60,7 +62,8 @@ class ReplaySensor:
         self._step = index
         self._data = self.session.step_samples(index)
         self._cursor = 0
-        self._temp_c = (self.session.manifest["steps"][index].get("stats") or {}).get("temp_c")
+        stats = self.session.info.steps[index].stats
+        self._temp_c = stats.temp_c if stats is not None else None
 
     def read_temperature_c(self) -> float:
         """The temperature the recording reached in this step (temperature steps), C."""
@@ -96,11 +99,11 @@ class ReplayMagnetometer:
     model = "AK8975"
 
     def __init__(self, session) -> None:
-        info = session.manifest["rig"]["sensor"].get("magnetometer") or {}
+        info = session.info.rig.sensor.magnetometer
         self.session = session
-        self.address = int(info.get("address", 0x0C))
-        self.asa_factor = np.asarray(info.get("asa_factor", [1.0, 1.0, 1.0]), float)
-        self.lsb_per_ut = float(info.get("mag_lsb_per_ut", 100.0))
+        self.address = int(info.address if info and info.address is not None else AK8975_ADDRESS)
+        self.asa_factor = np.asarray(info.asa_factor if info and info.asa_factor is not None else [1.0] * 3, float)
+        self.lsb_per_ut = float(info.mag_lsb_per_ut if info and info.mag_lsb_per_ut else MAG_COUNTS_PER_UT)
         self._rows = np.empty((0, 3))
         self._cursor = 0
 
@@ -153,7 +156,7 @@ def open_replay_rig(session, *, seed: int | None = None, time_scale: float | Non
     mag = ReplayMagnetometer(session) if "mag_counts" in session.samples else None
     rig = Rig(kind="replay", clock=clock, axes=axes, sensor=sensor, turntable="replay:8smc5-emulator",
               home_policy="zero", chamber=ReplayChamber(), magnetometer=mag,
-              site_field=session.manifest["rig"].get("site"),
+              site_field=session.info.rig.site.model_dump() if session.info.rig.site else None,
               settle="none", step_listeners=[sensor.seek_step] + ([mag.seek_step] if mag is not None else []))
     rig.closers.extend(e.stop for e in emulators)
     return rig

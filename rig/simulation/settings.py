@@ -18,7 +18,7 @@ from typing import Annotated, Any, ClassVar, Optional
 from pydantic import BeforeValidator, WithJsonSchema, create_model
 
 from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, MagErrorModel
-from rig.config.schema import Strict, choice, fail, number, validate_plain
+from rig.config.schema import Strict, choice, fail, flag, number, validate_plain
 from rig.config.sections import register_section
 from rig.simulation.world import ChamberConfig, FieldConfig, RingingConfig
 
@@ -159,6 +159,7 @@ class SensorFaultsSection(Strict):
     saturate_after_s: ClockTime = None
     thermometer_fail_after_s: ClockTime = None
     seed: Seed = 0
+    failed_self_test: flag("the MPU-9150's self-test response falls short (the chip fails its self-test)") = False
 
 
 class XimcAxesFaults(Strict):

@@ -15,14 +15,12 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from calib.errors import CalibError
-from rig import __version__
 from rig.analysis.solve import solve_session
 from rig.devices.rig import Rig
 from rig.execution.context import EngineOptions, RunAborted, RunError, StepOutcome
 from rig.execution.engine import Engine
-from rig.execution.executors.static import MAG_COUNTS_PER_UT
 from rig.execution.operator import Operator
-from rig.session.store import BASE_COLUMNS, SessionWriter
+from rig.session import BASE_COLUMNS, MAG_COUNTS_PER_UT, ProcedureInfo, RigInfo, SessionManifest, SessionWriter, StepRecord
 
 
 @dataclass
@@ -78,17 +76,13 @@ def start_session(procedure, rig: Rig, new: NewSession) -> SessionWriter:
     rig_info = rig.describe()
     if magnetometer is not None:
         rig_info["sensor"]["magnetometer"] = magnetometer
-    manifest = {
-        "id": new.session_id,
-        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "status": "running",
-        **new.extra,
-        "procedure": {"name": procedure.name, "file": new.procedure_file,
-                      "sha256": hashlib.sha256(new.procedure_text.encode()).hexdigest(), "text": new.procedure_text},
-        "software": {"name": "rig-calibration", "version": __version__},
-        "steps": [step.to_manifest() for step in procedure.expanded_steps()],
-        "rig": rig_info,
-    }
+    if rig.rig_file is not None:
+        rig_info["rig_file_sha256"] = file_sha256(rig.rig_file)
+    manifest = SessionManifest(
+        id=new.session_id, created=datetime.now(timezone.utc).isoformat(timespec="seconds"), **new.extra,
+        procedure=ProcedureInfo.from_text(procedure.name, new.procedure_file, new.procedure_text),
+        steps=[StepRecord.model_validate(step.to_manifest()) for step in procedure.expanded_steps()],
+        rig=RigInfo.model_validate(rig_info))
     writer = SessionWriter.create(new.sessions_root, new.session_id, manifest,
                                   columns=session_columns(procedure, rig))
     for name, text in rig.attachments.items():
@@ -135,6 +129,14 @@ def finish(procedure, writer: SessionWriter, outcomes: list[StepOutcome], *, sol
         writer.event("solve", path=str(cal_path))
     writer.set_status("complete")
     return RunResult(writer.session_dir, "complete", outcomes, cal_path, cal)
+
+
+def file_sha256(path) -> str | None:
+    """SHA-256 of a file's bytes (None if it cannot be read): what a resume compares."""
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return None
 
 
 def _record_stage_events(rig: Rig, writer: SessionWriter) -> None:

@@ -10,23 +10,23 @@ from rig.config.procedure import load_procedure_text
 from rig.devices import open_rig
 from rig.errors import RigInputError
 from rig.execution.operator import Operator, SilentOperator
-from rig.session.store import load_session
+from rig.session import load_session
 from rig.workflow.lifecycle import NewSession, RunResult, execute, finish, start_session
 
 
 def replay_session(session_dir, *, out_dir=None, ui: Operator | None = None) -> RunResult:
     """Replay a session into a new session directory (beside the original by default) and solve it."""
     original = load_session(session_dir)
-    recorded = original.manifest["procedure"]
-    if not recorded.get("text") or original.manifest["rig"].get("turntable") is None:
+    recorded = original.info.procedure
+    if not recorded.text or original.info.rig.turntable is None:
         raise RigInputError(str(session_dir), None, "procedure", "the session has no recorded procedure to replay "
                             "(an imported recording: solve or discover it instead)")
-    procedure = load_procedure_text(recorded["text"], recorded.get("file") or "<session>")
+    procedure = load_procedure_text(recorded.text, recorded.file or "<session>")
     rig = open_rig("replay", original)
     try:
         stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
         new = NewSession(Path(out_dir) if out_dir is not None else Path(session_dir).resolve().parent,
-                         f"{original.id}-replay-{stamp}", recorded["text"], recorded.get("file"),
+                         f"{original.id}-replay-{stamp}", recorded.text, recorded.file,
                          extra={"replay_of": original.id})
         writer = start_session(procedure, rig, new)
         # recorded sample times are session times: the session clock starts at 0 now

@@ -13,8 +13,11 @@ from rig.devices import open_rig_file
 from rig.execution.context import EngineOptions
 from rig.execution.operator import Operator, SilentOperator
 from rig.session.lock import SessionLock
-from rig.session.store import SessionWriter
-from rig.workflow.lifecycle import NewSession, RunResult, configure_devices, execute, finish, start_session
+from rig.errors import RigInputError
+from rig.session import SessionManifest, SessionWriter
+from rig.workflow import identity
+from rig.workflow.lifecycle import (NewSession, RunResult, configure_devices, execute, file_sha256, finish,
+                                    start_session)
 
 DEFAULT_RIG = Path(__file__).resolve().parents[2] / "rigs" / "sim.yaml"
 
@@ -78,17 +81,22 @@ def _resume(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, solve
 
 def _resume_locked(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, solve: bool,
                    options: EngineOptions) -> RunResult:
-    writer, first_step = SessionWriter.resume(resume_dir)
-    manifest = writer.manifest
-    procedure = load_procedure_text(manifest["procedure"]["text"], manifest["procedure"].get("file") or "<session>")
-    rig_file = load_rig_file(resolve_rig(manifest.get("rig", {}).get("rig_file") if rig_spec is None else rig_spec))
-    seed = manifest.get("seed", 0) if seed is None else seed
-    time_offset = _resume_time_offset(manifest)
-    writer.event("resume", t_s=time_offset, first_step=first_step)
-    operator.info(f"resuming {writer.session_dir} at step {first_step + 1}")
-    rig = open_rig_file(rig_file, seed=seed, time_scale=time_scale)
+    """Open the rig, refuse it if it is not the one recorded, then reopen the session and go on."""
+    recorded, _ = SessionManifest.load(resume_dir)  # read only: nothing is touched before the checks
+    procedure = load_procedure_text(recorded.procedure.text or "", recorded.procedure.file or "<session>")
+    rig_path = resolve_rig(recorded.rig.rig_file if rig_spec is None else rig_spec)
+    rig_file = load_rig_file(rig_path)
+    rig = open_rig_file(rig_file, seed=recorded.seed if seed is None else seed, time_scale=time_scale)
     try:
         configure_devices(procedure, rig)
+        differ = identity.differences(recorded, rig, file_sha256(rig_path))
+        if differ:
+            raise RigInputError(str(resume_dir), None, "rig", "cannot resume on another rig or sensor: "
+                                + "; ".join(differ) + " (resume with the rig, rig file and --seed it was recorded with)")
+        writer, first_step = SessionWriter.resume(resume_dir)
+        time_offset = _resume_time_offset(writer.manifest)
+        writer.event("resume", t_s=time_offset, first_step=first_step)
+        operator.info(f"resuming {writer.session_dir} at step {first_step + 1}")
         outcomes = execute(procedure, rig, writer, operator, first_step=first_step, resuming=True,
                            time_offset_s=time_offset, options=options)
     finally:

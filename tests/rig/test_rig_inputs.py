@@ -12,7 +12,7 @@ from rig.planning.targets import move_time_s, plan_axis_target
 from rig.planning.poses import CUBE, pose_angles_deg
 from rig.config.procedure import load_procedure, load_procedure_text
 from rig.config.rigfile import parse_rig_file
-from rig.session.store import SessionWriter, load_session, validate_session_id
+from rig.session import SessionWriter, load_session, validate_session_id
 
 from conftest import PROCEDURES, RIGS
 

@@ -143,7 +143,7 @@ def test_the_cli_report_json_plot_and_augmented_calibration(sessions, tmp_path):
     cal = calfile.read(cal_path)
     names = [e["name"] for e in cal.accelerometer.effects]
     assert names == ["scale_tempco"] and cal.accelerometer.temperature is not None
-    from rig.session.store import load_session
+    from rig.session import load_session
     sess = load_session(s)
     means = sess.step_means()
     plain = calfile.read(s / "calibration.yaml").accelerometer

@@ -22,7 +22,7 @@ from rig.cli import main
 from rig.errors import RigInputError, SessionFormatError
 from rig.config.procedure import load_procedure_text
 from rig.config.rigfile import parse_rig_file
-from rig.session.store import load_session
+from rig.session import load_session
 
 from conftest import PROCEDURES, RIGS
 

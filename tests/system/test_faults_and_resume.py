@@ -16,7 +16,7 @@ import yaml
 
 from calib import calfile
 from rig.cli import main
-from rig.session.store import load_session
+from rig.session import load_session
 
 from conftest import PROCEDURES, REPO, RIGS
 

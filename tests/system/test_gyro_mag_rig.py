@@ -98,7 +98,7 @@ def test_the_rate_test_recovers_all_12_gyro_parameters_within_their_sigmas(runs)
         assert np.all(np.abs(np.asarray(pair.bias_counts) - g.bias_counts) < 4 * np.hypot(pair.sigma_counts, 0.5))
     assert len(g.bias_pairs) == 9
     # calibrated rates of the rate steps match the commanded ones
-    from rig.session.store import load_session, rate_step_means
+    from rig.session import load_session, rate_step_means
     rs = rate_step_means(load_session(s))
     w = g.apply(rs.mean_counts)
     assert np.max(np.abs(w - rs.rate_nominal_dps)) < 0.02
@@ -121,7 +121,7 @@ def test_with_the_gyros_g_sensitivity_the_bias_and_the_determined_g_column_are_r
 
 
 def test_the_rate_steps_capture_only_the_constant_rate_part(runs):
-    from rig.session.store import load_session
+    from rig.session import load_session
     sess = load_session(runs["gyro"])
     for st in sess.manifest["steps"]:
         if st["kind"] == "rate":
@@ -150,7 +150,7 @@ def test_the_ellipsoid_from_a_tumble_recovers_the_hard_iron_and_the_field_magnit
     assert m.method == "ellipsoid" and m.field_ut == pytest.approx(50.0)
     for j, a in enumerate("xyz"):
         assert abs(m.hard_iron_ut[j] - truth["hard_iron_ut"][j]) < 4 * m.sigma[f"hard_iron_{a}"], a
-    from rig.session.store import load_session, mag_step_means
+    from rig.session import load_session, mag_step_means
     ms = mag_step_means(load_session(s))
     h = m.apply(ms.mean_ut)
     assert np.allclose(np.linalg.norm(h, axis=1), 50.0, atol=0.1)

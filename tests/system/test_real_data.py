@@ -18,7 +18,7 @@ from calib.redundancy import pair_biases
 from rig.analysis.discover import discover_session
 from rig.errors import RigInputError
 from rig.importers.recordings import import_recording
-from rig.session.store import load_session
+from rig.session import load_session
 
 from conftest import REPO
 

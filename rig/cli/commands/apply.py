@@ -11,8 +11,7 @@ from calib import calfile
 from calib.gyro import GyroCalibration
 from calib.magnetometer import MagCalibration
 from rig.cli.common import EXIT_OK
-from rig.execution.executors.static import MAG_COUNTS_PER_UT
-from rig.session.store import load_session
+from rig.session import MAG_COUNTS_PER_UT, load_session
 
 
 def add_parser(sub) -> None:
@@ -39,8 +38,8 @@ def run(args) -> int:
     if cal.magnetometer and "mag_counts" in d:
         mag = cal.magnetometer if isinstance(cal.magnetometer, MagCalibration) else \
             MagCalibration.from_dict(cal.magnetometer, args.calibration)
-        info = session.manifest["rig"]["sensor"].get("magnetometer") or {}
-        h = mag.apply(d["mag_counts"] / float(info.get("mag_lsb_per_ut", MAG_COUNTS_PER_UT)))
+        info = session.info.rig.sensor.magnetometer
+        h = mag.apply(d["mag_counts"] / float((info.mag_lsb_per_ut if info else None) or MAG_COUNTS_PER_UT))
         table.update({f"m{a}_ut": _fmt(h[:, j], "%.5f") for j, a in enumerate("xyz")})
     out = Path(args.output)
     pd.DataFrame(table).to_csv(out, index=False, lineterminator="\r\n")

@@ -7,7 +7,7 @@ import json
 import calib
 from calib import calfile
 from rig.cli.common import EXIT_OK, json_default
-from rig.session.store import load_session
+from rig.session import load_session
 
 
 def add_parser(sub) -> None:

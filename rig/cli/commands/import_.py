@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import calib
+from calib.errors import CalibError
+from rig.analysis.discover import discover_session
 from rig.cli.common import EXIT_OK, UsageError
+from rig.errors import RigInputError, SessionFormatError
 from rig.importers.recordings import import_recording
-from rig.session.store import load_session
+from rig.session import load_session, step_means
 
 
 def add_parser(sub) -> None:
@@ -20,18 +24,42 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     if not args.window_s > 0:
         raise UsageError(f"--window-s: expected a positive number of seconds, got {args.window_s:g}")
-    path = import_recording(args.source, args.src, args.out, args.id, g_ms2=args.g, window_s=args.window_s)
+    try:
+        path = import_recording(args.source, args.src, args.out, args.id, g_ms2=args.g, window_s=args.window_s)
+    except FileExistsError as exc:
+        raise UsageError(f"{exc.filename}: a session with this id exists already; give another with --id ID "
+                         "(or another sessions directory with -o)") from None
     s = load_session(path)
-    steps = s.manifest["steps"]
-    known = sum(1 for st in steps if st.get("kind") == "static" and st.get("f_nominal") is not None)
-    static = sum(1 for st in steps if st.get("kind") == "static")
-    imp = s.manifest["import"]
+    steps = s.info.steps
+    known = sum(1 for st in steps if st.kind == "static" and st.f_nominal is not None)
+    static = sum(1 for st in steps if st.kind == "static")
+    imp = s.info.import_
     print(f"session: {path}")
-    print(f"  {len(s.samples['t_s'])} samples at {s.manifest['rig']['sensor']['sample_rate_hz']:g} Hz, "
-          f"{len(steps)} steps ({static} static, {known} with known poses) from {imp['steps_from']}; "
-          f"units {imp['units']}, {imp['lsb_per_g']:g} counts/g")
-    for note in imp["notes"]:
+    print(f"  {len(s.samples['t_s'])} samples at {s.info.rig.sensor.sample_rate_hz:g} Hz, "
+          f"{len(steps)} steps ({static} static, {known} with known poses) from {imp.steps_from}; "
+          f"units {imp.units}, {imp.lsb_per_g:g} counts/g")
+    for note in imp.notes:
         print(f"  note: {note}")
-    hint = "rig solve SESSION" if known >= 6 else "rig solve SESSION --method magnitude"
-    print(f"  next: {hint}; rig discover SESSION")
+    hints = [h for h, works in next_steps(s, path, known) if works]
+    print(f"  next: {'; '.join(hints)}" if hints else
+          "  next: nothing can be solved from this recording alone (too few distinct poses)")
     return EXIT_OK
+
+
+def next_steps(session, path, known: int) -> list[tuple[str, bool]]:
+    """The follow-up commands, each tried here first: only those that work on this import are shown."""
+    if known >= 6:
+        solve = (f"rig solve {path}", True)
+    else:
+        solve = (f"rig solve {path} --method magnitude",
+                 _works(lambda: calib.solve(step_means(session, session.static_step_indices(unknown_pose=True)),
+                                            method="magnitude")))
+    return [solve, (f"rig discover {path}", _works(lambda: discover_session(path)))]
+
+
+def _works(attempt) -> bool:
+    try:
+        attempt()
+    except (CalibError, SessionFormatError, RigInputError):
+        return False
+    return True

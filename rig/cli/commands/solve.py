@@ -10,7 +10,7 @@ from calib.errors import CalibError
 from calib.redundancy import pair_biases
 from rig.analysis.solve import solve_session
 from rig.cli.common import EXIT_OK, UsageError, format_calibration, json_default, parse_thermal
-from rig.session.store import load_session
+from rig.session import load_session
 
 
 def add_parser(sub) -> None:

@@ -14,9 +14,8 @@ from rig.execution.capture import Capture, expected_samples, settle_and_capture
 from rig.execution.checks import check_step
 from rig.execution.context import RunContext
 from rig.execution.motion import angles_now_deg, move_to
+from rig.session import MAG_COUNTS_PER_UT
 
-#: magnetometer readings are stored as integers of 0.01 uT in the session's mx, my, mz columns
-MAG_COUNTS_PER_UT = 100.0
 
 
 def execute(ctx: RunContext, step) -> None:

@@ -46,7 +46,7 @@ def test_every_fault_field_a_file_may_set_builds_the_simulators_dataclass():
                          " latency_s: 0.2, error_answer_rate: 0.1, error_answer: errc, vanish_at_s: 5,"
                          " vanish_for_s: 2, stall_at_deg: 30, limit_deg: -45, seed: 7}\n"
                          "  sensor: {oserror_rate: 0.01, oserror_window_s: [1, 2], dead_after_s: 9, stuck_after_s: 8,"
-                         " saturate_after_s: 7, thermometer_fail_after_s: 6, seed: 2}\n", "r.yaml")
+                         " saturate_after_s: 7, thermometer_fail_after_s: 6, seed: 2, failed_self_test: true}\n", "r.yaml")
     assert XimcFaults(**rig.faults["ximc"]["a1"]).stall_at_deg == 30.0
     assert SensorFaults(**rig.faults["sensor"]).oserror_window_s == [1.0, 2.0]
     assert set(rig.faults["ximc"]["a1"]) == set(_fields(XimcFaults))

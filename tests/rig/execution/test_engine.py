@@ -19,7 +19,7 @@ from rig.execution.engine import Engine
 from rig.execution.executors import temperature
 from rig.execution.operator import OperatorAbsent, SilentOperator
 from rig.planning.kinematics import AXES
-from rig.session.store import SessionWriter, load_session
+from rig.session import SessionWriter, load_session
 from rig.simulation.simrig import SimSettings, SimulatedRig
 from rig.simulation.simulated import open_in_process_rig
 from rig.simulation.world import ChamberConfig

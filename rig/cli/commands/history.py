@@ -1,0 +1,72 @@
+"""``rig history [SENSOR]``: the sensors in the calibration history, or every calibration of one (docs/history.md)."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from rig.cli.common import EXIT_OK, UsageError, json_default
+from rig.lab import (ENV_VAR, HistoryError, default_path, format_history, history_document, list_sensors, open_history,
+                     plot_history, resolve_sensor, sensor_history, store_calibration)
+
+
+def add_parser(sub) -> None:
+    s = sub.add_parser("history", help="calibration history: the sensors, or every calibration of one and its drift")
+    s.add_argument("sensor", nargs="?", default=None, help="sensor key (or a unique part of it); none: list sensors")
+    s.add_argument("--json", action="store_true", help="print the rig-history/1 document")
+    s.add_argument("--plot", default=None, metavar="FILE.png", help="parameters over time with 1-sigma error bars")
+    s.add_argument("--history", default=None, metavar="PATH",
+                   help=f"database (default ${ENV_VAR}, else ~/.local/share/rig/history.sqlite)")
+    s.add_argument("--record", default=None, metavar="SESSION", help="record SESSION's calibration first")
+    s.add_argument("--calibration", default=None, metavar="CALIB",
+                   help="with --record: the calibration file (default SESSION/calibration.yaml)")
+    s.add_argument("--sensor-id", default=None, help="with --record: serial or fixture id of the sensor")
+
+
+def run(args) -> int:
+    try:
+        return _run(args)
+    except HistoryError as exc:
+        print(f"rig history: {exc}", file=sys.stderr)
+        return exc.exit_code
+
+
+def _run(args) -> int:
+    if (args.calibration or args.sensor_id) and not args.record:
+        raise UsageError("--calibration and --sensor-id need --record SESSION")
+    if args.record:
+        calib_path = args.calibration or f"{args.record.rstrip('/')}/calibration.yaml"
+        cid, key = store_calibration(args.record, calib_path, history=args.history, sensor_id=args.sensor_id)
+        print(f"recorded: calibration {cid} of sensor {key} in {default_path(args.history)}")
+        if args.sensor is None and not args.json and not args.plot:
+            return EXIT_OK
+    if args.plot and args.sensor is None:
+        raise UsageError("--plot needs a SENSOR")
+    with open_history(args.history, create=False) as h:
+        if args.sensor is None:
+            return _print_sensors(list_sensors(h), args)
+        key = resolve_sensor(h, args.sensor)
+        records = sensor_history(h, key)
+    if args.plot:
+        plot_history(key, records, args.plot)
+    if args.json:
+        print(json.dumps(history_document(key, records), indent=2, default=json_default))
+    else:
+        print(format_history(key, records))
+        if args.plot:
+            print(f"plot: {args.plot}")
+    return EXIT_OK
+
+
+def _print_sensors(sensors: list[dict], args) -> int:
+    if args.json:
+        print(json.dumps({"format": "rig-history/1", "sensors": sensors}, indent=2, default=json_default))
+        return EXIT_OK
+    if not sensors:
+        print("no calibrations recorded yet")
+        return EXIT_OK
+    w = max(len("sensor"), *(len(s["sensor_key"]) for s in sensors))
+    print(f"{'sensor':<{w}}  {'calibrations':>12}  {'first':<25}  last")
+    for s in sensors:
+        print(f"{s['sensor_key']:<{w}}  {s['n']:>12}  {s['first'] or '-':<25}  {s['last'] or '-'}")
+    return EXIT_OK

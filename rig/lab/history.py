@@ -1,0 +1,317 @@
+"""The calibration history: one embedded SQLite database of every calibration, per sensor (docs/history.md).
+
+Where: ``--history PATH``, else ``$RIG_HISTORY``, else ``~/.local/share/rig/history.sqlite``
+(:func:`default_path`). The schema is versioned (table ``schema_version``) and migrated by the
+table :data:`MIGRATIONS` of SQL steps, each applied once inside one ``BEGIN IMMEDIATE`` transaction.
+WAL journal and a busy timeout: two writers (two rigs on one machine) wait for each other instead
+of failing; every write is one transaction, so a crash or a refused write leaves what was stored.
+
+:func:`record_calibration` is the one call the workflows make after a solve: it never raises for a
+database problem (it returns a one-line warning instead). :func:`open_history` and the readers raise
+:class:`HistoryCorrupt` (exit 2: not a database / damaged) or :class:`HistoryLocked` (exit 1).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sqlite3
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from calib import calfile
+from rig import __version__
+from rig.errors import RigInputError
+from rig.lab.identity import rig_identity, sensor_identity, temperatures
+
+ENV_VAR = "RIG_HISTORY"
+DEFAULT_PATH = Path("~/.local/share/rig/history.sqlite")
+BUSY_TIMEOUT_S = 30.0
+
+#: schema migrations: (version, SQL statements); applied in order, each version once
+MIGRATIONS: list[tuple[int, list[str]]] = [
+    (1, [
+        """CREATE TABLE sensors (
+               sensor_key TEXT PRIMARY KEY, model TEXT, address INTEGER, identity TEXT, serial TEXT,
+               first_seen TEXT NOT NULL)""",
+        """CREATE TABLE calibrations (
+               id INTEGER PRIMARY KEY AUTOINCREMENT,
+               sensor_key TEXT NOT NULL REFERENCES sensors(sensor_key),
+               recorded_at TEXT NOT NULL, calibrated_at TEXT,
+               session_id TEXT, session_path TEXT, calibration_path TEXT,
+               procedure_name TEXT, procedure_sha256 TEXT,
+               rig TEXT, software_version TEXT,
+               temp_mean_c REAL, temp_min_c REAL, temp_max_c REAL,
+               model TEXT, method TEXT, steps INTEGER, residual_rms_g REAL, chi2_per_dof REAL,
+               verdict TEXT)""",
+        """CREATE TABLE parameters (
+               calibration_id INTEGER NOT NULL REFERENCES calibrations(id) ON DELETE CASCADE,
+               name TEXT NOT NULL, value REAL NOT NULL, sigma REAL, unit TEXT,
+               PRIMARY KEY (calibration_id, name))""",
+        "CREATE INDEX calibrations_by_sensor ON calibrations(sensor_key, calibrated_at)",
+    ]),
+]
+SCHEMA_VERSION = MIGRATIONS[-1][0]
+
+
+class HistoryError(Exception):
+    """A history database problem; ``str()`` is one line; ``exit_code`` as in docs/cli.md."""
+
+    exit_code = 1
+
+
+class HistoryCorrupt(HistoryError, RigInputError):
+    """The file is not a history database, is damaged, or is newer than this software (exit 2)."""
+
+    exit_code = 2
+
+    def __init__(self, path, message) -> None:
+        RigInputError.__init__(self, str(path), None, None, message)
+
+
+class HistoryLocked(HistoryError, OSError):
+    """Another process held the database longer than the busy timeout (exit 1)."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else "history database locked"
+
+
+def default_path(path=None) -> Path:
+    """``path``, else ``$RIG_HISTORY``, else ``~/.local/share/rig/history.sqlite``."""
+    chosen = path or os.environ.get(ENV_VAR) or DEFAULT_PATH
+    return Path(chosen).expanduser()
+
+
+def _translate(exc: sqlite3.Error, path: Path) -> HistoryError:
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    if isinstance(exc, sqlite3.OperationalError) and ("locked" in text or "busy" in text):
+        return HistoryLocked(f"{path}: history database is locked by another process ({text}); "
+                             "nothing was changed, try again")
+    if isinstance(exc, sqlite3.DatabaseError) and not isinstance(exc, sqlite3.OperationalError):
+        return HistoryCorrupt(path, f"not a readable rig history database ({text}); it was left untouched")
+    if "unable to open" in text or "readonly" in text:
+        return HistoryLocked(f"{path}: cannot open the history database ({text})")
+    return HistoryCorrupt(path, f"history database error ({text}); it was left untouched")
+
+
+class History:
+    """An open history database (a context manager). Use :func:`open_history`."""
+
+    def __init__(self, path: Path, conn: sqlite3.Connection) -> None:
+        self.path, self.conn = path, conn
+
+    def __enter__(self) -> "History":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self.conn.close()
+
+    def write(self, fn, *args):
+        """Run ``fn(conn, *args)`` in one ``BEGIN IMMEDIATE`` transaction; rolled back on any error."""
+        try:
+            self.conn.execute("BEGIN IMMEDIATE")
+            try:
+                out = fn(self.conn, *args)
+            except BaseException:
+                self.conn.execute("ROLLBACK")
+                raise
+            self.conn.execute("COMMIT")
+            return out
+        except sqlite3.Error as exc:
+            raise _translate(exc, self.path) from None
+
+    def query(self, sql: str, params=()) -> list[sqlite3.Row]:
+        try:
+            return self.conn.execute(sql, params).fetchall()
+        except sqlite3.Error as exc:
+            raise _translate(exc, self.path) from None
+
+
+def open_history(path=None, *, timeout_s: float = BUSY_TIMEOUT_S, create: bool = True) -> History:
+    """Open (and create or migrate) the history database. Raises HistoryCorrupt / HistoryLocked."""
+    p = default_path(path)
+    if not p.exists() and not create:
+        raise HistoryCorrupt(p, "no history database here (nothing recorded yet?)")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        conn = sqlite3.connect(str(p), timeout=timeout_s, isolation_level=None)
+    except (OSError, sqlite3.Error) as exc:
+        raise HistoryLocked(f"{p}: cannot open the history database ({exc})") from None
+    conn.row_factory = sqlite3.Row
+    hist = History(p, conn)
+    try:
+        conn.execute(f"PRAGMA busy_timeout = {int(timeout_s * 1000)}")
+        conn.execute("PRAGMA journal_mode = WAL")
+        conn.execute("PRAGMA foreign_keys = ON")
+        hist.write(_migrate, p)
+    except sqlite3.Error as exc:
+        conn.close()
+        raise _translate(exc, p) from None
+    except HistoryError:
+        conn.close()
+        raise
+    return hist
+
+
+def _migrate(conn: sqlite3.Connection, path: Path) -> None:
+    conn.execute("CREATE TABLE IF NOT EXISTS schema_version (version INTEGER NOT NULL)")
+    row = conn.execute("SELECT MAX(version) FROM schema_version").fetchone()
+    current = row[0] or 0
+    if current > SCHEMA_VERSION:
+        raise HistoryCorrupt(path, f"history schema version {current} is newer than this software's "
+                                   f"({SCHEMA_VERSION}); upgrade rig")
+    for version, steps in MIGRATIONS:
+        if version > current:
+            for sql in steps:
+                conn.execute(sql)
+            conn.execute("INSERT INTO schema_version (version) VALUES (?)", (version,))
+
+
+# ---------------------------------------------------------------------------------------------- parameters
+
+def _fnum(x) -> float | None:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def _vector(out: list, prefix: str, values, sigmas, unit: str) -> None:
+    values = np.asarray(values, float).ravel()
+    sig = np.asarray(sigmas, float).ravel() if sigmas is not None else np.full(values.shape, np.nan)
+    for axis, v, s in zip("xyz", values, sig):
+        out.append((f"{prefix}_{axis}", float(v), _fnum(s), unit))
+
+
+def accel_parameters(a) -> list[tuple[str, float, float | None, str]]:
+    """(name, value, sigma, unit) of every accelerometer parameter of an AccelCalibration."""
+    out: list = []
+    sig = a.sigma
+    _vector(out, "accel.bias", a.bias_counts, sig.get("bias_counts"), "counts")
+    _vector(out, "accel.scale", a.scale_counts_per_g, sig.get("scale_counts_per_g"), "counts/g")
+    if a.misalignment:
+        sm = sig.get("misalignment") or {}
+        for k in ("alpha_yz", "alpha_zy", "alpha_zx"):
+            out.append((f"accel.{k}", float(a.misalignment[k]), _fnum(sm.get(k)), "rad"))
+    elif a.model == "full":
+        m, sm = np.asarray(a.matrix_counts_per_g, float), np.asarray(sig.get("matrix_counts_per_g"), float)
+        for i, j in [(i, j) for i in range(3) for j in range(3) if i != j]:
+            out.append((f"accel.m_{'xyz'[i]}{'xyz'[j]}", float(m[i, j]), _fnum(sm[i, j]), "counts/g"))
+    if a.temperature is not None:
+        coeffs = np.asarray(a.temperature.coefficients, float)
+        st = ((sig.get("temperature") or {}).get("coefficients"))
+        st = np.asarray(st, float) if st is not None and np.shape(st) == coeffs.shape else np.full(coeffs.shape, np.nan)
+        out.append(("accel.t0_c", float(a.temperature.t0_c), None, "C"))  # the biases above are at t0
+        for s in range(coeffs.shape[1]):
+            _vector(out, f"accel.tempco{s + 1}", coeffs[:, s], st[:, s], f"counts/C^{s + 1}")
+    return out
+
+
+def sensor_parameters(cal) -> list[tuple[str, float, float | None, str]]:
+    """Every parameter with its sigma: accelerometer, gyroscope and magnetometer biases when present."""
+    out = accel_parameters(cal.accelerometer)
+    g = cal.gyroscope
+    if g is not None:
+        _vector(out, "gyro.bias", g.bias_counts, [g.sigma.get(f"b_{x}") for x in "xyz"], "counts")
+        _vector(out, "gyro.scale", g.scale_counts_per_dps, [g.sigma.get(f"k_{x}") for x in "xyz"], "counts/(deg/s)")
+    m = cal.magnetometer
+    if m is not None:
+        _vector(out, "mag.hard_iron", m.hard_iron_ut, [m.sigma.get(f"hard_iron_{x}") for x in "xyz"], "uT")
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- recording
+
+def _read_manifest(session_dir) -> dict:
+    p = Path(session_dir) / "session.yaml"
+    try:
+        doc = yaml.safe_load(p.read_text())
+    except FileNotFoundError:
+        raise RigInputError(str(p), None, None, "no session manifest (session.yaml)") from None
+    except yaml.YAMLError:
+        raise RigInputError(str(p), None, None, "session manifest is not valid YAML") from None
+    if not isinstance(doc, dict):
+        raise RigInputError(str(p), None, None, "session manifest is not a mapping")
+    return doc
+
+
+def calibration_row(session_dir, calibration_path, *, sensor_id=None, verdict=None) -> dict:
+    """Everything :func:`record_calibration` stores, as plain data (no database)."""
+    manifest = _read_manifest(session_dir)
+    cal = calfile.read(calibration_path)
+    sensor = sensor_identity(manifest, cal, sensor_id)
+    fit = cal.accelerometer.fit
+    temps = temperatures(manifest)
+    proc = manifest.get("procedure") or {}
+    return {
+        "sensor": sensor,
+        "calibration": {
+            "recorded_at": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "calibrated_at": str(cal.created), "session_id": manifest.get("id") or cal.session,
+            "session_path": str(Path(session_dir).resolve()), "calibration_path": str(Path(calibration_path).resolve()),
+            "procedure_name": proc.get("name"), "procedure_sha256": proc.get("sha256"),
+            "rig": json.dumps(rig_identity(manifest), sort_keys=True),
+            "software_version": (cal.software or {}).get("version") or __version__,
+            "temp_mean_c": temps[0], "temp_min_c": temps[1], "temp_max_c": temps[2],
+            "model": cal.accelerometer.model, "method": fit.method, "steps": fit.steps,
+            "residual_rms_g": _fnum(fit.residual_rms_g), "chi2_per_dof": _fnum(fit.chi2_per_dof), "verdict": verdict,
+        },
+        "parameters": sensor_parameters(cal),
+    }
+
+
+def _insert(conn: sqlite3.Connection, row: dict) -> int:
+    s = row["sensor"]
+    conn.execute("INSERT OR IGNORE INTO sensors (sensor_key, model, address, identity, serial, first_seen) "
+                 "VALUES (?, ?, ?, ?, ?, ?)", (s["key"], s["model"], s["address"], s["identity"], s["serial"],
+                                               row["calibration"]["recorded_at"]))
+    c = {"sensor_key": s["key"], **row["calibration"]}
+    cur = conn.execute(f"INSERT INTO calibrations ({', '.join(c)}) VALUES ({', '.join('?' * len(c))})",
+                       tuple(c.values()))
+    cid = cur.lastrowid
+    conn.executemany("INSERT INTO parameters (calibration_id, name, value, sigma, unit) VALUES (?, ?, ?, ?, ?)",
+                     [(cid, *p) for p in row["parameters"]])
+    return cid
+
+
+def store_calibration(session_dir, calibration_path, *, history=None, sensor_id=None, verdict=None,
+                      timeout_s: float = BUSY_TIMEOUT_S) -> tuple[int, str]:
+    """Record one calibration; returns (row id, sensor key). Raises HistoryError, RigInputError, CalibError."""
+    row = calibration_row(session_dir, calibration_path, sensor_id=sensor_id, verdict=verdict)
+    with open_history(history, timeout_s=timeout_s) as h:
+        return h.write(_insert, row), row["sensor"]["key"]
+
+
+def record_calibration(session_dir, calibration_path, *, history=None, sensor_id: str | None = None,
+                       verdict: str | None = None, timeout_s: float = BUSY_TIMEOUT_S) -> str | None:
+    """Record a solved calibration in the history; **never raises** (for ``rig run/solve/replay/import``).
+
+    Parameters
+    ----------
+    session_dir : the session solved (its ``session.yaml`` gives sensor, rig, procedure, temperatures).
+    calibration_path : the ``rig-calibration/1`` file written by the solve.
+    history : database path (default: ``$RIG_HISTORY``, else ``~/.local/share/rig/history.sqlite``).
+    sensor_id : a serial or fixture id given by the operator; overrides the key built from the manifest.
+    verdict : acceptance verdict (``PASS``/``FAIL``) when the procedure has limits, else None.
+    timeout_s : how long to wait for another writer.
+
+    Returns
+    -------
+    None when recorded, else a one-line warning (``history not recorded: ...``) for the caller to print;
+    the run's own result stands and nothing already stored is lost.
+    """
+    try:
+        store_calibration(session_dir, calibration_path, history=history, sensor_id=sensor_id, verdict=verdict,
+                          timeout_s=timeout_s)
+    except Exception as exc:  # noqa: BLE001 - the contract: a history problem never breaks a run
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        return f"history not recorded: {first}"
+    return None

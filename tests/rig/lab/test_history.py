@@ -1,0 +1,171 @@
+"""The calibration history (rig.lab.history, rig.lab.drift): round trip, concurrent writers, a corrupted
+or locked database (one-line error, nothing lost), drift flags. Sessions are real `rig run`s of the
+simulated rig (the same seed is the same simulated sensor; another seed is another sensor)."""
+
+from __future__ import annotations
+
+import sqlite3
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from calib import calfile
+from rig.cli import main
+from rig.lab import (SCHEMA_VERSION, HistoryCorrupt, HistoryLocked, drift, format_history, list_sensors, open_history,
+                     record_calibration, sensor_history, store_calibration)
+from rig.lab.history import MIGRATIONS
+
+from conftest import PROCEDURES, REPO
+
+
+def run_session(out, seed: int, procedure: str = "six_position.yaml"):
+    code = main(["run", str(PROCEDURES / procedure), "--seed", str(seed), "--time-scale", "0", "--out", str(out),
+                 "--quiet"])
+    assert code == 0
+    (session,) = [p for p in out.iterdir() if p.is_dir()]
+    return session
+
+
+@pytest.fixture(scope="module")
+def seed3(tmp_path_factory):
+    return run_session(tmp_path_factory.mktemp("seed3"), 3)
+
+
+@pytest.fixture(scope="module")
+def seed4(tmp_path_factory):
+    return run_session(tmp_path_factory.mktemp("seed4"), 4)
+
+
+def _record(session, db, **kw):
+    warning = record_calibration(session, session / "calibration.yaml", history=db, **kw)
+    assert warning is None, warning
+
+
+def test_five_calibrations_round_trip(seed3, tmp_path):
+    db = tmp_path / "h.sqlite"
+    for _ in range(5):
+        _record(seed3, db)
+    cal = calfile.read(seed3 / "calibration.yaml")
+    with open_history(db) as h:
+        (sensor,) = list_sensors(h)
+        assert sensor["sensor_key"] == "MPU-9150@0x68#0x68/sim-seed-3" and sensor["n"] == 5
+        assert h.query("SELECT MAX(version) FROM schema_version")[0][0] == SCHEMA_VERSION
+        records = sensor_history(h, sensor["sensor_key"])
+    assert len(records) == 5
+    r = records[-1]
+    a = cal.accelerometer
+    for j, x in enumerate("xyz"):
+        assert r.parameters[f"accel.bias_{x}"][:2] == (a.bias_counts[j], a.sigma["bias_counts"][j])
+        assert r.parameters[f"accel.scale_{x}"][:2] == (a.scale_counts_per_g[j], a.sigma["scale_counts_per_g"][j])
+    for k in ("alpha_yz", "alpha_zy", "alpha_zx"):
+        assert r.parameters[f"accel.{k}"] == (a.misalignment[k], a.sigma["misalignment"][k], "rad")
+    info = r.info
+    assert info["session_id"] == seed3.name and info["procedure_name"] == "six_position"
+    assert len(info["procedure_sha256"]) == 64
+    assert [info["rig"]["axes"][ax]["serial"] for ax in ("a1", "a2", "a3")] == [23040, 23041, 23042]
+    assert info["rig"]["axes"]["a1"]["firmware"] == "4.3.8"
+    assert info["software_version"] == cal.software["version"]
+    assert 20 < info["temp_mean_c"] < 40
+    assert info["residual_rms_g"] == a.fit.residual_rms_g and info["chi2_per_dof"] == a.fit.chi2_per_dof
+    d = drift(records)
+    assert all(c["z"] == 0 and not c["flagged"] for col in d.values() for c in col[1:])
+
+
+def test_drift_between_two_sensors_under_one_id_is_flagged(seed3, seed4, tmp_path):
+    db = tmp_path / "h.sqlite"
+    _record(seed3, db, sensor_id="DUT-7")
+    _record(seed4, db, sensor_id="DUT-7")
+    with open_history(db) as h:
+        records = sensor_history(h, "MPU-9150:DUT-7")
+    d = drift(records)
+    assert d["accel.bias_x"][1]["flagged"] and abs(d["accel.bias_x"][1]["z"]) > 3
+    s0, s1 = records[0].parameters["accel.bias_x"][1], records[1].parameters["accel.bias_x"][1]
+    assert d["accel.bias_x"][1]["combined_sigma"] == pytest.approx(np.hypot(s0, s1))
+    assert "drift beyond 3 combined sigma: " in format_history("MPU-9150:DUT-7", records)
+
+
+WRITER = textwrap.dedent("""
+    import sys
+    from rig.lab import store_calibration
+    session, db = sys.argv[1], sys.argv[2]
+    for _ in range(15):
+        store_calibration(session, session + "/calibration.yaml", history=db, sensor_id=sys.argv[3])
+""")
+
+
+def test_two_concurrent_writers_lose_nothing(seed3, tmp_path):
+    db = tmp_path / "h.sqlite"
+    open_history(db).close()
+    procs = [subprocess.Popen([sys.executable, "-c", WRITER, str(seed3), str(db), f"rig-{i}"], cwd=REPO,
+                              stderr=subprocess.PIPE, text=True) for i in range(2)]
+    for p in procs:
+        _, err = p.communicate(timeout=120)
+        assert p.returncode == 0, err
+    with open_history(db) as h:
+        counts = {s["sensor_key"]: s["n"] for s in list_sensors(h)}
+        assert h.query("SELECT COUNT(*) FROM parameters")[0][0] == 30 * 9
+    assert counts == {"MPU-9150:rig-0": 15, "MPU-9150:rig-1": 15}
+
+
+def test_a_corrupted_database_is_refused_in_one_line_and_left_untouched(seed3, tmp_path):
+    db = tmp_path / "h.sqlite"
+    db.write_bytes(b"this is not a database\n" * 300)
+    before = db.read_bytes()
+    with pytest.raises(HistoryCorrupt) as exc:
+        open_history(db)
+    assert "\n" not in str(exc.value) and str(db) in str(exc.value) and exc.value.exit_code == 2
+    warning = record_calibration(seed3, seed3 / "calibration.yaml", history=db)
+    assert warning.startswith("history not recorded: ") and "\n" not in warning
+    assert db.read_bytes() == before
+
+
+def test_a_newer_schema_is_refused(tmp_path):
+    db = tmp_path / "h.sqlite"
+    open_history(db).close()
+    with sqlite3.connect(db) as c:
+        c.execute("INSERT INTO schema_version VALUES (?)", (SCHEMA_VERSION + 1,))
+    with pytest.raises(HistoryCorrupt, match="newer than this software"):
+        open_history(db)
+
+
+def test_a_locked_database_gives_one_line_and_loses_nothing(seed3, tmp_path):
+    db = tmp_path / "h.sqlite"
+    _record(seed3, db)
+    holder = sqlite3.connect(db, isolation_level=None)
+    holder.execute("BEGIN EXCLUSIVE")
+    try:
+        with pytest.raises(HistoryLocked) as exc:
+            store_calibration(seed3, seed3 / "calibration.yaml", history=db, timeout_s=0.2)
+        assert "locked" in str(exc.value) and "\n" not in str(exc.value) and exc.value.exit_code == 1
+        warning = record_calibration(seed3, seed3 / "calibration.yaml", history=db, timeout_s=0.2)
+        assert warning.startswith("history not recorded: ") and "locked" in warning
+    finally:
+        holder.execute("ROLLBACK")
+        holder.close()
+    with open_history(db) as h:
+        assert [s["n"] for s in list_sensors(h)] == [1]
+    _record(seed3, db)
+    with open_history(db) as h:
+        assert [s["n"] for s in list_sensors(h)] == [2]
+
+
+def test_record_calibration_never_raises(tmp_path):
+    warning = record_calibration(tmp_path / "nope", tmp_path / "nope/calibration.yaml", history=tmp_path / "h.sqlite")
+    assert warning.startswith("history not recorded: ")
+
+
+def test_migrations_are_versioned_and_wal_is_on(tmp_path):
+    assert [v for v, _ in MIGRATIONS] == sorted({v for v, _ in MIGRATIONS})
+    with open_history(tmp_path / "h.sqlite") as h:
+        assert h.query("PRAGMA journal_mode")[0][0] == "wal"
+        assert h.query("PRAGMA busy_timeout")[0][0] > 0
+
+
+def test_lab_never_imports_a_simulator():
+    import grimp
+    graph = grimp.build_graph("rig", "drivers", "calib")
+    for forbidden in ("rig.simulation", "drivers.ximc.sim", "drivers.sensors.sim"):
+        assert not graph.chain_exists(importer="rig.lab", imported=forbidden, as_packages=True)

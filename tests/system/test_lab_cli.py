@@ -1,0 +1,66 @@
+"""`rig history` and `rig export` from the command line on a session of the simulated rig."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from rig.cli import main
+
+from conftest import PROCEDURES
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    out = tmp_path_factory.mktemp("lab")
+    assert main(["run", str(PROCEDURES / "six_position.yaml"), "--seed", "3", "--time-scale", "0", "--out", str(out),
+                 "--quiet"]) == 0
+    (s,) = list(out.iterdir())
+    return s
+
+
+def test_history_record_list_show_json_plot(session, tmp_path, capsys, monkeypatch):
+    db = tmp_path / "h.sqlite"
+    monkeypatch.setenv("RIG_HISTORY", str(db))
+    for _ in range(3):
+        assert main(["history", "--record", str(session)]) == 0
+    assert main(["history", "--record", str(session), "--sensor-id", "SN-42"]) == 0
+    capsys.readouterr()
+    assert main(["history"]) == 0
+    listing = capsys.readouterr().out
+    assert "MPU-9150@0x68#0x68/sim-seed-3" in listing and "MPU-9150:SN-42" in listing
+    assert main(["history", "sim-seed-3", "--plot", str(tmp_path / "h.png")]) == 0
+    table = capsys.readouterr().out
+    assert "3 calibration(s)" in table and "accel.bias_x (counts)" in table and "(+0.0s)" in table
+    assert (tmp_path / "h.png").stat().st_size > 10_000
+    assert main(["history", "SN-42", "--json", "--history", str(db)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["format"] == "rig-history/1" and len(doc["calibrations"]) == 1 and doc["flagged"] == []
+
+
+def test_history_errors_are_one_line(session, tmp_path, capsys):
+    bad = tmp_path / "bad.sqlite"
+    bad.write_text("garbage\n" * 100)
+    assert main(["history", "--history", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("rig history: ") and err.count("\n") == 1 and "untouched" in err
+    db = tmp_path / "h.sqlite"
+    assert main(["history", "--record", str(session), "--history", str(db)]) == 0
+    assert main(["history", "no-such-sensor", "--history", str(db)]) == 2
+    assert main(["history", "--history", str(tmp_path / "missing.sqlite")]) == 2
+    assert main(["history", "--plot", "x.png", "--history", str(db)]) == 2
+
+
+@pytest.mark.parametrize("target", ["px4", "ardupilot", "imucal", "json"])
+def test_export_writes_the_file_and_one_line(session, tmp_path, capsys, target):
+    out = tmp_path / f"cal.{target}"
+    assert main(["export", str(session / "calibration.yaml"), "--to", target, "-o", str(out)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == f"export: {out}" and lines[1].startswith(f"{target}: ") and len(lines) == 2
+    assert out.stat().st_size > 100
+
+
+def test_export_bad_input(tmp_path, capsys):
+    assert main(["export", str(tmp_path / "none.yaml"), "--to", "px4"]) == 2
+    assert main(["export", str(tmp_path / "none.yaml"), "--to", "nope"]) == 2
