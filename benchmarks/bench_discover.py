@@ -33,7 +33,7 @@ from calib.discovery import discover  # noqa: E402
 from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
 from rig.analysis.discover import step_context  # noqa: E402
 from rig.planning.kinematics import rot_x, rot_y  # noqa: E402
-from rig.session.store import load_session  # noqa: E402
+from rig.session import load_session  # noqa: E402
 
 #: effect -> (pattern, stated magnitude); the hidden value is pattern * magnitude
 EFFECTS = {

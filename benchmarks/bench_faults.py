@@ -25,7 +25,7 @@ sys.path.insert(0, str(REPO))
 
 from calib import calfile  # noqa: E402
 from rig.cli import main  # noqa: E402
-from rig.session.store import load_session  # noqa: E402
+from rig.session import load_session  # noqa: E402
 
 SIX = str(REPO / "procedures" / "six_position.yaml")
 

@@ -29,7 +29,7 @@ sys.path.insert(0, str(REPO))
 from calib import calfile  # noqa: E402
 from calib.gyro import GyroCalibration  # noqa: E402
 from calib.mag import MagCalibration  # noqa: E402
-from rig.session.store import load_session, mag_step_means, rate_step_means  # noqa: E402
+from rig.session import load_session, mag_step_means, rate_step_means  # noqa: E402
 
 
 def run(tmp: Path, procedure: str, seed: int, time_scale: float, sim_extra: dict | None = None) -> tuple[Path, float]:

@@ -21,7 +21,7 @@ from calib import solve  # noqa: E402
 from calib.redundancy import pair_biases  # noqa: E402
 from rig.analysis.discover import discover_session, format_report, write_plot  # noqa: E402
 from rig.importers.recordings import import_recording  # noqa: E402
-from rig.session.store import load_session  # noqa: E402
+from rig.session import load_session  # noqa: E402
 
 
 def main() -> None:

@@ -24,7 +24,7 @@ sys.path.insert(0, str(REPO))
 from rig.planning.targets import move_time_s  # noqa: E402
 from rig.config.procedure import load_procedure  # noqa: E402
 from rig.workflow.run import run_procedure  # noqa: E402
-from rig.session.store import SessionWriter, load_session  # noqa: E402
+from rig.session import SessionWriter, load_session  # noqa: E402
 from rig.analysis.solve import solve_session  # noqa: E402
 
 
