@@ -19,11 +19,11 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from calib.errors import ObservabilityError
+from calib.frames import AXES
 
 if TYPE_CHECKING:  # type hints only: calib.accel imports this module
     from calib.accel.inputs import StepMeans
 
-AXES = "xyz"
 
 
 @dataclass(frozen=True)

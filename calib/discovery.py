@@ -39,8 +39,8 @@ from calib.accel.solve import TRIANGULAR_NAMES, assemble
 from calib.design import AxisFit
 from calib.effects import LIBRARY, EffectInputs
 from calib.errors import CalibError
+from calib.frames import AXES
 
-AXES = ("x", "y", "z")
 #: baseline columns: which force components enter each output axis (the seed's triangular model)
 TRIANGULAR_COLUMNS = {"x": [0, 1, 2], "y": [1, 2], "z": [2]}
 MIN_TEMP_SPAN_C = 2.0

@@ -39,8 +39,8 @@ from typing import Callable
 import numpy as np
 
 from calib.errors import CalibError
+from calib.frames import AXES
 
-AXES = ("x", "y", "z")
 
 
 @dataclass(frozen=True)

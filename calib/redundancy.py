@@ -16,8 +16,8 @@ from scipy import stats
 
 from calib.accel.inputs import StepMeans
 from calib.errors import ObservabilityError
+from calib.frames import AXES
 
-AXES = "xyz"
 
 
 @dataclass(frozen=True)

@@ -17,8 +17,8 @@ from pydantic import ConfigDict, field_validator, model_validator, with_config
 from typing_extensions import TypedDict
 
 from calib.section import CalibrationSection, Matrix3, Vector3, array, field_problem, integer, number, unit
+from calib.frames import AXES
 
-AXES = "xyz"
 OFF_DIAGONAL = tuple((i, j) for i in range(3) for j in range(3) if i != j)
 NONORTHOGONALITY_NAMES = tuple(f"m_{AXES[i]}{AXES[j]}" for i, j in OFF_DIAGONAL)
 

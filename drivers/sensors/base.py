@@ -56,6 +56,50 @@ class SampleBlock:
         return len(self.t_s)
 
 
+@dataclass(frozen=True)
+class SelfTestAxis:
+    """One axis of a self-test: the factory trim, the measured response (output with the self-test
+    on minus output without, counts at the trim's range) and their relative deviation."""
+
+    sensor: str  # "accel" or "gyro"
+    axis: str  # "x", "y", "z"
+    code: int  # the factory-trim code read from the chip (0: no trim)
+    factory_trim: float  # counts
+    response: float  # counts
+    deviation_pct: float  # 100 (response - trim) / trim
+    passed: bool
+
+
+@dataclass(frozen=True)
+class SelfTestResult:
+    """A chip's self-test: every axis within ``tolerance_pct`` of its factory trim passes."""
+
+    model: str
+    address: int
+    axes: tuple[SelfTestAxis, ...]
+    tolerance_pct: float
+
+    @property
+    def passed(self) -> bool:
+        return all(a.passed for a in self.axes)
+
+    def failures(self) -> list[str]:
+        """One entry per failing axis ("accel x: response -55.0 % from factory trim")."""
+        return [f"{a.sensor} {a.axis}: response {a.deviation_pct:+.1f} % from factory trim" for a in self.axes
+                if not a.passed]
+
+    def summary(self) -> str:
+        """One line: passed, or which axes failed."""
+        head = f"{self.model} at 0x{self.address:02x}: self-test"
+        if self.passed:
+            return f"{head} passed (every axis within {self.tolerance_pct:g} % of its factory trim)"
+        return f"{head} FAILED ({'; '.join(self.failures())}; limit {self.tolerance_pct:g} %)"
+
+    def to_dict(self) -> dict:
+        return {"model": self.model, "address": self.address, "passed": self.passed,
+                "tolerance_pct": self.tolerance_pct, "axes": [dict(a.__dict__) for a in self.axes]}
+
+
 class AccelSensor(Protocol):
     model: str
     address: int

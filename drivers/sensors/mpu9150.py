@@ -12,15 +12,34 @@ from __future__ import annotations
 import numpy as np
 
 from drivers.clock import Clock, MonotonicClock
-from drivers.sensors.base import (BusRetry, CaptureStats, SampleBlock, SensorError, SensorIdentity, SensorSettings,
-                                  check_identity)
-from drivers.sensors.regs.mpu9150 import (ACCEL_CONFIG, ACCEL_LSB_PER_G, ACCEL_RANGES, CONFIG, DEFAULT_ADDRESS,
-                                          FIFO_COUNTH, FIFO_EN, FIFO_EN_ALL, FIFO_R_W, GYRO_CONFIG, GYRO_LSB_PER_DPS,
-                                          GYRO_RANGES, INT_ENABLE, INT_FIFO_OFLOW, INT_PIN_CFG, INT_STATUS,
-                                          PWR_MGMT_1, SMPLRT_DIV, TEMP_LSB_PER_C, TEMP_OFFSET_C, TEMP_OUT_H,
-                                          USER_CTRL, WHO_AM_I, WHO_AM_I_VALUE)
+from drivers.sensors.base import (BusRetry, CaptureStats, SampleBlock, SelfTestAxis, SelfTestResult, SensorError,
+                                  SensorIdentity, SensorSettings, check_identity)
+from drivers.sensors.regs.mpu9150 import (ACCEL_CONFIG, ACCEL_LSB_PER_G, ACCEL_RANGES, ACCEL_XOUT_H, CONFIG,
+                                          DEFAULT_ADDRESS, FIFO_COUNTH, FIFO_EN, FIFO_EN_ALL, FIFO_R_W, GYRO_CONFIG,
+                                          GYRO_LSB_PER_DPS, GYRO_RANGES, INT_ENABLE, INT_FIFO_OFLOW, INT_PIN_CFG,
+                                          INT_STATUS, PWR_MGMT_1, SELF_TEST_ACCEL_RANGE, SELF_TEST_GYRO_RANGE,
+                                          SELF_TEST_TOLERANCE, SELF_TEST_X, SMPLRT_DIV, TEMP_LSB_PER_C,
+                                          TEMP_OFFSET_C, TEMP_OUT_H, USER_CTRL, WHO_AM_I, WHO_AM_I_VALUE,
+                                          accel_factory_trim_lsb, decode_self_test, gyro_factory_trim_lsb)
 
 SAMPLE_BYTES = 14  # accel (6) + temp (2) + gyro (6), in register order
+SELF_TEST_SETTLE_S = 0.05  # after switching the self-test on or off (several DLPF delays)
+
+
+def evaluate_self_test(model: str, address: int, codes: tuple, off: np.ndarray, on: np.ndarray) -> SelfTestResult:
+    """Register map rev 4.2, section 4.1: response = output with self-test - output without (counts at
+    +-8 g / +-250 deg/s, ``off`` / ``on`` = mean (accel x y z, gyro x y z)); passes within 14 % of the
+    factory trim FT computed from the 5-bit codes (an axis with code 0 has no trim and fails)."""
+    accel_codes, gyro_codes = codes
+    trims = [accel_factory_trim_lsb(c) for c in accel_codes] + [gyro_factory_trim_lsb(c, i)
+                                                                  for i, c in enumerate(gyro_codes)]
+    axes = []
+    for j, (code, ft) in enumerate(zip(list(accel_codes) + list(gyro_codes), trims)):
+        response = float(on[j] - off[j])
+        dev = 100.0 * (response - ft) / ft if ft else float("inf")
+        axes.append(SelfTestAxis("accel" if j < 3 else "gyro", "xyz"[j % 3], int(code), float(ft), response,
+                                 dev, abs(dev) <= 100 * SELF_TEST_TOLERANCE))
+    return SelfTestResult(model, address, tuple(axes), 100 * SELF_TEST_TOLERANCE)
 
 
 class Mpu9150:
@@ -53,6 +72,7 @@ class Mpu9150:
         self._n = 0
         self._t0 = 0.0
         self._pending = bytearray()
+        self._configured = False
 
     def identify(self) -> SensorIdentity:
         return check_identity(self.bus, self.address, self.model, WHO_AM_I, "WHO_AM_I", WHO_AM_I_VALUE)
@@ -84,6 +104,41 @@ class Mpu9150:
         self.sample_rate_hz = float(settings.sample_rate_hz)
         self.accel_lsb_per_g = ACCEL_LSB_PER_G[ACCEL_RANGES[settings.accel_range_g]]
         self.gyro_lsb_per_dps = GYRO_LSB_PER_DPS[GYRO_RANGES[settings.gyro_range_dps]]
+        self._configured = True
+
+    def self_test(self, samples: int = 20) -> SelfTestResult:
+        """The chip's self-test (register map rev 4.2, section 4.1), outside a capture.
+
+        Switches to +-8 g / +-250 deg/s, averages ``samples`` outputs without and with the
+        self-test bits of ACCEL_CONFIG / GYRO_CONFIG set, reads the factory-trim codes
+        (SELF_TEST_X/Y/Z/A) and compares each axis's response with its trim (pass: within 14 %).
+        Restores the configured ranges. Configures the chip with default settings first if
+        ``configure`` was not called. Never raises for a failing chip: check ``result.passed``.
+        """
+        if not self._configured:
+            self.configure(SensorSettings())
+        accel_cfg, gyro_cfg = SELF_TEST_ACCEL_RANGE << 3, SELF_TEST_GYRO_RANGE << 3
+        means = []
+        for st in (0x00, 0xE0):
+            self._io("write_byte_data", ACCEL_CONFIG, st | accel_cfg)
+            self._io("write_byte_data", GYRO_CONFIG, st | gyro_cfg)
+            self.clock.sleep(SELF_TEST_SETTLE_S)
+            means.append(self._mean_outputs(samples))
+        self._io("write_byte_data", ACCEL_CONFIG, ACCEL_RANGES[self.accel_range_g] << 3)
+        self._io("write_byte_data", GYRO_CONFIG, GYRO_RANGES[self.gyro_range_dps] << 3)
+        self.clock.sleep(SELF_TEST_SETTLE_S)
+        codes = decode_self_test(self._io("read_i2c_block_data", SELF_TEST_X, 4))
+        return evaluate_self_test(self.model, self.address, codes, means[0], means[1])
+
+    def _mean_outputs(self, samples: int) -> np.ndarray:
+        """Mean of ``samples`` fresh data-register readings: accel x y z, gyro x y z (counts)."""
+        rows = []
+        for _ in range(samples):
+            self.clock.sleep(1.0 / self.sample_rate_hz)
+            raw = bytes(self._io("read_i2c_block_data", ACCEL_XOUT_H, 14))
+            w = np.frombuffer(raw, ">i2").astype(float)
+            rows.append(np.concatenate([w[0:3], w[4:7]]))
+        return np.mean(rows, axis=0)
 
     def read_temperature_c(self) -> float:
         """One thermometer reading (TEMP_OUT_H/L), C."""

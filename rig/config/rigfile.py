@@ -26,11 +26,11 @@ from rig.config.schema import Strict, check_mapping, choice, fail, flag, label, 
 from rig.config.sections import SectionUnavailable, section
 from rig.config.yamlload import load_located, read_source
 from rig.errors import RigInputError
+from rig.planning.kinematics import AXES
 
 FORMAT = "rig-file/1"
 STAGE_MAX_SPEED_DEG_S = MR191.max_speed_deg_s  # 8MR191: NomSpeed 4800 full steps/s at 0.01 deg/step
 STAGE_MAX_ACCEL_DEG_S2 = 65535 * MR191.deg_per_step  # the controller's largest Accel (steps/s^2)
-AXES = ("a1", "a2", "a3")
 LIMIT_DEG = 1e6  # far beyond any real table (the replay rig uses it as "no limit")
 _DATACLASS_CONFIG = ConfigDict(extra="forbid")
 

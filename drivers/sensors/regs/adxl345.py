@@ -14,7 +14,7 @@ REGISTER_COUNT = 0x3A
 
 # -- bits ------------------------------------------------------------------------------
 POWER_CTL_MEASURE = 0x08
-DATA_FORMAT_FULL_RES = 0x08
+DATA_FORMAT_SELF_TEST, DATA_FORMAT_FULL_RES, DATA_FORMAT_JUSTIFY = 0x80, 0x08, 0x04
 INT_DATA_READY, INT_OVERRUN = 0x80, 0x01
 FIFO_MODE_BYPASS, FIFO_MODE_FIFO, FIFO_MODE_STREAM = 0, 1, 2  # FIFO_CTL bits 7:6
 FIFO_DEPTH = 32  # samples
@@ -34,9 +34,27 @@ def rate_hz(bw_rate: int) -> float:
     return 3200.0 / 2 ** (15 - (bw_rate & 0x0F))
 
 
+def range_g(data_format: int) -> int:
+    """Full-scale range, g (+-2/4/8/16), of a DATA_FORMAT register value."""
+    return 2 << (data_format & 3)
+
+
+def output_bits(data_format: int) -> int:
+    """Bits of the output word: 10 in 10-bit mode; 10/11/12/13 at +-2/4/8/16 g with FULL_RES."""
+    return 10 + (data_format & 3) if data_format & DATA_FORMAT_FULL_RES else 10
+
+
 def lsb_per_g(data_format: int) -> float:
-    """Sensitivity, counts/g, of a DATA_FORMAT register value."""
-    rng = data_format & 3
+    """Sensitivity, counts/g, of a DATA_FORMAT register value, right-justified (JUSTIFY = 0).
+
+    Datasheet rev. E, Table 1: FULL_RES = 1: 256 LSB/g (3.9 mg/LSB) at every range; FULL_RES = 0
+    (10-bit, the power-up default): 256/128/64/32 LSB/g at +-2/4/8/16 g.
+    """
     if data_format & DATA_FORMAT_FULL_RES:
         return FULL_RES_LSB_PER_G
-    return 512.0 / (2 ** rng)  # 10-bit: +-2 g -> 256 LSB/g ... +-16 g -> 32 LSB/g
+    return 256.0 / (2 ** (data_format & 3))
+
+
+def justify_shift(data_format: int) -> int:
+    """Left shift of the output word: 0 right-justified; with JUSTIFY the MSB sits at bit 15."""
+    return 16 - output_bits(data_format) if data_format & DATA_FORMAT_JUSTIFY else 0

@@ -46,3 +46,52 @@ SAMPLE_RATES_HZ = tuple(SAMPLE_BASE_HZ / (1 + n) for n in range(256))
 
 #: the AK8975 magnetometer answers here once INT_PIN_CFG enables the bypass
 AK8975_ADDRESS = 0x0C
+
+# -- digital low-pass filter (register map rev 4.2, section 4.3, CONFIG) -------------------
+#: DLPF_CFG -> (accelerometer bandwidth Hz, delay ms), (gyroscope bandwidth Hz, delay ms)
+DLPF_ACCEL = {0: (260.0, 0.0), 1: (184.0, 2.0), 2: (94.0, 3.0), 3: (44.0, 4.9), 4: (21.0, 8.5), 5: (10.0, 13.8),
+              6: (5.0, 19.0), 7: (260.0, 0.0)}
+DLPF_GYRO = {0: (256.0, 0.98), 1: (188.0, 1.9), 2: (98.0, 2.8), 3: (42.0, 4.8), 4: (20.0, 8.3), 5: (10.0, 13.4),
+             6: (5.0, 18.6), 7: (2100.0, 0.17)}
+
+# -- self-test (register map rev 4.2, sections 4.1 and 4.4-4.5) ---------------------------------
+#: SELF_TEST_X/Y/Z: bits 7:5 XA_TEST[4:2], bits 4:0 XG_TEST; SELF_TEST_A: XA[1:0] 5:4, YA[1:0] 3:2, ZA[1:0] 1:0
+SELF_TEST_X, SELF_TEST_Y, SELF_TEST_Z, SELF_TEST_A = 0x0D, 0x0E, 0x0F, 0x10
+#: ACCEL_CONFIG / GYRO_CONFIG bits 7:5: self-test of X, Y, Z
+SELF_TEST_BITS = (0x80, 0x40, 0x20)
+#: ranges the factory trim refers to: accelerometer +-8 g (code 2), gyroscope +-250 deg/s (code 0)
+SELF_TEST_ACCEL_RANGE, SELF_TEST_GYRO_RANGE = 2, 0
+SELF_TEST_TOLERANCE = 0.14  # |response - trim| / trim
+
+
+def decode_self_test(regs) -> tuple[list[int], list[int]]:
+    """(accelerometer codes XA/YA/ZA_TEST, gyroscope codes XG/YG/ZG_TEST), 5 bits each, from 0x0D..0x10."""
+    x, y, z, a = (int(v) for v in regs)
+    accel = [((r >> 3) & 0x1C) | ((a >> s) & 3) for r, s in ((x, 4), (y, 2), (z, 0))]
+    return accel, [r & 0x1F for r in (x, y, z)]
+
+
+def encode_self_test(accel_codes, gyro_codes) -> bytes:
+    """The four register bytes 0x0D..0x10 holding the given 5-bit codes."""
+    xyz = bytes((((int(ac) >> 2) & 7) << 5) | (int(gc) & 0x1F) for ac, gc in zip(accel_codes, gyro_codes))
+    a = sum((int(ac) & 3) << s for ac, s in zip(accel_codes, (4, 2, 0)))
+    return xyz + bytes([a])
+
+
+def accel_factory_trim_lsb(code: int) -> float:
+    """FT[Xa] = 4096 * 0.34 * (0.92/0.34)^((code - 1)/(2^5 - 2)) counts at +-8 g; 0 for code 0."""
+    return 0.0 if code == 0 else 4096 * 0.34 * (0.92 / 0.34) ** ((code - 1) / 30.0)
+
+
+def gyro_factory_trim_lsb(code: int, axis: int) -> float:
+    """FT[Xg] = 25 * 131 * 1.046^(code - 1) counts at +-250 deg/s, negative for Y; 0 for code 0."""
+    return 0.0 if code == 0 else (-1.0 if axis == 1 else 1.0) * 25 * 131 * 1.046 ** (code - 1)
+
+
+# -- auxiliary I2C master (register map rev 4.2, sections 4.6-4.13, 4.19-4.21) -------------------
+I2C_MST_CTRL, I2C_SLV0_ADDR, I2C_SLV0_REG, I2C_SLV0_CTRL = 0x24, 0x25, 0x26, 0x27
+I2C_SLV4_CTRL, I2C_MST_STATUS = 0x34, 0x36
+EXT_SENS_DATA_00, EXT_SENS_DATA_COUNT = 0x49, 24
+I2C_SLV0_DO, I2C_MST_DELAY_CTRL = 0x63, 0x67
+USER_CTRL_I2C_MST_EN = 0x20
+I2C_SLV_READ, I2C_SLV_EN = 0x80, 0x80  # SLVx_ADDR bit 7 (1 = read), SLVx_CTRL bit 7

@@ -2,8 +2,9 @@
 
 DEVID 0x00 = 0xE5, OFSX/OFSY/OFSZ 0x1E..0x20 (15.6 mg/LSB, added to the output), BW_RATE 0x2C
 (rate = 3200 / 2^(15 - code) Hz), POWER_CTL 0x2D (Measure bit 3; standby at power-up),
-INT_SOURCE 0x30 (DATA_READY bit 7, Overrun bit 0), DATA_FORMAT 0x31 (range bits 1:0, JUSTIFY bit 2,
-FULL_RES bit 3), DATAX0..DATAZ1 0x32..0x37 little-endian (reading them pops one FIFO entry),
+INT_SOURCE 0x30 (DATA_READY bit 7, Overrun bit 0), DATA_FORMAT 0x31 (range bits 1:0, JUSTIFY bit 2:
+left-justified words with the MSB at bit 15, FULL_RES bit 3: 256 LSB/g at every range with 10..13
+bits, else 10 bits at 256/128/64/32 LSB/g), DATAX0..DATAZ1 0x32..0x37 little-endian (reading them pops one FIFO entry),
 FIFO_CTL 0x38 (mode bits 7:6: bypass/FIFO/stream), FIFO_STATUS 0x39 (entries bits 5:0). No thermometer.
 Addresses and scales: :mod:`drivers.sensors.regs.adxl345`.
 """
@@ -14,10 +15,11 @@ import numpy as np
 
 from drivers.sensors.regs.adxl345 import (BW_RATE, DATA_FORMAT, DATAX0, DEVID, DEVID_VALUE, FIFO_CTL, FIFO_DEPTH,
                                           FIFO_STATUS, INT_SOURCE, OFS_G_PER_LSB, OFSX, POWER_CTL, REGISTER_COUNT,
-                                          lsb_per_g, rate_hz)
+                                          justify_shift, lsb_per_g, output_bits, rate_hz)
 from drivers.sensors.sim.bus import I2CDevice
 from drivers.sensors.sim.error_model import AccelErrorModel
 from drivers.sensors.sim.faults import FaultInjector, SensorFaults
+from drivers.sensors.sim.noise import NoiseConfig, resolve_noise
 from drivers.sensors.sim.sampler import LazySampler
 
 
@@ -33,12 +35,15 @@ class Adxl345Model(I2CDevice):
     seed : int
         Noise seed.
     faults : SensorFaults or None
+    noise : NoiseConfig, "white" / "dlpf", a mapping of NoiseConfig fields, or None (the default model);
+        with "dlpf" the white density passes a first-order filter of bandwidth rate / 2 (BW_RATE)
     """
 
     def __init__(self, physics, accel_errors: AccelErrorModel, *, clock, seed: int = 0,
-                 faults: SensorFaults | None = None) -> None:
+                 faults: SensorFaults | None = None, noise: NoiseConfig | str | dict | None = None) -> None:
         self.clock = clock
-        self.sampler = LazySampler(physics, accel_errors, clock, seed)
+        self.noise = resolve_noise(noise, "ADXL345")
+        self.sampler = LazySampler(physics, accel_errors, clock, seed, noise=self.noise)
         self.faults = FaultInjector(faults, clock)
         self.pointer = 0
         self.regs = bytearray(REGISTER_COUNT)
@@ -57,10 +62,13 @@ class Adxl345Model(I2CDevice):
         return rate_hz(self.regs[BW_RATE])
 
     def _range_counts(self) -> tuple[int, int]:
-        df = self.regs[DATA_FORMAT]
-        g_range = 2 * 2 ** (df & 3)
-        full = int(g_range * lsb_per_g(df))
+        """Output word limits (right-justified): 10 bits, or 10..13 bits at full resolution."""
+        full = 1 << (output_bits(self.regs[DATA_FORMAT]) - 1)
         return -full, full - 1
+
+    def _word(self, counts: np.ndarray) -> bytes:
+        """Little-endian output words, left-justified (MSB at bit 15) when JUSTIFY is set."""
+        return (np.asarray(counts, np.int64) << justify_shift(self.regs[DATA_FORMAT])).astype("<i2").tobytes()
 
     def _catch_up(self) -> None:
         s = self.sampler.catch_up(keep_last=FIFO_DEPTH + 2)
@@ -112,7 +120,7 @@ class Adxl345Model(I2CDevice):
                         popped = self.latest
                     if not self.fifo:
                         self.regs[INT_SOURCE] &= ~0x80 & 0xFF
-                out.append(popped.astype("<i2").tobytes()[r - DATAX0])
+                out.append(self._word(popped)[r - DATAX0])
             elif r == FIFO_STATUS:
                 out.append(min(len(self.fifo), FIFO_DEPTH) & 0x3F)
             elif r == INT_SOURCE:

@@ -19,6 +19,7 @@ class SensorFaults:
     saturate_after_s : outputs are forced to the rails after this clock time.
     thermometer_fail_after_s : the temperature register reads an absurd value after this time.
     seed : seeds the random faults.
+    failed_self_test : the MPU-9150's self-test response is 45 % of its factory trim (the test fails).
     """
 
     oserror_rate: float = 0.0
@@ -28,6 +29,7 @@ class SensorFaults:
     saturate_after_s: float | None = None
     thermometer_fail_after_s: float | None = None
     seed: int = 0
+    failed_self_test: bool = False
 
 
 class FaultInjector:

@@ -7,6 +7,12 @@ INT_PIN_CFG 0x37 (I2C_BYPASS_EN exposes the AK8975 at 0x0C), INT_ENABLE 0x38, IN
 (DATA_RDY bit 0, FIFO_OFLOW bit 4, cleared on read), data 0x3B..0x48 big-endian, USER_CTRL 0x6A
 (FIFO_EN bit 6, FIFO_RESET bit 2), PWR_MGMT_1 0x6B (DEVICE_RESET bit 7, SLEEP bit 6, reset 0x40),
 FIFO_COUNTH/L 0x72/0x73, FIFO_R_W 0x74, WHO_AM_I 0x75 = 0x68.
+Self-test: SELF_TEST_X/Y/Z/A 0x0D..0x10 hold per-chip factory-trim codes, ACCEL_CONFIG / GYRO_CONFIG
+bits 7:5 add the self-test response (:mod:`drivers.sensors.sim.mpu_selftest`). Auxiliary I2C master:
+USER_CTRL.I2C_MST_EN (bit 5), I2C_SLV0..3, I2C_MST_DELAY_CTRL, EXT_SENS_DATA_00..23
+(:mod:`drivers.sensors.sim.i2c_master`); while it is on, the bypass no longer shows the AK8975.
+Noise: white (default) or the DLPF model (``noise="dlpf"``, :mod:`drivers.sensors.sim.noise`) with the
+bandwidths and delays of CONFIG.DLPF_CFG.
 """
 
 from __future__ import annotations
@@ -14,14 +20,18 @@ from __future__ import annotations
 import numpy as np
 
 from drivers.sensors.regs.mpu9150 import (ACCEL_CONFIG, ACCEL_LSB_PER_G, ACCEL_XOUT_H, AK8975_ADDRESS, CONFIG,
-                                          DATA_LAST, DEFAULT_ADDRESS, DLPF_BW_HZ, FIFO_COUNTH, FIFO_COUNTL, FIFO_EN,
-                                          FIFO_R_W, FIFO_SIZE, GYRO_CONFIG, GYRO_LSB_PER_DPS, INT_PIN_CFG,
-                                          INT_STATUS, PWR_MGMT_1, SMPLRT_DIV, TEMP_LSB_PER_C, TEMP_OFFSET_C,
-                                          USER_CTRL, WHO_AM_I, WHO_AM_I_VALUE)
+                                          DATA_LAST, DEFAULT_ADDRESS, DLPF_ACCEL, DLPF_BW_HZ, DLPF_GYRO, FIFO_COUNTH,
+                                          FIFO_COUNTL, FIFO_EN, FIFO_R_W, FIFO_SIZE, GYRO_CONFIG, GYRO_LSB_PER_DPS,
+                                          INT_PIN_CFG, INT_STATUS, PWR_MGMT_1, SELF_TEST_X, SMPLRT_DIV,
+                                          TEMP_LSB_PER_C, TEMP_OFFSET_C, USER_CTRL, USER_CTRL_I2C_MST_EN, WHO_AM_I,
+                                          WHO_AM_I_VALUE)
 from drivers.sensors.sim.ak8975 import Ak8975Model
 from drivers.sensors.sim.bus import I2CDevice
 from drivers.sensors.sim.error_model import AccelErrorModel, MagErrorModel
 from drivers.sensors.sim.faults import FaultInjector, SensorFaults
+from drivers.sensors.sim.i2c_master import AuxI2CMaster
+from drivers.sensors.sim.mpu_selftest import SelfTestTrim
+from drivers.sensors.sim.noise import NoiseConfig, resolve_noise
 from drivers.sensors.sim.sampler import LazySampler
 
 
@@ -40,14 +50,20 @@ class Mpu9150Model(I2CDevice):
     seed : noise seed
     gyro_errors, mag_errors : optional error models
     faults : SensorFaults
+    noise : NoiseConfig, "white" / "dlpf", a mapping of NoiseConfig fields, or None (the default model,
+        ``drivers.sensors.sim.noise.DEFAULT_NOISE_MODEL``)
     """
 
     def __init__(self, physics, accel_errors: AccelErrorModel, *, clock, seed: int = 0, gyro_errors=None,
-                 mag_errors: MagErrorModel | None = None, faults: SensorFaults | None = None) -> None:
+                 mag_errors: MagErrorModel | None = None, faults: SensorFaults | None = None,
+                 noise: NoiseConfig | str | dict | None = None) -> None:
         self.clock = clock
-        self.sampler = LazySampler(physics, accel_errors, clock, seed, gyro_errors)
+        self.noise = resolve_noise(noise, "MPU-9150")
+        self.sampler = LazySampler(physics, accel_errors, clock, seed, gyro_errors, noise=self.noise)
         self.faults = FaultInjector(faults, clock)
-        self.mag = Ak8975Model(physics, mag_errors or MagErrorModel(), clock=clock, seed=seed + 1)
+        self.trim = SelfTestTrim(seed, failed=self.faults.f.failed_self_test)
+        self.mag = Ak8975Model(physics, mag_errors or MagErrorModel(), clock=clock, seed=seed + 1, noise=self.noise)
+        self.master = AuxI2CMaster(self, {AK8975_ADDRESS: self.mag})
         self._bus = None
         self.pointer = 0
         self.fifo_overflows = 0
@@ -62,6 +78,7 @@ class Mpu9150Model(I2CDevice):
         self.regs = bytearray(128)
         self.regs[PWR_MGMT_1] = 0x40
         self.regs[WHO_AM_I] = WHO_AM_I_VALUE
+        self.regs[SELF_TEST_X:SELF_TEST_X + 4] = self.trim.register_bytes()
         self.fifo = bytearray()
         self.sampler.stop()
         self._last = {"a": np.zeros(3, np.int64), "t": 0, "g": np.zeros(3, np.int64)}
@@ -111,6 +128,7 @@ class Mpu9150Model(I2CDevice):
             if v & 0x04:
                 self.fifo.clear()
             self.regs[reg] = v & ~0x04 & 0xFF
+            self._route_aux_bus()
             return
         if reg == FIFO_R_W:
             return
@@ -119,11 +137,17 @@ class Mpu9150Model(I2CDevice):
         self.regs[reg & 0x7F] = v
         if reg in (SMPLRT_DIV, CONFIG) and not self.regs[PWR_MGMT_1] & 0x40:
             self._restart_grid()
-        if reg == INT_PIN_CFG and self._bus is not None:
-            if v & 0x02:
-                self._bus.add_device(AK8975_ADDRESS, self.mag)
-            else:
-                self._bus.remove_device(AK8975_ADDRESS)
+        if reg == INT_PIN_CFG:
+            self._route_aux_bus()
+
+    def _route_aux_bus(self) -> None:
+        """The AK8975 is on the host bus while the bypass is on and the I2C master is off."""
+        if self._bus is None:
+            return
+        if self.regs[INT_PIN_CFG] & 0x02 and not self.regs[USER_CTRL] & USER_CTRL_I2C_MST_EN:
+            self._bus.add_device(AK8975_ADDRESS, self.mag)
+        else:
+            self._bus.remove_device(AK8975_ADDRESS)
 
     # -- sampling ------------------------------------------------------------------------------
     @property
@@ -140,7 +164,13 @@ class Mpu9150Model(I2CDevice):
         return base / (1 + self.regs[SMPLRT_DIV])
 
     def _restart_grid(self) -> None:
-        self.sampler.restart(self.output_rate_hz(), DLPF_BW_HZ[self.regs[CONFIG] & 7])
+        cfg = self.regs[CONFIG] & 7
+        self.sampler.restart(self.output_rate_hz(), DLPF_BW_HZ[cfg], delay_s=DLPF_ACCEL[cfg][1] / 1e3,
+                             gyro_bandwidth_hz=DLPF_GYRO[cfg][0])
+
+    @staticmethod
+    def _with_self_test(x, offset):
+        return x if offset is None else x + offset
 
     def _sample_bytes(self) -> int:
         en = self.regs[FIFO_EN]
@@ -153,9 +183,14 @@ class Mpu9150Model(I2CDevice):
         if s is None:
             return
         t = s["t_s"]
-        a = _i16(s["accel_g"] * self.accel_lsb_per_g)
+        a = _i16(self._with_self_test(s["accel_g"], self.trim.accel_offset_g(self.regs[ACCEL_CONFIG]))
+                 * self.accel_lsb_per_g)
         temp = _i16((s["temp_c"] - TEMP_OFFSET_C) * TEMP_LSB_PER_C)
-        g = _i16(s["gyro_dps"] * self.gyro_lsb_per_dps) if s["gyro_dps"] is not None else np.zeros_like(a)
+        g = _i16(self._with_self_test(s["gyro_dps"], self.trim.gyro_offset_dps(self.regs[GYRO_CONFIG]))
+                 * self.gyro_lsb_per_dps) if s["gyro_dps"] is not None else np.zeros_like(a)
+        if self.regs[USER_CTRL] & USER_CTRL_I2C_MST_EN:
+            for ti in t:
+                self.master.run(int(round((ti - self.sampler.t_start) * self.sampler.rate_hz)), float(ti))
         f = self.faults
         if f.f.saturate_after_s is not None:
             sat = t >= f.f.saturate_after_s

@@ -11,26 +11,45 @@ from __future__ import annotations
 import numpy as np
 
 from drivers.sensors.sim.error_model import AccelErrorModel, HysteresisState
+from drivers.sensors.sim.noise import NoiseConfig, NoiseProcess, own_stream
+
+#: own random streams of the dlpf noise model (the sampler's generator keeps today's draws)
+ACCEL_NOISE_STREAM, GYRO_NOISE_STREAM = 0xD1F0, 0xD1F1
 
 
 class LazySampler:
-    def __init__(self, physics, accel_errors: AccelErrorModel, clock, seed: int, gyro_errors=None) -> None:
+    """Samples of one chip on its output grid, with the noise model ``noise`` (default: white)."""
+
+    def __init__(self, physics, accel_errors: AccelErrorModel, clock, seed: int, gyro_errors=None,
+                 noise: NoiseConfig | None = None) -> None:
         self.physics = physics
         self.accel = accel_errors
         self.gyro = gyro_errors
         self.clock = clock
         self.rng = np.random.default_rng(seed)
+        self.noise = noise or NoiseConfig()
+        n = self.noise
+        self.accel_noise = NoiseProcess(n.accel_bias_instability_g, n.accel_random_walk_g_per_rts,
+                                        own_stream(seed, ACCEL_NOISE_STREAM), n.flicker_band_s)
+        self.gyro_noise = NoiseProcess(n.gyro_bias_instability_dps, n.gyro_random_walk_dps_per_rts,
+                                       own_stream(seed, GYRO_NOISE_STREAM), n.flicker_band_s)
         self.hyst = HysteresisState(accel_errors.hysteresis_band_c)
         self.rate_hz = 100.0
         self.bandwidth_hz = 44.0
+        self.gyro_bandwidth_hz = 44.0
+        self.delay_s = 0.0
         self.running = False
         self.t_start = 0.0
         self.next_k = 0
 
-    def restart(self, rate_hz: float, bandwidth_hz: float) -> None:
-        """(Re)start the sample grid now (power-up, rate change)."""
+    def restart(self, rate_hz: float, bandwidth_hz: float, *, delay_s: float = 0.0,
+                gyro_bandwidth_hz: float | None = None) -> None:
+        """(Re)start the sample grid now (power-up, rate change). ``bandwidth_hz`` is the accelerometer's
+        low-pass; ``delay_s`` its group delay and ``gyro_bandwidth_hz`` the gyroscope's (dlpf model only)."""
         self.rate_hz = float(rate_hz)
         self.bandwidth_hz = float(bandwidth_hz)
+        self.gyro_bandwidth_hz = float(gyro_bandwidth_hz or bandwidth_hz)
+        self.delay_s = float(delay_s)
         self.t_start = self.clock.now()
         self.next_k = 1
         self.running = True
@@ -60,16 +79,23 @@ class LazySampler:
         k = np.arange(self.next_k + skipped, last_k + 1)
         self.next_k = last_k + 1
         t = self.t_start + k / self.rate_hz
-        ph = self.physics(t)
+        dlpf = self.noise.dlpf
+        ph = self.physics(t - self.delay_s if dlpf else t)
         heating = self.hyst.update(ph.temp_c)
         a = self.accel.output_g(ph.specific_force_g, ph.temp_c, t, heating)
-        sigma = np.asarray(self.accel.noise_density_g_per_rthz) * np.sqrt(min(self.bandwidth_hz, self.rate_hz / 2) * np.pi / 2)
-        a = a + self.rng.normal(0.0, 1.0, a.shape) * sigma
+        if dlpf:
+            a = a + self.accel_noise.sample(t, self.accel.noise_density_g_per_rthz, self.bandwidth_hz)
+        else:
+            sigma = np.asarray(self.accel.noise_density_g_per_rthz) * np.sqrt(min(self.bandwidth_hz, self.rate_hz / 2) * np.pi / 2)
+            a = a + self.rng.normal(0.0, 1.0, a.shape) * sigma
         g = np.asarray(ph.angular_rate_dps, float)  # an ideal gyro unless an error model is given
         if self.gyro is not None:
             g = self.gyro.output_dps(ph.angular_rate_dps, ph.specific_force_g)
-            gs = np.asarray(self.gyro.noise_density_dps_per_rthz) * np.sqrt(min(self.bandwidth_hz, self.rate_hz / 2) * np.pi / 2)
-            g = g + self.rng.normal(0.0, 1.0, g.shape) * gs
+            if dlpf:
+                g = g + self.gyro_noise.sample(t, self.gyro.noise_density_dps_per_rthz, self.gyro_bandwidth_hz)
+            else:
+                gs = np.asarray(self.gyro.noise_density_dps_per_rthz) * np.sqrt(min(self.bandwidth_hz, self.rate_hz / 2) * np.pi / 2)
+                g = g + self.rng.normal(0.0, 1.0, g.shape) * gs
         temp = ph.temp_c + self.rng.normal(0.0, 0.02, len(t))
         return {"t_s": t, "accel_g": a, "temp_c": temp, "gyro_dps": g, "mag_ut": ph.magnetic_field_ut,
                 "skipped": skipped}

@@ -1,0 +1,181 @@
+"""Sensor noise of the simulated chips: today's white noise, or the DLPF model of a real MEMS sensor.
+
+Two models, chosen by :class:`NoiseConfig` ``model``:
+
+``"white"`` (the default, :data:`DEFAULT_NOISE_MODEL`)
+    independent samples with sigma = density * sqrt(pi/2 * min(bandwidth, rate/2)), drawn from the
+    sampler's own generator (what the simulator always did; the golden recordings use it).
+
+``"dlpf"``
+    what the chip does: white noise of the datasheet density passes the digital low-pass filter set
+    in the chip's registers (modelled as a first-order filter of that -3 dB bandwidth B, stationary
+    sigma = density * sqrt(pi B / 2), lag-1 correlation exp(-2 pi B / rate)), so a mean over T
+    seconds scatters like density / sqrt(2 T); the signal is delayed by the filter's group delay
+    from the register map; plus bias instability (flicker: a sum of first-order Gauss-Markov
+    processes, two per decade of correlation time across ``flicker_band_s``, whose Allan deviation
+    is flat at ``*_bias_instability``) and a random walk of the bias (Allan deviation
+    K sqrt(tau / 3)). Every draw comes from the process's own generator, never the sampler's.
+
+Parameters per chip (:meth:`NoiseConfig.for_chip`, "datasheet class": the datasheets give noise
+density only, so bias instability and random walk are typical Allan-variance figures of consumer
+MEMS parts of these families, stated in docs/sensors.md):
+
+=========================  ==================  ==================  ===========================
+quantity                   MPU-9150 accel      ADXL345             MPU-9150 gyro / AK8975
+=========================  ==================  ==================  ===========================
+bias instability (ADEV)    40 ug               100 ug              0.002 deg/s / 0.1 uT
+random walk K              4 ug/sqrt(s)        10 ug/sqrt(s)       2e-4 deg/s/sqrt(s) / 0.01 uT/sqrt(s)
+=========================  ==================  ==================  ===========================
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.signal import lfilter
+
+NOISE_MODELS = ("white", "dlpf")
+#: the model a chip uses when none is given (flip to "dlpf" once the golden files are re-recorded)
+DEFAULT_NOISE_MODEL = "white"
+#: Allan deviation floor of flicker noise = sqrt(2 ln 2 / pi) * B (IEEE Std 952, annex C)
+FLICKER_FLOOR = math.sqrt(2 * math.log(2) / math.pi)
+
+_CHIP_PARAMS = {
+    "MPU-9150": {"accel_bias_instability_g": 40e-6, "accel_random_walk_g_per_rts": 4e-6},
+    "ADXL345": {"accel_bias_instability_g": 100e-6, "accel_random_walk_g_per_rts": 10e-6},
+}
+
+
+def _v(x: float):
+    return field(default_factory=lambda: [float(x)] * 3)
+
+
+@dataclass
+class NoiseConfig:
+    """Which noise model a simulated chip uses and the parameters of the coloured terms.
+
+    White-noise densities stay in the error models (``noise_density_g_per_rthz``,
+    ``noise_density_dps_per_rthz``, ``noise_ut``); the filter comes from the chip's registers.
+    """
+
+    model: str = DEFAULT_NOISE_MODEL
+    accel_bias_instability_g: list = _v(40e-6)
+    accel_random_walk_g_per_rts: list = _v(4e-6)
+    gyro_bias_instability_dps: list = _v(0.002)
+    gyro_random_walk_dps_per_rts: list = _v(2e-4)
+    mag_bias_instability_ut: list = _v(0.1)
+    mag_random_walk_ut_per_rts: list = _v(0.01)
+    flicker_band_s: tuple = (0.02, 5000.0)
+
+    def __post_init__(self) -> None:
+        if self.model not in NOISE_MODELS:
+            raise ValueError(f"noise model {self.model!r} not one of {', '.join(NOISE_MODELS)}")
+
+    @property
+    def dlpf(self) -> bool:
+        return self.model == "dlpf"
+
+    @classmethod
+    def for_chip(cls, chip: str = "MPU-9150", model: str | None = None) -> "NoiseConfig":
+        """Datasheet-class parameters of ``chip`` with ``model`` (default :data:`DEFAULT_NOISE_MODEL`)."""
+        p = {k: [v] * 3 for k, v in _CHIP_PARAMS.get(chip, _CHIP_PARAMS["MPU-9150"]).items()}
+        return cls(model=model or DEFAULT_NOISE_MODEL, **p)
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def resolve_noise(noise, chip: str) -> NoiseConfig:
+    """A NoiseConfig from None (the default model), a model name, a mapping or a NoiseConfig."""
+    if noise is None or isinstance(noise, str):
+        return NoiseConfig.for_chip(chip, noise)
+    if isinstance(noise, dict):
+        base = NoiseConfig.for_chip(chip, noise.get("model")).to_dict()
+        base.update(noise)
+        return NoiseConfig(**base)
+    return noise
+
+
+def own_stream(seed: int, tag: int) -> np.random.Generator:
+    """A generator of its own for ``seed`` and ``tag``, independent of ``default_rng(seed)``."""
+    return np.random.default_rng([int(seed) % 2**63, tag])
+
+
+def _first_order(x_prev, dt: np.ndarray, tau: float, sigma, n: np.ndarray) -> np.ndarray:
+    """Exact samples of a stationary first-order Gauss-Markov process (time constant tau, sigma)
+    at time steps ``dt`` (N,) after the state ``x_prev`` (3,) (None: a fresh stationary draw)."""
+    phi = np.exp(-dt / tau) if tau > 0 else np.zeros_like(dt)
+    e = np.asarray(sigma) * np.sqrt(1.0 - phi**2)[:, None] * n
+    x0 = np.asarray(sigma) * n[0] if x_prev is None else phi[0] * x_prev + e[0]
+    if len(dt) == 1:
+        return x0[None, :]
+    p = phi[1:]
+    if np.allclose(p, p[0], rtol=1e-9, atol=0.0):
+        rest, _ = lfilter([1.0], [1.0, -p[0]], e[1:], axis=0, zi=(p[0] * x0)[None, :])
+        return np.vstack([x0[None, :], rest])
+    out = np.empty_like(e)
+    out[0] = x0
+    for k in range(1, len(dt)):
+        out[k] = p[k - 1] * out[k - 1] + e[k]
+    return out
+
+
+class NoiseProcess:
+    """Coloured noise of one three-axis sensor at increasing times (the ``dlpf`` model).
+
+    Parameters
+    ----------
+    bias_instability : (3,) Allan deviation floor of the flicker term, sensor units.
+    random_walk : (3,) K of the bias random walk, sensor units / sqrt(s).
+    rng : numpy Generator (its own stream).
+    flicker_band_s : (tau_min, tau_max) correlation times spanned by the flicker approximation, s.
+    """
+
+    PER_DECADE = 2
+
+    def __init__(self, bias_instability, random_walk, rng: np.random.Generator,
+                 flicker_band_s=(0.02, 5000.0)) -> None:
+        self.rng = rng
+        lo, hi = (math.log10(x) for x in flicker_band_s)
+        n = max(1, int(round((hi - lo) * self.PER_DECADE)) + 1)
+        self.taus = np.logspace(lo, hi, n)
+        spacing = math.log(10) / self.PER_DECADE
+        coeff = np.asarray(bias_instability, float) / FLICKER_FLOOR  # flicker coefficient B: S(f) = B^2 / (2 pi f)
+        self.flicker_sigma = coeff * math.sqrt(spacing / (2 * math.pi))
+        self.random_walk = np.asarray(random_walk, float)
+        self.t_last: float | None = None
+        self.filtered: np.ndarray | None = None
+        self.flicker: list = [None] * n
+        self.walk = np.zeros(3)
+
+    def sample(self, t_s, density, bandwidth_hz: float | None) -> np.ndarray:
+        """Noise (N, 3) at times ``t_s``: white ``density`` (units/sqrt(Hz)) through a first-order
+        low-pass of ``bandwidth_hz``, or, for None, white with sigma ``density`` per sample."""
+        t = np.atleast_1d(np.asarray(t_s, float))
+        fresh = self.t_last is None
+        dt = np.diff(np.concatenate([[t[0] - 1e9 if fresh else self.t_last], t]))
+        self.t_last = float(t[-1])
+        density = np.asarray(density, float)
+        if bandwidth_hz is None:
+            out = density * self.rng.standard_normal((len(t), 3))
+        else:
+            sigma = density * math.sqrt(math.pi * bandwidth_hz / 2)
+            out = _first_order(self.filtered, dt, 1 / (2 * math.pi * bandwidth_hz), sigma,
+                               self.rng.standard_normal((len(t), 3)))
+            self.filtered = out[-1]
+        if np.any(self.flicker_sigma > 0):
+            for i, tau in enumerate(self.taus):
+                x = _first_order(self.flicker[i], dt, tau, self.flicker_sigma, self.rng.standard_normal((len(t), 3)))
+                self.flicker[i] = x[-1]
+                out = out + x
+        if np.any(self.random_walk > 0):
+            steps = self.random_walk * np.sqrt(dt)[:, None] * self.rng.standard_normal((len(t), 3))
+            if fresh:
+                steps[0] = 0.0  # the walk starts at 0 with the first sample
+            w = self.walk + np.cumsum(steps, axis=0)
+            self.walk = w[-1]
+            out = out + w
+        return out
