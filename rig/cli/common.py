@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from calib.gyro import GyroCalibration
@@ -13,6 +15,12 @@ EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
 
 class UsageError(Exception):
     """Bad command-line input (exit 2)."""
+
+
+def report_warnings(command: str, session) -> None:
+    """Every warning the session reader collected (a dropped torn last line, ...) reaches the user."""
+    for warning in getattr(session, "warnings", ()):
+        print(f"rig {command}: warning: {warning}", file=sys.stderr)
 
 
 def json_default(o):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 
 import yaml
 
@@ -56,13 +57,27 @@ def main(argv: list[str] | None = None) -> int:
         print("rig: give a command; see rig --help", file=sys.stderr)
         return EXIT_BAD_INPUT
     try:
-        return COMMANDS[args.command].run(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning(args.command)
+            return COMMANDS[args.command].run(args)
+    except BrokenPipeError:  # `rig ... | head -1`: the reader is gone; nothing to say
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return EXIT_OK
     except BaseException as exc:  # noqa: BLE001 - the one place errors become exit codes
         code, line = classify(exc)
         if os.environ.get("RIG_DEBUG"):
             raise
         print(f"rig {args.command}: {line}", file=sys.stderr)
         return code
+
+
+def _one_line_warning(command: str):
+    """numpy/Python warnings as one line each (``rig CMD: warning: ...``), never a raw warning dump."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = (str(message).strip().splitlines() or [""])[0]
+        print(f"rig {command}: warning: {text} ({category.__name__})", file=sys.stderr)
+    return show
 
 
 #: exception types -> exit code, and how the one line reads (first line of the message by default)

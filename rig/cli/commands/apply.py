@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ import pandas as pd
 from calib import calfile
 from calib.gyro import GyroCalibration
 from calib.magnetometer import MagCalibration
-from rig.cli.common import EXIT_OK
+from rig.cli.common import EXIT_OK, report_warnings
 from rig.session import MAG_COUNTS_PER_UT, load_session
 
 
@@ -24,6 +25,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     cal = calfile.read(args.calibration)
     session = load_session(args.session)
+    report_warnings("apply", session)
     d = session.samples
     temp = d["temp_c"] if session.has_temperature else None
     f = cal.accelerometer.apply(d["accel_counts"], temp_c=temp, t_s=d["t_s"])
@@ -42,9 +44,21 @@ def run(args) -> int:
         h = mag.apply(d["mag_counts"] / float((info.mag_lsb_per_ut if info else None) or MAG_COUNTS_PER_UT))
         table.update({f"m{a}_ut": _fmt(h[:, j], "%.5f") for j, a in enumerate("xyz")})
     out = Path(args.output)
-    pd.DataFrame(table).to_csv(out, index=False, lineterminator="\r\n")
+    write_atomically(out, lambda tmp: pd.DataFrame(table).to_csv(tmp, index=False, lineterminator="\r\n"))
     print(f"wrote {len(f)} rows to {out}")
     return EXIT_OK
+
+
+def write_atomically(path: Path, write) -> None:
+    """``write(tmp)`` to a temporary file beside ``path``, then rename: a failure (a full disk) leaves
+    no partial or empty file behind."""
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def _fmt(values, spec: str) -> np.ndarray:

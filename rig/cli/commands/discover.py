@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 
 from rig.analysis import discover as dsc
-from rig.cli.common import EXIT_OK, UsageError, json_default
+from rig.cli.common import EXIT_OK, UsageError, json_default, report_warnings
 
 
 def add_parser(sub) -> None:
@@ -23,6 +23,7 @@ def run(args) -> int:
     if not 0 < args.false_alarm < 0.5:
         raise UsageError(f"--false-alarm: expected a probability in (0, 0.5), got {args.false_alarm:g}")
     session, d = dsc.discover_session(args.session, false_alarm=args.false_alarm)
+    report_warnings("discover", session)
     extra = {}
     if args.plot:
         extra["plot"] = str(dsc.write_plot(d, args.plot))

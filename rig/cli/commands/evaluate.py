@@ -6,7 +6,7 @@ import json
 
 import calib
 from calib import calfile
-from rig.cli.common import EXIT_OK, json_default
+from rig.cli.common import EXIT_OK, json_default, report_warnings
 from rig.session import load_session
 
 
@@ -20,6 +20,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     cal = calfile.read(args.calibration)
     session = load_session(args.session)
+    report_warnings("evaluate", session)
     ev = calib.evaluate(cal.accelerometer, session.step_means())
     if args.json:
         print(json.dumps(ev.to_dict(), indent=2, default=json_default))

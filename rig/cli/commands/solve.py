@@ -9,7 +9,7 @@ from pathlib import Path
 from calib.errors import CalibError
 from calib.redundancy import pair_biases
 from rig.analysis.solve import solve_session
-from rig.cli.common import EXIT_OK, UsageError, format_calibration, json_default, parse_thermal
+from rig.cli.common import EXIT_OK, UsageError, format_calibration, json_default, parse_thermal, report_warnings
 from rig.session import load_session
 
 
@@ -39,8 +39,16 @@ def run(args) -> int:
         given = getattr(args, other)
         if getattr(args, key) == value and given is not None and (other_value is None or given == other_value):
             raise UsageError(f"--{key} {value} cannot be combined with --{other} {given}: {why}")
+    session = load_session(args.session)
+    report_warnings("solve", session)
+    pending = [f"{s.index + 1} ({s.name})" for s in session.info.steps if s.status == "pending"]
+    if pending:
+        print(f"rig solve: warning: the session is incomplete ({session.info.status}); steps not recorded: "
+              f"{', '.join(pending[:10])}{' ...' if len(pending) > 10 else ''}; solving what was recorded",
+              file=sys.stderr)
     out = args.output if args.output is not None else default_output(args)
-    cal, path = solve_session(args.session, model=args.model, method=args.method, thermal=thermal, out=out)
+    cal, path = solve_session(args.session, model=args.model, method=args.method, thermal=thermal, out=out,
+                              session=session)
     if args.json:
         print(json.dumps({"calibration": str(path), **cal.to_dict()}, indent=2, default=json_default))
     else:
