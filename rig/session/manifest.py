@@ -175,6 +175,7 @@ class SensorInfo(_Section):
     gyro_range_dps: Number = None
     gyro_lsb_per_dps: PositiveNumber = None
     magnetometer: MagnetometerInfo | None = None
+    self_test: dict | None = None
 
 
 class SiteInfo(_Section):

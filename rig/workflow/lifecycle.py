@@ -70,10 +70,32 @@ def configure_devices(procedure, rig: Rig) -> dict | None:
             "asa_factor": [float(x) for x in rig.magnetometer.asa_factor], "mag_lsb_per_ut": MAG_COUNTS_PER_UT}
 
 
+#: run the sensor's self-test when a session starts (off only until the golden files are re-recorded)
+SELF_TEST_AT_START = False
+
+
+def self_test(rig: Rig) -> dict | None:
+    """The sensor's own self-test, when it has one; a failing chip stops the run (RunError).
+
+    Returns the result for the manifest (``rig.sensor.self_test``), or None for a sensor without one.
+    """
+    run = getattr(rig.sensor, "self_test", None)
+    if run is None or not SELF_TEST_AT_START:
+        return None
+    result = run()
+    if not result.passed:
+        raise RunError(f"{result.summary()}; the sensor is faulty: nothing was recorded")
+    return result.to_dict()
+
+
 def start_session(procedure, rig: Rig, new: NewSession) -> SessionWriter:
-    """Configure the devices, write the manifest (rig identity, planned steps) and the attachments."""
+    """Configure the devices, self-test the sensor, write the manifest (rig identity, planned steps,
+    self-test result) and the attachments."""
     magnetometer = configure_devices(procedure, rig)
+    checked = self_test(rig)
     rig_info = rig.describe()
+    if checked is not None:
+        rig_info["sensor"]["self_test"] = checked
     if magnetometer is not None:
         rig_info["sensor"]["magnetometer"] = magnetometer
     if rig.rig_file is not None:
