@@ -72,6 +72,9 @@ class ConsoleUI:
             self._last_phase = key
             self._line(plain_progress_line(p))
 
+    def can_confirm(self) -> bool:
+        return self.assume_yes or self.interactive
+
     def confirm(self, question: str) -> bool:
         """Ask the operator; True when they confirm."""
         self._line(f">>> {question}")

@@ -9,12 +9,35 @@ the next begins, so an interrupted run resumes from the first incomplete step (`
 from __future__ import annotations
 
 from rig.devices.rig import Rig
+from rig.errors import RigInputError
 from rig.execution.context import EngineOptions, RunAborted, RunContext, StepOutcome
 from rig.execution.estimate import step_durations_s
 from rig.execution.executors import EXECUTORS, temperature
 from rig.execution.motion import check_reachable, stop_motors
-from rig.execution.operator import Operator, SilentOperator
+from rig.execution.operator import Operator, OperatorAbsent, SilentOperator
 from rig.planning.kinematics import AXES
+
+
+def check_before_recording(procedure, rig: Rig, operator: Operator, *, first_step: int = 0,
+                           start_deg: dict[str, float] | None = None) -> None:
+    """Everything that can be refused before a session directory exists or anything moves: the sensor
+    the procedure names, every remaining pose and rate (soft limits, cable wrap, stage speed), a
+    thermometer for temperature steps, and someone to answer the prompts."""
+    wanted = procedure.sensor.model
+    if wanted is not None and wanted != rig.sensor.model:
+        raise RigInputError(procedure.path, None, "sensor.model", f"the procedure is for the {wanted}, but the "
+                            f"rig's sensor is the {rig.sensor.model}; run it on a rig with that sensor")
+    steps = procedure.expanded_steps()[first_step:]
+    check_reachable(procedure, steps, rig, start_deg)
+    for step in steps:
+        check = getattr(EXECUTORS[step.kind], "preflight", None)
+        if check is not None:
+            check(procedure, step, rig)
+    asks = [s for s in steps if s.kind == "prompt" or (
+        s.kind == "thermal" and (s.temperature.mode != "wait" or rig.chamber is None))]
+    if asks and not operator.can_confirm():
+        raise OperatorAbsent(f"step {asks[0].index + 1} ({asks[0].name}) asks the operator to confirm, and nobody "
+                             "can answer here (no terminal): run it from a terminal or with --yes")
 
 
 class Engine:
@@ -64,12 +87,8 @@ class Engine:
     def preflight(self, start_deg: dict[str, float] | None = None) -> None:
         """Check every remaining step before anything moves: poses within the soft limits and cable
         wrap, rates the stage can turn, a thermometer for temperature steps."""
-        remaining = self.steps[self.first_step:]
-        check_reachable(self.procedure, remaining, self.ctx.rig, start_deg)
-        for step in remaining:
-            check = getattr(EXECUTORS[step.kind], "preflight", None)
-            if check is not None:
-                check(self.procedure, step, self.ctx.rig)
+        check_before_recording(self.procedure, self.ctx.rig, self.ctx.operator, first_step=self.first_step,
+                               start_deg=start_deg)
 
     def prepare(self, resuming: bool) -> None:
         """Preflight, then apply the move settings and the rig's home/zero policy."""

@@ -45,6 +45,10 @@ class Operator(Protocol):
 
     def confirm(self, question: str) -> bool: ...
 
+    def can_confirm(self) -> bool:
+        """Whether someone (or --yes) can answer a prompt: checked before a run that has prompts."""
+        ...
+
 
 class SilentOperator:
     """Reports nothing; answers prompts with ``answer`` (None: nobody is there to answer).
@@ -68,6 +72,9 @@ class SilentOperator:
 
     def progress(self, progress: StepProgress) -> None:
         """Nothing is shown."""
+
+    def can_confirm(self) -> bool:
+        return self.answer is not None
 
     def confirm(self, question: str) -> bool:
         if self.answer is None:

@@ -11,6 +11,7 @@ from rig.config.procedure import load_procedure, load_procedure_text
 from rig.config.rigfile import load_rig_file
 from rig.devices import open_rig_file
 from rig.execution.context import EngineOptions
+from rig.execution.engine import check_before_recording
 from rig.execution.operator import Operator, SilentOperator
 from rig.session.lock import SessionLock
 from rig.errors import RigInputError
@@ -55,6 +56,7 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     try:
         new = NewSession(Path(out_dir), new_session_id(procedure.name, seed), Path(procedure_path).read_text(),
                          str(procedure_path), extra={"seed": rig.seed})
+        check_before_recording(procedure, rig, operator)
         writer = start_session(procedure, rig, new)
         lock = SessionLock(writer.session_dir).acquire()
         operator.info(f"session {writer.session_dir}")

@@ -1,0 +1,47 @@
+"""What can be known before recording is refused before a session directory exists: a procedure for
+another sensor, a pose beyond the soft limits, a prompt nobody can answer (one line, exit 2)."""
+
+from __future__ import annotations
+
+import pytest
+import yaml
+
+from rig.cli import main
+
+from conftest import REPO
+
+HEAD = ("format: rig-procedure/1\nname: t\nsensor: {{accel_range_g: 4, sample_rate_hz: 100{model}}}\n"
+        "dwell: {{seconds: 1}}\nsteps:\n")
+
+
+@pytest.mark.parametrize("case, model, steps, expect", [
+    ("other sensor", ", model: ADXL345", '  - pose: "+Z up"\n', "the procedure is for the ADXL345"),
+    ("beyond the soft limits", "", '  - pose: "+Z up"\n  - angles_deg: [0, 0, 90]\n', "a3"),
+    ("prompt and no operator", "", '  - prompt: "Mount the sensor"\n  - pose: "+Z up"\n', "--yes"),
+])
+def test_refused_with_one_line_and_no_session(tmp_path, capsys, case, model, steps, expect):
+    (tmp_path / "p.yaml").write_text(HEAD.format(model=model) + steps)
+    rig = yaml.safe_load((REPO / "rigs" / "sim.yaml").read_text())
+    rig["turntable"]["axes"]["a3"].update(soft_limits_deg=[-45, 45], cable_wrap_deg=45, slip_ring=False)
+    (tmp_path / "rig.yaml").write_text(yaml.safe_dump(rig))
+    code = main(["run", str(tmp_path / "p.yaml"), "--rig", str(tmp_path / "rig.yaml"), "--time-scale", "0",
+                 "--out", str(tmp_path / "s")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2, err
+    assert len(err) == 1 and expect in err[0], err
+    assert not (tmp_path / "s").exists()
+
+
+def test_evaluate_refuses_a_calibration_of_another_range(tmp_path, capsys):
+    six = str(REPO / "procedures" / "six_position.yaml")
+    assert main(["run", six, "--seed", "1", "--time-scale", "0", "--out", str(tmp_path / "a"), "--quiet"]) == 0
+    other = (REPO / "procedures" / "six_position.yaml").read_text().replace("accel_range_g: 4", "accel_range_g: 8")
+    (tmp_path / "six8.yaml").write_text(other)
+    assert main(["run", str(tmp_path / "six8.yaml"), "--seed", "1", "--time-scale", "0", "--out",
+                 str(tmp_path / "b"), "--quiet"]) == 0
+    (a,), (b,) = (tmp_path / "a").iterdir(), (tmp_path / "b").iterdir()
+    capsys.readouterr()
+    assert main(["evaluate", str(a / "calibration.yaml"), str(b)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "another range" in err[0]
+    assert main(["evaluate", str(a / "calibration.yaml"), str(a)]) == 0
