@@ -9,6 +9,7 @@ import sys
 from rig.cli.common import EXIT_FAILURE, EXIT_OK, UsageError, format_calibration
 from rig.cli.console import ConsoleUI
 from rig.execution.context import RunAborted
+from rig.session import SessionManifest
 from rig.workflow.run import run_procedure
 
 
@@ -45,10 +46,13 @@ def run(args) -> int:
         return EXIT_FAILURE
     finally:
         ui.close()
-    flagged = [o for o in result.outcomes if o.status == "flagged"]
     print(f"session: {result.session_dir}")
+    recorded, _ = SessionManifest.load(result.session_dir)  # the whole session, across resumes
+    flagged = [s for s in recorded.steps if s.status == "flagged"]
     if flagged:
-        print(f"flagged steps (left out of the solve): {', '.join(str(o.index + 1) for o in flagged)}")
+        print("flagged steps (left out of the solve): " + "; ".join(
+            f"{s.index + 1} ({s.name}: {'; '.join(map(str, (s.stats.problems if s.stats else None) or ['bad data']))})"
+            for s in flagged))
     if result.calibration is not None:
         print(f"calibration: {result.calibration_path}")
         print(format_calibration(result.calibration))
