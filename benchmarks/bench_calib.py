@@ -24,7 +24,12 @@ import calib  # noqa: E402
 from calib.accel import StepMeans, solve_batch  # noqa: E402
 from calib.evaluation import roll_pitch_deg  # noqa: E402
 from calib.synthetic import f_from_roll_pitch, six_faces  # noqa: E402
+from calib.uncertainty import step_standard_errors  # noqa: E402
 from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
+from drivers.sensors.sim.noise import NoiseConfig, NoiseProcess  # noqa: E402
+
+#: "white" (the seed table as first reported) or "dlpf" (issue 14: DLPF + bias instability + random walk)
+NOISE = {"model": "white"}
 
 SEED_POSES = [(0, 90), (-60, 60), (-30, 30), (0, 0), (30, -30), (60, -60), (90, 0)]
 PAPER = {"ADXL345": [(-0.8, 0.22), (-0.56, -0.66), (-0.28, -0.14), (0, 0.22), (0.36, 0.48), (0.52, 0.72), (0.61, -0.34)],
@@ -33,7 +38,21 @@ PAPER = {"ADXL345": [(-0.8, 0.22), (-0.56, -0.66), (-0.28, -0.14), (0, 0.22), (0
 CLASS = {"MPU-9150": dict(lsb=8192.0, bw=44.0, thermometer=True), "ADXL345": dict(lsb=256.0, bw=50.0, thermometer=False)}
 
 
+def means_dlpf(err: AccelErrorModel, f, temps, lsb, bw, rng, n=1000, rate=100.0):
+    """Step means of a session with the dlpf noise model (one noise process through the session, 10 s
+    per step, 6 s between steps) and their standard errors from the adapter's estimator."""
+    cfg = NoiseConfig.for_chip("ADXL345" if lsb == 256.0 else "MPU-9150", "dlpf")
+    proc = NoiseProcess(cfg.accel_bias_instability_g, cfg.accel_random_walk_g_per_rts, rng, cfg.flicker_band_s)
+    out = err.output_g(f, temps, np.zeros(len(f)), np.zeros(len(f))) * lsb
+    blocks = [np.round(out[i] + proc.sample(i * 16.0 + np.arange(1, n + 1) / rate,
+                                            err.noise_density_g_per_rthz, bw) * lsb) for i in range(len(f))]
+    sem, _ = step_standard_errors(blocks, 1 / np.sqrt(12))
+    return np.array([b.mean(axis=0) for b in blocks]), sem
+
+
 def means(err: AccelErrorModel, f, temps, lsb, bw, rng, n=1000, noise=True):
+    if noise and NOISE["model"] == "dlpf":
+        return means_dlpf(err, f, temps, lsb, bw, rng, n)
     out = err.output_g(f, temps, np.zeros(len(f)), np.zeros(len(f))) * lsb
     sigma = np.asarray(err.noise_density_g_per_rthz) * np.sqrt(bw * np.pi / 2) * lsb
     sigma = np.sqrt(sigma**2 + 1 / 12)
@@ -85,7 +104,7 @@ def seed_experiment(cls: str, trials: int = 300, verify_c: float = 16.2):
 def print_seed(cls: str, verify_c: float):
     w, pp = seed_experiment(cls, verify_c=verify_c)
     target = 0.03 if cls == "MPU-9150" else 0.1
-    print(f"\n{cls} class, verified at {verify_c} C ({'thermal model from 6 points' if CLASS[cls]['thermometer'] else 'no thermometer: no thermal model'}); 300 simulated sensors")
+    print(f"\n[{NOISE['model']} noise] {cls} class, verified at {verify_c} C ({'thermal model from 6 points' if CLASS[cls]['thermometer'] else 'no thermometer: no thermal model'}); 300 simulated sensors")
     print(f"  {'pose roll/pitch':>16} | {'paper err roll/pitch':>21} | {'ours: RMS err roll/pitch over sensors':>38}")
     with warnings.catch_warnings():  # roll is undefined at pitch 90 deg: that column is all NaN ("n/a")
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -155,8 +174,13 @@ def speed():
 
 
 if __name__ == "__main__":
-    print_seed("MPU-9150", 16.2)
-    print_seed("ADXL345", 27.6)
-    print_seed("ADXL345", 16.2)
+    for model in ("white", "dlpf") if "--seed-only" in sys.argv else ("white", "dlpf"):
+        NOISE["model"] = model
+        print_seed("MPU-9150", 16.2)
+        print_seed("ADXL345", 27.6)
+        print_seed("ADXL345", 16.2)
+    NOISE["model"] = "white"
+    if "--seed-only" in sys.argv:
+        sys.exit(0)
     monte_carlo()
     speed()

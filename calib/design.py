@@ -107,7 +107,7 @@ class AxisFit:
     residuals: np.ndarray  # (K,) counts
     chi2: float
     dof: int
-    inflated: bool  # covariance scaled by chi2/dof (significant misfit)
+    inflated: bool  # misfit significant (the covariance is not rescaled)
 
 
 DISPLAY_NAMES = {"kx_ayz": "alpha_yz", "kx_azy": "alpha_zy", "ky_azx": "alpha_zx"}
@@ -156,9 +156,10 @@ def solve_wls(g: np.ndarray, y: np.ndarray, sem: np.ndarray, names: list[str],
               misfit_p: float = 0.01) -> AxisFit:
     """Weighted least squares with 1/sem^2 weights.
 
-    Covariance: ``(G^T W G)^-1`` from the within-step scatter; when the residuals'
-    chi-square is significant at level ``misfit_p`` (the model misses something),
-    it is scaled by chi2/dof so sigmas reflect the misfit too.
+    Covariance: ``(G^T W G)^-1``, the per-step standard errors propagated (never rescaled by the
+    fit's own chi2/dof: with a handful of degrees of freedom that factor scatters widely between
+    identical sessions). ``inflated`` only flags a misfit significant at level ``misfit_p`` (the
+    model misses something); the chi2 stays the goodness-of-fit number.
     """
     w = 1.0 / sem
     gw = g * w[:, None]
@@ -174,7 +175,5 @@ def solve_wls(g: np.ndarray, y: np.ndarray, sem: np.ndarray, names: list[str],
     cov = cov0
     if dof > 0:
         from scipy.stats import chi2 as chi2_dist
-        if chi2_dist.sf(chi2, dof) < misfit_p:
-            cov = cov0 * (chi2 / dof)
-            inflated = True
+        inflated = bool(chi2_dist.sf(chi2, dof) < misfit_p)
     return AxisFit(list(names), params, cov, cov0, res, chi2, dof, inflated)

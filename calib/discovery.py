@@ -317,7 +317,7 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
         prob.matrix_g = _matrix_from(prob, final) / prob.lsb
         prob.build_columns(selected)
         final = prob.fit(selected)
-    cov = final.cov0 * _inflation(final)
+    cov = final.cov0  # propagated step uncertainties, not rescaled by chi2/dof
     sig = np.sqrt(np.diag(cov))
     prefix = [prob.fit(selected[:i]) for i in range(len(selected) + 1)]  # the model after each addition
     effects = _found_effects(prob, final, sig, selected, prefix)
@@ -433,12 +433,6 @@ def _select(prob: _Problem, observable: list, alpha: float) -> tuple[list, list]
             break
         selected.remove(worst)
     return selected, aliases
-
-
-def _inflation(fit: _Fit) -> float:
-    if fit.dof > 0 and stats.chi2.sf(fit.rss, fit.dof) < MISFIT_P:
-        return fit.rss / fit.dof
-    return 1.0
 
 
 def _rms_g(prob: _Problem, fit: _Fit) -> float:

@@ -145,11 +145,16 @@ def assemble(steps: StepMeans, model: str, fits: dict, order: int, t0_c: float, 
     thermal = ThermalModel(t0_c=float(t0_c), order=order, coefficients=coef[:, :order]) if order else None
     fit = FitSummary(steps=len(steps), samples=int(np.sum(steps.n_samples)),
                      residual_rms_g=float(np.sqrt(np.mean(res**2)) / steps.lsb_per_g),
-                     chi2_per_dof=float(chi2 / dof) if dof > 0 else float("nan"), method=method)
+                     chi2_per_dof=chi2_per_dof(chi2, dof), method=method)
     return AccelCalibration(model=model, lsb_per_g=float(steps.lsb_per_g), bias_counts=b,
                             scale_counts_per_g=np.diag(m).copy(), misalignment=misalignment,
                             matrix_counts_per_g=m, temperature=thermal, sigma=sigma, fit=fit,
                             effects=list(effects or []))
+
+
+def chi2_per_dof(chi2: float, dof: int) -> float:
+    """chi2/dof; 0 for an exactly determined fit (no redundancy: chi2 = 0), never NaN."""
+    return float(chi2 / dof) if dof > 0 else 0.0
 
 
 def _angles(fits) -> tuple[dict, dict]:

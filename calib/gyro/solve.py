@@ -79,7 +79,7 @@ def solve_gyro(steps: RateStepMeans) -> GyroCalibration:
     -------
     :class:`GyroCalibration` with M and b from weighted least squares over all steps
     (per output axis, columns ``[w_x, w_y, w_z, 1]``, weights 1/sem; covariance
-    scaled by chi2/dof when the misfit is significant, see :func:`calib.design.solve_wls`),
+    not rescaled by chi2/dof, see :func:`calib.design.solve_wls`),
     and the + / - pair zero-rate outputs of the seed method for comparison.
 
     Raises

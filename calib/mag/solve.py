@@ -35,8 +35,7 @@ def solve_mag_positions(steps: MagStepMeans) -> MagCalibration:
     """Solve ``m = A h + B`` (12 parameters) from positions with known field in the sensor frame.
 
     Weighted least squares per output axis with columns ``[h_x, h_y, h_z, 1]`` and
-    weights 1/sem (:func:`calib.design.solve_wls`: covariance scaled by chi2/dof when
-    the misfit is significant). The seed's eight-position method is the special case
+    weights 1/sem (:func:`calib.design.solve_wls`: covariance not rescaled by chi2/dof). The seed's eight-position method is the special case
     K = 8; any K >= 4 positions whose fields are not in one plane determine the model,
     more than 4 give a misfit check.
 

@@ -15,6 +15,7 @@ import numpy as np
 from calib.data import StepMeans
 from calib.gyro import RateStepMeans
 from calib.magnetometer import MagStepMeans
+from calib.uncertainty import step_standard_errors
 from rig.errors import SessionFormatError
 from rig.planning.kinematics import sensor_to_world
 from rig.session.manifest import MAG_COUNTS_PER_UT, SessionManifest, SiteInfo
@@ -58,7 +59,7 @@ def step_means(session: Session, include=None) -> StepMeans:
                                  " (steps with unknown poses: use --method magnitude)")
     rows_of = _rows_by_step(session.samples["step"])
     csv_path = str(session.path / "samples.csv")
-    names, f_nom, means, sems, ns, temps, ts = [], [], [], [], [], [], []
+    names, f_nom, means, blocks, ns, temps, ts = [], [], [], [], [], [], []
     for i in idx:
         rows = rows_of(i)
         n = len(rows)
@@ -69,13 +70,14 @@ def step_means(session: Session, include=None) -> StepMeans:
         names.append(st.label)
         f_nom.append(st.f_nominal if st.f_nominal is not None else [np.nan] * 3)
         means.append(a.mean(axis=0))
-        sems.append(np.maximum(a.std(axis=0, ddof=1), _QUANTUM_SIGMA) / np.sqrt(n))
+        blocks.append(a)
         ns.append(n)
         temps.append(_step_temperature(session, rows, i) if session.has_temperature else np.nan)
         tt = session.samples["t_s"][rows]
         ts.append(0.5 * (tt.min() + tt.max()))
+    sems, _ = step_standard_errors(blocks, _QUANTUM_SIGMA)  # correlated samples: pooled VIF per axis
     return StepMeans(names=tuple(names), f_nominal_g=np.array(f_nom, float), mean_counts=np.array(means),
-                     sem_counts=np.array(sems), n_samples=np.array(ns, int),
+                     sem_counts=sems, n_samples=np.array(ns, int),
                      temp_c=np.array(temps) if session.has_temperature else None, t_s=np.array(ts),
                      lsb_per_g=session.lsb_per_g)
 
@@ -98,7 +100,7 @@ def rate_step_means(session: Session, accel=None) -> RateStepMeans:
     steps = [s for s in session.info.steps if s.kind == "rate" and s.status == "complete"]
     if not steps:
         raise SessionFormatError(str(session.path), None, "steps", "no complete rate step")
-    names, w, means, sems, ns, fs = [], [], [], [], [], []
+    names, w, means, blocks, ns, fs = [], [], [], [], [], []
     for st in steps:
         rows = session.samples["step"] == st.index
         g = session.samples["gyro_counts"][rows].astype(float)
@@ -112,10 +114,11 @@ def rate_step_means(session: Session, accel=None) -> RateStepMeans:
         names.append(st.name)
         w.append(st.rate_nominal_dps)
         means.append(g.mean(axis=0))
-        sems.append(np.maximum(g.std(axis=0, ddof=1), _QUANTUM_SIGMA) / np.sqrt(len(g)))
+        blocks.append(g)
         ns.append(len(g))
+    sems, _ = step_standard_errors(blocks, _QUANTUM_SIGMA)
     return RateStepMeans(names=tuple(names), rate_nominal_dps=np.array(w, float), mean_counts=np.array(means),
-                         sem_counts=np.array(sems), n_samples=np.array(ns), lsb_per_dps=float(lsb),
+                         sem_counts=sems, n_samples=np.array(ns), lsb_per_dps=float(lsb),
                          f_mean_g=np.array(fs, float))
 
 

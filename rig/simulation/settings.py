@@ -18,6 +18,7 @@ from typing import Annotated, Any, ClassVar, Optional
 from pydantic import BeforeValidator, WithJsonSchema, create_model
 
 from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, MagErrorModel
+from drivers.sensors.sim.noise import NOISE_MODELS
 from rig.config.schema import Strict, choice, fail, flag, number, validate_plain
 from rig.config.sections import register_section
 from rig.simulation.world import ChamberConfig, FieldConfig, RingingConfig
@@ -109,6 +110,7 @@ class SimSection(Strict):
     errors: AccelOverrides = AccelOverrides()
     gyro_errors: GyroOverrides = GyroOverrides()
     mag_errors: MagOverrides = MagOverrides()
+    noise: Optional[choice(NOISE_MODELS)] = None  # None: the chips' default (drivers.sensors.sim.noise)
     serial_base: number(ge=1, le=2**31 - 1, integer=True) = 0x5A00
 
 
@@ -190,6 +192,7 @@ class SimSettings:
     errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # AccelErrorModel overrides
     gyro_errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # GyroErrorModel overrides
     mag_errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # MagErrorModel overrides
+    noise: str | None = None  # "white" | "dlpf" | None (the chip models' DEFAULT_NOISE_MODEL)
     serial_base: int = 0x5A00
 
     @classmethod
@@ -202,7 +205,8 @@ class SimSettings:
                    magnetic_field=FieldConfig(**s.field.model_dump()),
                    table_tilt_deg=(float(s.table_tilt_deg[0]), float(s.table_tilt_deg[1])),
                    effects=given(s.effects) if s.effects is not None else {}, errors=given(s.errors),
-                   gyro_errors=given(s.gyro_errors), mag_errors=given(s.mag_errors), serial_base=s.serial_base)
+                   gyro_errors=given(s.gyro_errors), mag_errors=given(s.mag_errors), noise=s.noise,
+                   serial_base=s.serial_base)
 
 
 register_section("sim", SimSection, kinds=("sim",), doc="the simulated rig (docs/simulated-rig.md)")

@@ -146,6 +146,7 @@ class SimulatedRig:
             "field": dataclasses.asdict(self.settings.magnetic_field),
             "effects": {k: _plain(v) for k, v in self.settings.effects.items()},
             "time_scale": self.settings.time_scale,
+            **({"noise": self.chip.noise.to_dict()} if self.settings.noise else {}),
         }
 
 
@@ -165,13 +166,14 @@ def _plain(v):
 def _mpu9150(sim: "SimulatedRig", faults):
     """The MPU-9150 attaches itself and the AK8975 behind its I2C bypass."""
     chip = Mpu9150Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.seed, gyro_errors=sim.gyro_errors,
-                        mag_errors=sim.mag_errors, faults=faults)
+                        mag_errors=sim.mag_errors, faults=faults, noise=sim.settings.noise)
     chip.attach(sim.bus, sim.sensor_address)
     return chip
 
 
 def _adxl345(sim: "SimulatedRig", faults):
-    chip = Adxl345Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.seed, faults=faults)
+    chip = Adxl345Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.seed, faults=faults,
+                        noise=sim.settings.noise)
     sim.bus.add_device(sim.sensor_address, chip)
     return chip
 

@@ -70,8 +70,8 @@ def configure_devices(procedure, rig: Rig) -> dict | None:
             "asa_factor": [float(x) for x in rig.magnetometer.asa_factor], "mag_lsb_per_ut": MAG_COUNTS_PER_UT}
 
 
-#: run the sensor's self-test when a session starts (off only until the golden files are re-recorded)
-SELF_TEST_AT_START = False
+#: run the sensor's self-test when a session starts (a switch for tests and benchmarks that need the old stream)
+SELF_TEST_AT_START = True
 
 
 def self_test(rig: Rig) -> dict | None:
