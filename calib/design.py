@@ -156,10 +156,12 @@ def solve_wls(g: np.ndarray, y: np.ndarray, sem: np.ndarray, names: list[str],
               misfit_p: float = 0.01) -> AxisFit:
     """Weighted least squares with 1/sem^2 weights.
 
-    Covariance: ``(G^T W G)^-1``, the per-step standard errors propagated (never rescaled by the
-    fit's own chi2/dof: with a handful of degrees of freedom that factor scatters widely between
-    identical sessions). ``inflated`` only flags a misfit significant at level ``misfit_p`` (the
-    model misses something); the chi2 stays the goodness-of-fit number.
+    Covariance: ``(G^T W G)^-1``, the per-step standard errors propagated. It is rescaled by the
+    fit's chi2/dof (the Birge ratio) only when the misfit is significant at level ``misfit_p``
+    (``inflated``): then the model misses something and the scatter of the steps about it, not the
+    noise, sets the uncertainty (hand-placed poses, an unmodelled effect). A clean session's chi2/dof
+    scatters widely with a handful of degrees of freedom; rescaling by it regardless made identical
+    sessions report sigmas a factor of 5 apart, so an insignificant misfit leaves the sigmas alone.
     """
     w = 1.0 / sem
     gw = g * w[:, None]
@@ -176,4 +178,6 @@ def solve_wls(g: np.ndarray, y: np.ndarray, sem: np.ndarray, names: list[str],
     if dof > 0:
         from scipy.stats import chi2 as chi2_dist
         inflated = bool(chi2_dist.sf(chi2, dof) < misfit_p)
+        if inflated:
+            cov = cov0 * (chi2 / dof)
     return AxisFit(list(names), params, cov, cov0, res, chi2, dof, inflated)

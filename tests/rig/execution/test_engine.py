@@ -90,8 +90,12 @@ def test_an_unreachable_pose_is_refused_before_anything_moves(make_rig, tmp_path
 
 def test_any_error_stops_every_motor(make_rig, tmp_path):
     rig = make_rig()
+    class TerminalLost(SilentOperator):  # someone was there when the run started, then the terminal went
+        def confirm(self, question):
+            raise OperatorAbsent("the terminal went away")
+
     proc = procedure('  - angles_deg: [170, 80, 170]\n  - prompt: "Nobody will answer this"\n')
-    eng, _ = start(proc, rig, tmp_path, operator=SilentOperator(answer=None))
+    eng, _ = start(proc, rig, tmp_path, operator=TerminalLost(answer=True))
     eng.prepare(resuming=False)
     for axis in rig.axes.values():  # start a long move so the motors run when the error comes
         axis.stage.move_deg(-170.0)

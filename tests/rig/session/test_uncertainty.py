@@ -65,10 +65,15 @@ def test_white_noise_sem_equals_the_classic_one():
         assert np.allclose(new, _old_sem(sess), rtol=0.04)
 
 
-def test_sigma_does_not_scale_with_chi2():
-    """Identical steps but for a misfit: the reported sigma is the propagated one, chi2/dof grows."""
+def test_sigma_is_the_propagated_one_unless_the_misfit_is_significant():
+    """A chi2 that noise explains leaves the sigma alone (no rescaling by a scattering chi2/dof); a
+    significant misfit (the model misses something) makes the steps' scatter set the uncertainty."""
     s = _sessions(1)[0]
+    nudged = calib.StepMeans(**{**s.__dict__, "mean_counts": s.mean_counts + 0.3 * s.sem_counts * np.array(
+        [[1, -1, 1], [-1, 1, -1], [1, 1, -1], [-1, -1, 1], [1, -1, -1], [-1, 1, 1]])})
     bad = calib.StepMeans(**{**s.__dict__, "mean_counts": s.mean_counts + np.array([[30.0, 0, 0]] + [[0, 0, 0]] * 5)})
-    c0, c1 = calib.solve(s, thermal="off"), calib.solve(bad, thermal="off")
-    assert c1.fit.chi2_per_dof > 10 * max(c0.fit.chi2_per_dof, 0.1)
-    assert np.allclose(c0.sigma["bias_counts"], c1.sigma["bias_counts"])
+    c0, c_nudged, c_bad = (calib.solve(x, thermal="off") for x in (s, nudged, bad))
+    assert c_nudged.fit.chi2_per_dof != c0.fit.chi2_per_dof
+    assert np.allclose(c0.sigma["bias_counts"], c_nudged.sigma["bias_counts"])
+    assert c_bad.fit.chi2_per_dof > 10 * max(c0.fit.chi2_per_dof, 0.1)
+    assert c_bad.sigma["bias_counts"][0] > 3 * c0.sigma["bias_counts"][0]
