@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import glob
 
+from drivers.sensors.chips import CHIPS
 from drivers.ximc.stage import Stage
 
 STANDA_VID_PID = (0x1CBE, 0x0007)
-SENSOR_PROBES = [  # (address, identity register, expected value, model)
-    (0x68, 0x75, 0x68, "MPU-9150"), (0x69, 0x75, 0x68, "MPU-9150"),
-    (0x53, 0x00, 0xE5, "ADXL345"), (0x1D, 0x00, 0xE5, "ADXL345"),
-]
+#: (address, identity register, expected value, model), from the chip registry
+SENSOR_PROBES = [(address, chip.identity_register, chip.identity_value, chip.model)
+                 for chip in CHIPS.values() for address in chip.addresses]
 
 
 def list_ports() -> list[str]:

@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 
 from drivers.clock import MonotonicClock, VirtualClock
-from drivers.sensors.chips import chip_spec
+from drivers.sensors.chips import SENSOR_MODELS, chip_spec
 from drivers.sensors.sim.adxl345 import Adxl345Model
 from drivers.sensors.sim.bus import SimulatedI2CBus
 from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, MagErrorModel
@@ -45,7 +45,7 @@ class SimulatedRig:
     ximc_faults : dict axis -> XimcFaults fields; sensor_faults : SensorFaults fields.
     """
 
-    def __init__(self, settings: SimSettings, *, seed: int, sensor_model: str = "MPU-9150",
+    def __init__(self, settings: SimSettings, *, seed: int, sensor_model: str = SENSOR_MODELS[0],
                  sensor_address: int | None = None, axis_signs=(1, 1, 1), home_offsets_deg=(0, 0, 0),
                  ximc_faults: dict | None = None, sensor_faults: dict | None = None) -> None:
         self.settings = settings
@@ -54,8 +54,9 @@ class SimulatedRig:
         self.clock = VirtualClock() if settings.time_scale == 0 else MonotonicClock(settings.time_scale)
         rng = np.random.default_rng(self.seed)
         self.accel_errors = self._draw_accel_errors(rng)
-        self.gyro_errors = GyroErrorModel.draw(rng, sensor_model) if sensor_model == "MPU-9150" else None
-        self.mag_errors = MagErrorModel.draw(rng, sensor_model) if sensor_model == "MPU-9150" else None
+        chip = chip_spec(sensor_model)
+        self.gyro_errors = GyroErrorModel.draw(rng, sensor_model) if chip.has_gyro else None
+        self.mag_errors = MagErrorModel.draw(rng, sensor_model) if chip.has_magnetometer else None
         for obj, over in ((self.gyro_errors, self.settings.gyro_errors), (self.mag_errors, self.settings.mag_errors)):
             for k, v in (over.items() if obj is not None else ()):
                 setattr(obj, k, _broadcast_like(v, getattr(obj, k), k))

@@ -9,11 +9,12 @@ import numpy as np
 from drivers.clock import MonotonicClock
 from drivers.sensors import open_sensor
 from drivers.sensors.base import SensorSettings
+from drivers.sensors.chips import SENSOR_MODELS
 from drivers.ximc.sim.emulator import ControllerEmulator
 from rig.simulation.simrig import SimSettings, SimulatedRig
 
 
-def serve_sim(*, count: int = 3, time_scale: float = 1.0, seed: int = 0, sensor_model: str = "MPU-9150",
+def serve_sim(*, count: int = 3, time_scale: float = 1.0, seed: int = 0, sensor_model: str = SENSOR_MODELS[0],
               once: bool = False) -> int:
     """Start ``count`` emulated 8SMC5 controllers (the first three form the simulated table),
     print their device paths and a few sensor readings, and serve until Ctrl-C."""
