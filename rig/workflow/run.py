@@ -10,7 +10,8 @@ import rig.simulation  # noqa: F401 - provides the "sim" and "replay" rig kinds
 from rig.config.procedure import load_procedure, load_procedure_text
 from rig.config.rigfile import load_rig_file
 from rig.devices import open_rig_file
-from rig.execution.context import EngineOptions
+from rig.execution.context import EngineOptions, RunAborted
+from rig.execution.estimate import step_durations_s
 from rig.execution.engine import check_before_recording
 from rig.execution.operator import Operator, SilentOperator
 from rig.session.lock import SessionLock
@@ -57,6 +58,7 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
         new = NewSession(Path(out_dir), new_session_id(procedure.name, seed), Path(procedure_path).read_text(),
                          str(procedure_path), extra={"seed": rig.seed})
         check_before_recording(procedure, rig, operator)
+        announce_duration(procedure, rig, operator)
         writer = start_session(procedure, rig, new)
         lock = SessionLock(writer.session_dir).acquire()
         operator.info(f"session {writer.session_dir}")
@@ -68,6 +70,30 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     finally:
         rig.close()
         lock.release()
+
+
+#: runs planned longer than this (rig time, s) ask an interactive operator to confirm before moving
+CONFIRM_ABOVE_S = 2 * 3600.0
+
+
+def announce_duration(procedure, rig, operator: Operator) -> None:
+    """Say how long the run will take before anything moves; ask first when that is long."""
+    planned_s = sum(step_durations_s(procedure.expanded_steps(), rig))
+    line = f"planned: {len(procedure.expanded_steps())} steps, about {format_duration(planned_s)} of rig time"
+    operator.info(line)
+    if planned_s > CONFIRM_ABOVE_S and getattr(operator, "interactive", False) and not getattr(
+            operator, "assume_yes", False):
+        if not operator.confirm(f"{line}. Start?"):
+            raise RunAborted("the operator did not start the run")
+
+
+def format_duration(seconds: float) -> str:
+    """``45 s``, ``12 min``, ``3 h 05 min``."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 3600:
+        return f"{seconds / 60:.0f} min"
+    return f"{int(seconds // 3600)} h {int(seconds % 3600 // 60):02d} min"
 
 
 def _resume(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, solve: bool,
