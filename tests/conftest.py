@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -10,6 +12,12 @@ REPO = Path(__file__).resolve().parents[1]
 PROCEDURES = REPO / "procedures"
 RIGS = REPO / "rigs"
 DATASETS = REPO.parent / "shared" / "datasets"
+
+
+def pytest_configure(config):
+    """Every solve records into a calibration history (docs/history.md): the tests' go into a
+    database of their own, never the user's (subprocesses inherit the variable)."""
+    os.environ["RIG_HISTORY"] = str(Path(tempfile.mkdtemp(prefix="rig-test-history-")) / "history.sqlite")
 
 
 @pytest.fixture(scope="session")

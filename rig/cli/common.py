@@ -8,6 +8,7 @@ import numpy as np
 
 from calib.gyro import GyroCalibration
 from calib.magnetometer import MagCalibration
+from rig.lab import record_calibration
 
 #: exit codes (contract: docs/cli.md)
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
@@ -15,6 +16,14 @@ EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
 
 class UsageError(Exception):
     """Bad command-line input (exit 2)."""
+
+
+def record_in_history(command: str, session_dir, calibration_path) -> None:
+    """Every solve goes into the calibration history (docs/history.md); a history problem is one
+    warning line and never changes the command's result."""
+    warning = record_calibration(session_dir, calibration_path)
+    if warning is not None:
+        print(f"rig {command}: warning: {warning}", file=sys.stderr)
 
 
 def report_warnings(command: str, session) -> None:

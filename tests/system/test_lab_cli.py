@@ -64,3 +64,19 @@ def test_export_writes_the_file_and_one_line(session, tmp_path, capsys, target):
 def test_export_bad_input(tmp_path, capsys):
     assert main(["export", str(tmp_path / "none.yaml"), "--to", "px4"]) == 2
     assert main(["export", str(tmp_path / "none.yaml"), "--to", "nope"]) == 2
+
+
+def test_every_run_and_solve_is_recorded_in_the_history(tmp_path, monkeypatch, capsys):
+    from rig.cli import main
+    from conftest import REPO as repo
+
+    db = tmp_path / "h.sqlite"
+    monkeypatch.setenv("RIG_HISTORY", str(db))
+    assert main(["run", str(repo / "procedures" / "six_position.yaml"), "--seed", "8", "--time-scale", "0",
+                 "--out", str(tmp_path / "s"), "--quiet"]) == 0
+    (session,) = (tmp_path / "s").iterdir()
+    assert main(["solve", str(session), "-o", str(tmp_path / "again.yaml")]) == 0
+    capsys.readouterr()
+    assert main(["history", "--json"]) == 0
+    listing = json.loads(capsys.readouterr().out)
+    assert [s["n"] for s in listing["sensors"]] == [2]

@@ -9,7 +9,8 @@ from pathlib import Path
 from calib.errors import CalibError
 from calib.redundancy import pair_biases
 from rig.analysis.solve import solve_session
-from rig.cli.common import EXIT_OK, UsageError, format_calibration, json_default, parse_thermal, report_warnings
+from rig.cli.common import (EXIT_OK, UsageError, format_calibration, json_default, parse_thermal, record_in_history,
+                            report_warnings)
 from rig.session import load_session
 
 
@@ -49,6 +50,7 @@ def run(args) -> int:
     out = args.output if args.output is not None else default_output(args)
     cal, path = solve_session(args.session, model=args.model, method=args.method, thermal=thermal, out=out,
                               session=session)
+    record_in_history("solve", args.session, path)
     if args.json:
         print(json.dumps({"calibration": str(path), **cal.to_dict()}, indent=2, default=json_default))
     else:
