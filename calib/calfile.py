@@ -21,6 +21,7 @@ from pydantic import BeforeValidator, ConfigDict, Field, field_validator, with_c
 from pydantic.json_schema import SkipJsonSchema
 from typing_extensions import Annotated, TypedDict
 
+from calib import yamlsafe
 from calib.accel.result import AccelCalibration
 from calib.errors import CalibrationFileError
 from calib.gyro.result import GyroCalibration
@@ -165,13 +166,13 @@ def read(path) -> CalibrationFile:
     """
     p = str(path)
     try:
-        text = Path(path).read_text()
+        doc = yamlsafe.load(yamlsafe.read_text(path))
     except FileNotFoundError:
         raise CalibrationFileError(p, None, "no such calibration file") from None
     except IsADirectoryError:
         raise CalibrationFileError(p, None, "is a directory, expected a calibration YAML file") from None
-    try:
-        doc = yaml.safe_load(text)
+    except yamlsafe.HostileYaml as exc:
+        raise CalibrationFileError(p, f"line {exc.line}" if exc.line else None, str(exc)) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         raise CalibrationFileError(p, f"line {mark.line + 1}" if mark else None, "not valid YAML") from None

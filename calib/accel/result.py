@@ -22,6 +22,13 @@ MISALIGNMENT_NAMES = ("alpha_yz", "alpha_zy", "alpha_zx")
 Angle = number()
 
 
+
+def triangular_matrix(scale_counts_per_g, angles) -> np.ndarray:
+    """``diag(k) T^-1`` (counts/g) of the seed's triangular model from scales and angles (rad)."""
+    a_yz, a_zy, a_zx = (float(angles[n]) for n in MISALIGNMENT_NAMES)
+    t = np.array([[1.0, -a_yz, a_zy], [0.0, 1.0, -a_zx], [0.0, 0.0, 1.0]])
+    return np.diag(np.asarray(scale_counts_per_g, float)) @ np.linalg.inv(t)
+
 class Misalignment(TypedDict):
     """The triangular model's angles, radians: ``T = [[1, -alpha_yz, alpha_zy], [0, 1, -alpha_zx], [0, 0, 1]]``."""
 
@@ -139,6 +146,10 @@ class AccelCalibration(CalibrationSection):
                                                     "triangular model")
             if np.any(np.abs(np.tril(m, -1)) > 0):
                 raise field_problem("matrix_counts_per_g", "the triangular model has zeros below the diagonal")
+            implied = triangular_matrix(self.scale_counts_per_g, self.misalignment)
+            if not np.allclose(implied, m, rtol=0, atol=1e-6 * float(np.max(np.abs(np.diag(m))))):
+                raise field_problem("misalignment", "the angles contradict matrix_counts_per_g (with "
+                                                    "T = [[1, -a_yz, a_zy], [0, 1, -a_zx], [0, 0, 1]], M = diag(k) T^-1)")
         elif self.misalignment is not None:
             raise field_problem("misalignment", f"expected null for the {self.model} model")
         return self

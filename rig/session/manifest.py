@@ -11,15 +11,16 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 from datetime import date, datetime, timezone
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-import yaml
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
 
 from rig import __version__
-from rig.errors import SessionFormatError
+from rig.config.yamlload import load_located, read_source
+from rig.errors import RigInputError, SessionFormatError
 
 FORMAT = "rig-session/1"
 STATUSES = ("running", "complete", "aborted")
@@ -33,7 +34,6 @@ SOFTWARE_NAME = "rig-calibration"
 #: keys a manifest on disk must have (a new one gets defaults for created, status and software)
 REQUIRED = ("id", "created", "status", "procedure", "rig", "software", "steps")
 
-_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
 def utc_now() -> str:
@@ -116,10 +116,10 @@ class ProcedureInfo(_Section):
         """The procedure's ``solve:`` section, or None (no text, not YAML, no such section)."""
         if not self.text:
             return None
-        try:
-            doc = yaml.load(self.text, Loader=_LOADER)
-        except yaml.YAMLError:
-            return None
+        try:  # the recorded procedure was validated when it ran: hostile YAML here means tampering
+            doc, _ = load_located(self.text, "session.yaml: procedure.text")
+        except RigInputError as exc:
+            raise SessionFormatError(None, None, "procedure.text", exc.message) from None
         spec = doc.get("solve") if isinstance(doc, dict) else None
         return spec if isinstance(spec, dict) else None
 
@@ -324,12 +324,24 @@ class SessionManifest(_Section):
             raise SessionFormatError(str(d), None, None, "no such session directory")
         if not path.is_file():
             raise SessionFormatError(str(path), None, None, "missing: not a rig-session/1 directory")
-        try:
-            doc = yaml.load(path.read_text(errors="replace"), Loader=_LOADER)
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            raise SessionFormatError(str(path), mark.line + 1 if mark else None, None, "not valid YAML") from None
-        return cls.from_mapping(doc, path), doc
+        try:  # the hostile-YAML guards of every other loader: size, depth, aliases, duplicate keys, digits
+            doc, _ = load_located(read_source(path, "session manifest", "missing"), str(path))
+        except RigInputError as exc:
+            raise SessionFormatError(exc.path, exc.line, exc.key, exc.message) from None
+        manifest = cls.from_mapping(doc, path)
+        validate_session_id(manifest.id, path)
+        return manifest, doc
+
+
+_ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.\-]{0,127}$")
+
+
+def validate_session_id(session_id: str, path=None) -> str:
+    """A session id is one path component: letters, digits, '_', '-', '.'; never '..'."""
+    if not isinstance(session_id, str) or not _ID_RE.match(session_id) or ".." in session_id:
+        raise SessionFormatError(None if path is None else str(path), None, "id", f"invalid session id "
+                                 f"{session_id!r} (letters, digits, '_', '-', '.'; no path separators or '..')")
+    return session_id
 
 
 def as_manifest(manifest, path=None) -> SessionManifest:

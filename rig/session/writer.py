@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 from pathlib import Path
 
 import numpy as np
@@ -21,19 +20,11 @@ import yaml
 from calib.calfile import atomic_write_text
 from rig.errors import SessionFormatError
 from rig.session.manifest import (BASE_COLUMNS, FORMAT, STATUSES, STEP_STATUSES, SessionManifest, as_manifest,
+                                  validate_session_id,
                                   utc_now)
 
-_ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.\-]{0,127}$")
 _DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml when present: 10x faster
 DEFAULT_COLUMNS = BASE_COLUMNS + ("a1_deg", "a2_deg", "a3_deg")
-
-
-def validate_session_id(session_id: str) -> str:
-    """A session id is one path component: letters, digits, '_', '-', '.'; never '..'."""
-    if not isinstance(session_id, str) or not _ID_RE.match(session_id) or ".." in session_id:
-        raise SessionFormatError(None, None, "id", f"invalid session id {session_id!r} "
-                                 "(letters, digits, '_', '-', '.'; no path separators or '..')")
-    return session_id
 
 
 def dump_yaml(doc) -> str:
