@@ -86,12 +86,35 @@ def load_session(path) -> Session:
     d = Path(path)
     info, raw = SessionManifest.load(d)
     samples, warnings = read_samples(d / "samples.csv", n_steps=len(info.steps))
+    check_against_manifest(d / "samples.csv", info, samples)
     if info.rig.sensor.has_temperature:
         t = samples["temp_c"]
         if len(t) and not np.any(np.isfinite(t)):
             raise SessionFormatError(str(d / "samples.csv"), 1, "temp_c",
                                      "the manifest says the sensor has a thermometer, but there are no temperatures")
     return Session(d, info, samples, warnings, raw)
+
+
+def check_against_manifest(path: Path, info: SessionManifest, samples: dict) -> None:
+    """Samples that contradict the manifest are refused: counts beyond the recorded sensor's range,
+    a finished step with more or fewer rows than recorded (rows duplicated or lost)."""
+    sensor = info.rig.sensor
+    if sensor.accel_range_g and sensor.accel_lsb_per_g:
+        limit = max(2.0 * float(sensor.accel_range_g) * float(sensor.accel_lsb_per_g), 32768.0)
+        over = np.abs(samples["accel_counts"]) > limit
+        if over.any():
+            row, axis = np.argwhere(over)[0]
+            raise SessionFormatError(str(path), int(row) + 2, f"a{'xyz'[axis]}",
+                                     f"{samples['accel_counts'][row, axis]} counts is beyond the "
+                                     f"{sensor.accel_range_g:g} g range of the {sensor.model} ({limit:.0f} counts)")
+    counts = np.bincount(samples["step"], minlength=len(info.steps)) if len(samples["step"]) else \
+        np.zeros(len(info.steps), int)
+    for step in info.steps:
+        n = step.stats.n_samples if step.stats is not None else None
+        if step.status in ("complete", "flagged") and n is not None and int(counts[step.index]) != int(n):
+            raise SessionFormatError(str(path), None, f"step {step.index + 1}",
+                                     f"{int(counts[step.index])} rows, but the manifest recorded {int(n)} samples "
+                                     "(rows duplicated or lost)")
 
 
 def read_samples(path: Path, n_steps: int | None = None) -> tuple[dict, list[str]]:
@@ -222,6 +245,11 @@ def _parse(text: _Body, header: list[str], known: list[str]) -> dict[str, np.nda
     return {c: df[c].to_numpy(dtype=float, copy=True) for c in known}
 
 
+#: no raw count of any sensor or import is larger (2^31); a sensor's own range is checked on load
+MAX_COUNTS = float(2**31)
+MAX_ABS_TEMP_C = 1000.0
+
+
 def _check(text: _Body, col: dict[str, np.ndarray], n_steps: int | None) -> None:
     """Refuse NaN or empty required cells, non-integer counts and steps, and steps not in the manifest."""
     path = str(text.path)
@@ -230,10 +258,24 @@ def _check(text: _Body, col: dict[str, np.ndarray], n_steps: int | None) -> None
         if bad.any():
             raise SessionFormatError(path, text.line_of(int(np.argmax(bad))), c,
                                      "expected a number, got an empty field or NaN")
-    for c in ("ax", "ay", "az"):
-        bad = col[c] != np.round(col[c])
+    for c in ("ax", "ay", "az", "wx", "wy", "wz", "mx", "my", "mz"):
+        if c not in col:
+            continue
+        v = col[c]
+        bad = np.isfinite(v) & (v != np.round(v))
         if bad.any():
             raise SessionFormatError(path, text.line_of(int(np.argmax(bad))), c, "raw counts must be integers")
+        bad = np.isinf(v) | (np.isfinite(v) & (np.abs(v) > MAX_COUNTS))
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise SessionFormatError(path, text.line_of(k), c, f"raw counts beyond +-{MAX_COUNTS:.0f}, got {v[k]:g}")
+    if "temp_c" in col:
+        t = col["temp_c"]
+        bad = np.isfinite(t) & (np.abs(t) > MAX_ABS_TEMP_C) | np.isinf(t)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise SessionFormatError(path, text.line_of(k), "temp_c", f"expected a temperature in C within "
+                                     f"+-{MAX_ABS_TEMP_C:g}, got {t[k]:g}")
     step = col["step"]
     bad = step != np.round(step)
     if bad.any():
