@@ -5,9 +5,11 @@ from __future__ import annotations
 from datetime import datetime, timezone
 from pathlib import Path
 
+import numpy as np
+
 import calib
 from calib import calfile
-from calib.errors import ObservabilityError
+from calib.errors import CalibError, ObservabilityError
 from calib.gyro import solve_gyro
 from calib.magnetometer import solve_mag_ellipsoid, solve_mag_positions
 from rig import __version__
@@ -41,6 +43,7 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
     else:
         steps = step_means(session)
     accel = calib.solve(steps, model=model, method=method, thermal=thermal)
+    check_plausible(accel, steps.lsb_per_g)
     gyro, mag = solve_gyro_and_mag(session, spec, accel)
     cal = calib.CalibrationFile(
         created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
@@ -54,6 +57,23 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
     path = Path(out) if out is not None else Path(session_dir) / "calibration.yaml"
     calfile.write(path, cal)
     return cal, path
+
+
+#: a fitted scale further than this factor from the sensor's nominal counts/g is not this sensor's data
+SCALE_FACTOR_LIMIT = 1.5
+
+
+def check_plausible(accel, lsb_per_g: float) -> None:
+    """Refuse a calibration whose scale factors are far from the declared sensor's nominal sensitivity:
+    the data are not this accelerometer's (a gyroscope file imported as accelerometer data, another
+    range), and the numbers would be wrong however well they fit."""
+    ratio = np.asarray(accel.scale_counts_per_g, float) / float(lsb_per_g)
+    bad = ~((ratio > 1 / SCALE_FACTOR_LIMIT) & (ratio < SCALE_FACTOR_LIMIT))
+    if bad.any():
+        j = int(np.argmax(bad))
+        raise CalibError(f"the fitted {'xyz'[j]} scale of {accel.scale_counts_per_g[j]:.4g} counts/g is "
+                         f"{ratio[j]:.3g} times the sensor's nominal {lsb_per_g:g} counts/g: these are not this "
+                         "accelerometer's data at this range (wrong file, wrong column, or another sensor)")
 
 
 def sensor_section(session: Session) -> dict:

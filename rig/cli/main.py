@@ -56,10 +56,14 @@ def main(argv: list[str] | None = None) -> int:
     if not args.command:
         print("rig: give a command; see rig --help", file=sys.stderr)
         return EXIT_BAD_INPUT
+    held: list[str] = []
     try:
         with warnings.catch_warnings():
-            warnings.showwarning = _one_line_warning(args.command)
-            return COMMANDS[args.command].run(args)
+            warnings.showwarning = _one_line_warning(args.command, held)
+            code = COMMANDS[args.command].run(args)
+        for line in held:  # shown once the command succeeded; a refusal stays its one line
+            print(line, file=sys.stderr)
+        return code
     except BrokenPipeError:  # `rig ... | head -1`: the reader is gone; nothing to say
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
@@ -72,11 +76,14 @@ def main(argv: list[str] | None = None) -> int:
         return code
 
 
-def _one_line_warning(command: str):
-    """numpy/Python warnings as one line each (``rig CMD: warning: ...``), never a raw warning dump."""
+def _one_line_warning(command: str, held: list[str]):
+    """numpy/Python warnings as one line each (``rig CMD: warning: ...``), never a raw warning dump;
+    held until the command ends (a command that fails says only its one error line)."""
     def show(message, category, filename, lineno, file=None, line=None):
         text = (str(message).strip().splitlines() or [""])[0]
-        print(f"rig {command}: warning: {text} ({category.__name__})", file=sys.stderr)
+        entry = f"rig {command}: warning: {text} ({category.__name__})"
+        if entry not in held:
+            held.append(entry)
     return show
 
 

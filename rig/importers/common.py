@@ -75,7 +75,11 @@ def table(path: Path, text: str, required: list[str], delimiter: str) -> tuple[l
     lines = text.splitlines()
     if not lines or not lines[0].strip():
         raise RigInputError(str(path), 1, None, "empty file: expected a header line")
-    reader = list(csv.reader(io.StringIO(text), delimiter=delimiter))
+    rows = csv.reader(io.StringIO(text), delimiter=delimiter)
+    try:
+        reader = list(rows)
+    except csv.Error as exc:
+        raise RigInputError(str(path), rows.line_num, None, f"cannot read this line ({exc})") from None
     header = [h.strip() for h in reader[0]]
     missing = [c for c in required if c not in header]
     if missing:
@@ -84,7 +88,39 @@ def table(path: Path, text: str, required: list[str], delimiter: str) -> tuple[l
     body = [r for r in reader[1:] if r]
     if not body:
         raise RigInputError(str(path), 2, None, "no data rows after the header")
+    for line, row in enumerate(reader[1:], start=2):
+        if row and len(row) != len(header):
+            raise RigInputError(str(path), line, None, f"expected {len(header)} fields as in the header, "
+                                                       f"got {len(row)}")
     return header, body
+
+
+#: no accelerometer reads more than this many g: a larger imported value is not acceleration
+MAX_IMPORT_G = 64.0
+#: a labelled pose whose data point elsewhere (cosine of the angle below this) is mislabelled
+MIN_POSE_COSINE = 0.8
+
+
+def check_recording(path: Path, rec: Recording) -> None:
+    """Refuse a recording whose steps cannot be what they claim: fewer than 2 samples in a step,
+    values beyond any accelerometer's range, data that contradict their pose label."""
+    limit = MAX_IMPORT_G * rec.lsb_per_g
+    for st in rec.steps:
+        if len(st.t_s) < 2:
+            raise RigInputError(str(path), None, st.name, f"step {st.name!r} has {len(st.t_s)} sample(s); "
+                                                          "a step needs at least 2")
+        big = np.abs(np.asarray(st.accel_counts, float)) > limit  # (a cast 1e300 is INT64_MIN)
+        if big.any():
+            raise RigInputError(str(path), None, st.name, f"a value of {st.accel_counts[big][0]:g} counts is beyond "
+                                f"{MAX_IMPORT_G:g} g ({rec.lsb_per_g:g} counts/g): not acceleration in {rec.units}")
+        if st.kind == "static" and st.f_nominal is not None:
+            mean = st.accel_counts.mean(axis=0)
+            f = np.asarray(st.f_nominal, float)
+            cosine = float(mean @ f / (np.linalg.norm(mean) * np.linalg.norm(f) or 1.0))
+            if cosine < MIN_POSE_COSINE:
+                raise RigInputError(str(path), None, st.name, f"the data of step {st.name!r} point along "
+                                    f"{np.round(mean / (np.linalg.norm(mean) or 1.0), 2).tolist()}, not its label's "
+                                    f"{np.round(f, 2).tolist()}: mislabelled")
 
 
 def first_decrease(t: np.ndarray) -> int | None:

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from rig.errors import RigInputError
-from rig.importers.common import COUNTS_PER_G_EQUIVALENT, G_MS2, ImportedStep, Recording
+from rig.importers.common import COUNTS_PER_G_EQUIVALENT, G_MS2, ImportedStep, Recording, check_recording
 from rig.importers.generic_csv import read_csv
 from rig.importers.imu_tk import read_imu_tk
 from rig.importers.imucal import IMUCAL_POSES, IMUCAL_ROTATIONS, read_imucal
@@ -51,6 +51,7 @@ def import_recording(source: str, src, sessions_root, session_id: str | None = N
     rec = READERS[source](path, g_ms2=g_ms2, window_s=window_s)
     if not rec.steps:
         raise RigInputError(str(path), None, None, "no steps found in the recording")
+    check_recording(path, rec)
     sid = session_id or f"import-{source}-{re.sub(r'[^A-Za-z0-9_-]+', '-', path.stem)}"
     validate_session_id(sid)
     return write_session(rec, import_manifest(rec, path, sid, g_ms2), Path(sessions_root))

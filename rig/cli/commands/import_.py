@@ -5,6 +5,7 @@ from __future__ import annotations
 import calib
 from calib.errors import CalibError
 from rig.analysis.discover import discover_session
+from rig.analysis.solve import check_plausible
 from rig.cli.common import EXIT_OK, UsageError
 from rig.errors import RigInputError, SessionFormatError
 from rig.importers.recordings import import_recording
@@ -51,9 +52,9 @@ def next_steps(session, path, known: int) -> list[tuple[str, bool]]:
     if known >= 6:
         solve = (f"rig solve {path}", True)
     else:
+        steps = lambda: step_means(session, session.static_step_indices(unknown_pose=True))  # noqa: E731
         solve = (f"rig solve {path} --method magnitude",
-                 _works(lambda: calib.solve(step_means(session, session.static_step_indices(unknown_pose=True)),
-                                            method="magnitude")))
+                 _works(lambda: check_plausible(calib.solve(steps(), method="magnitude"), session.lsb_per_g)))
     return [solve, (f"rig discover {path}", _works(lambda: discover_session(path)))]
 
 
