@@ -52,8 +52,11 @@ class ReplaySensor:
         self._temp_c = None
 
     def identify(self) -> SensorIdentity:
-        return SensorIdentity(model=self.model, address=self.address, identity_register=None,
-                              identity_value=None, bus="replay")
+        """The identity the recording holds (the chip answered it when the session was recorded)."""
+        recorded = self.session.info.rig.sensor.identity or {}
+        return SensorIdentity(model=self.model, address=self.address,
+                              identity_register=recorded.get("identity_register"),
+                              identity_value=recorded.get("identity_value"), bus="replay")
 
     def configure(self, settings) -> None:
         """Recorded data has the recorded settings; nothing to configure."""

@@ -27,7 +27,7 @@ def replay_session(session_dir, *, out_dir=None, ui: Operator | None = None) -> 
         stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
         new = NewSession(Path(out_dir) if out_dir is not None else Path(session_dir).resolve().parent,
                          f"{original.id}-replay-{stamp}", recorded.text, recorded.file,
-                         extra={"replay_of": original.id})
+                         extra={"replay_of": original.id, "seed": original.info.seed})
         writer = start_session(procedure, rig, new)
         # recorded sample times are session times: the session clock starts at 0 now
         outcomes = execute(procedure, rig, writer, ui or SilentOperator(answer=True),

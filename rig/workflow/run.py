@@ -99,6 +99,7 @@ def format_duration(seconds: float) -> str:
 def _resume(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, solve: bool,
             options: EngineOptions) -> RunResult:
     """Continue an interrupted session: lock it first (a second resume touches nothing)."""
+    SessionManifest.load(resume_dir)  # a directory that is not a session is refused before it is locked
     with SessionLock(resume_dir) as lock:
         if lock.stale:
             operator.warn(f"took over the lock of pid {lock.stale.get('pid', '?')} on {lock.stale.get('host', '?')}, "

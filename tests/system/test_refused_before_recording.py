@@ -45,3 +45,18 @@ def test_evaluate_refuses_a_calibration_of_another_range(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "another range" in err[0]
     assert main(["evaluate", str(a / "calibration.yaml"), str(a)]) == 0
+
+
+def test_resume_of_something_that_is_not_a_session_is_refused_and_leaves_nothing(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "file.yaml").write_text("x: 1\n")
+    for target in (tmp_path / "empty", tmp_path / "file.yaml", tmp_path / "nosuch"):
+        assert main(["run", "--resume", str(target)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "session.lock" not in err[0], err
+    assert list((tmp_path / "empty").iterdir()) == []
+
+
+def test_a_procedure_and_a_resume_together_are_refused(tmp_path, capsys):
+    assert main(["run", str(REPO / "procedures" / "six_position.yaml"), "--resume", str(tmp_path)]) == 2
+    assert "not both" in capsys.readouterr().err

@@ -29,6 +29,9 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     if args.procedure is None and args.resume is None:
         raise UsageError("give a procedure file, or --resume DIR")
+    if args.procedure is not None and args.resume is not None:
+        raise UsageError("give a procedure file or --resume DIR, not both (a resume runs the session's own "
+                         "procedure)")
     if args.seed is not None and not 0 <= args.seed < 2**32:
         raise UsageError(f"--seed: expected an integer from 0 to {2**32 - 1}, got {args.seed}")
     if args.time_scale is not None and not (math.isfinite(args.time_scale) and 0 <= args.time_scale <= 1000):

@@ -56,9 +56,23 @@ def run(args) -> int:
     else:
         print(f"calibration: {path}")
         print(format_calibration(cal))
+        warn_if_misfit(cal)
         if args.method != "magnitude":
             print_redundancy(args.session)
     return EXIT_OK
+
+
+#: a chi2/dof this large means the model does not describe the data (poses, sensor or effects)
+MISFIT_CHI2 = 10.0
+
+
+def warn_if_misfit(cal) -> None:
+    """Say plainly when the fit is far worse than the noise: the numbers are then not trustworthy."""
+    fit = cal.accelerometer.fit
+    if fit.chi2_per_dof is not None and fit.chi2_per_dof > MISFIT_CHI2:
+        print(f"rig solve: warning: the model does not fit the data (chi2/dof {fit.chi2_per_dof:.0f}, residual "
+              f"{fit.residual_rms_g * 1e6:.0f} ug rms): poses not where the session says (hand-placed?), another "
+              "sensor, or an effect the model lacks; see rig discover. The sigmas carry the misfit.", file=sys.stderr)
 
 
 def default_output(args) -> Path:
@@ -68,7 +82,12 @@ def default_output(args) -> Path:
     if args.force or not first.exists():
         return first
     tag = "-".join(str(v) for v in (args.model, args.method, args.thermal and f"thermal-{args.thermal}") if v)
-    beside = Path(args.session) / f"calibration-{tag or 'resolved'}.yaml"
+    stem = f"calibration-{tag or 'resolved'}"
+    beside = Path(args.session) / f"{stem}.yaml"
+    k = 2
+    while beside.exists():  # never silently replace an earlier re-solve either
+        beside = Path(args.session) / f"{stem}-{k}.yaml"
+        k += 1
     print(f"note: {first} exists (the run's calibration); writing {beside.name} beside it "
           "(use --force to replace it, or -o FILE)", file=sys.stderr)
     return beside
