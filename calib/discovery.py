@@ -44,6 +44,8 @@ from calib.frames import AXES
 #: baseline columns: which force components enter each output axis (the seed's triangular model)
 TRIANGULAR_COLUMNS = {"x": [0, 1, 2], "y": [1, 2], "z": [2]}
 MIN_TEMP_SPAN_C = 2.0
+MIN_JUMP_SIDE = 3  # steps a bias jump needs on each side
+TEMP_EFFECTS = ("bias_tempco_quadratic", "bias_tempco_cubic")  # enter only after bias_tempco
 MISFIT_P = 0.01
 COLUMN_TOL = 1e-6
 
@@ -57,12 +59,21 @@ class StepContext:
     pose_group : (K,) integer pose labels, used when the poses are unknown (f_nominal NaN):
         the baseline is then one constant per pose group and axis.
     band_c : hysteresis dead band used for ``heating``, C.
+    temp_rate : (K,) rate of temperature change during each step, C/s (least-squares slope of the
+        step's own temperature samples); or None (``thermal_gradient`` is then unobservable).
+    rate_window_s : the window the rates were taken over (a step's duration), s; written into the
+        calibration's ``thermal_gradient`` entry for ``apply``.
+    angles_deg : (K, 3) turntable angles a1, a2, a3 of each step, deg; or None (used to say where an
+        unexplained residual sits).
     """
 
     heating: np.ndarray | None = None
     base_to_sensor: np.ndarray | None = None
     pose_group: np.ndarray | None = None
     band_c: float = 0.5
+    temp_rate: np.ndarray | None = None
+    rate_window_s: float = 5.0
+    angles_deg: np.ndarray | None = None
 
 
 @dataclass
@@ -74,11 +85,12 @@ class FoundEffect:
     sigma: list
     rms_after_g: float
     p_value: float
+    extra: dict = field(default_factory=dict)  # nonlinear parameters (bias_jump: t_jump_s)
 
     def to_json(self) -> dict:
         return {"name": self.name, "axes": list(self.axes), "estimate": _nan_none(self.estimate),
                 "sigma": _nan_none(self.sigma), "unit": self.unit, "rms_after_g": self.rms_after_g,
-                "p_value": self.p_value}
+                "p_value": self.p_value, **self.extra}
 
 
 @dataclass
@@ -116,11 +128,18 @@ class Discovery:
     not_named: dict = field(default_factory=dict)  # candidate -> p-value at the last forward pass
     false_alarm: float = 0.01
     calibration: object = None  # AccelCalibration or None (unknown poses)
+    gap_closed: bool = True  # the final chi2 is consistent with its dof at the false-alarm level
+    dof_after: int = 0
+    p_fit: float = 1.0  # chi-square upper-tail probability of the final model's chi2
+    unexplained: dict | None = None  # where and what remains when the gap stays open
 
     def to_json(self) -> dict:
-        return {"format": "rig-discover/1", "rms_before_g": self.rms_before_g, "rms_after_g": self.rms_after_g,
+        verdict = {"gap_closed": bool(self.gap_closed), "dof_after": int(self.dof_after), "p_fit": self.p_fit}
+        if not self.gap_closed and self.unexplained is not None:
+            verdict["unexplained"] = self.unexplained
+        return {"format": "rig-discover/2", "rms_before_g": self.rms_before_g, "rms_after_g": self.rms_after_g,
                 "noise_rms_g": self.noise_rms_g, "chi2_per_dof_before": self.chi2_per_dof_before,
-                "chi2_per_dof_after": self.chi2_per_dof_after, "false_alarm": self.false_alarm,
+                "chi2_per_dof_after": self.chi2_per_dof_after, **verdict, "false_alarm": self.false_alarm,
                 "effects": [e.to_json() for e in self.effects], "aliases": [list(a) for a in self.aliases],
                 "unobservable": list(self.unobservable),
                 "unobservable_why": dict(self.unobservable_why), "where": self.where,
@@ -165,6 +184,9 @@ class _Problem:
         self.matrix_g = np.eye(3)
         self.cols: dict[str, np.ndarray] = {}
         self.keep: dict[str, np.ndarray] = {}
+        self.jump_grid = jump_times(np.asarray(steps.t_s, float))
+        self.t_jump = float(np.median(self.jump_grid)) if len(self.jump_grid) else None
+        self.multiplicity = {"bias_jump": max(len(self.jump_grid), 1)}  # Bonferroni cost of the time search
 
     def _baseline(self):
         k = self.k
@@ -190,7 +212,19 @@ class _Problem:
         return EffectInputs(f_g=self.f, temp_c=None if s.temp_c is None else np.asarray(s.temp_c, float),
                             t_s=np.asarray(s.t_s, float), heating=self.ctx.heating,
                             base_to_sensor=self.ctx.base_to_sensor, matrix_g=self.matrix_g, t0_c=self.t0_c,
-                            t_ref_s=self.t_ref_s)
+                            t_ref_s=self.t_ref_s, temp_rate=self.ctx.temp_rate, t_jump_s=self.t_jump)
+
+    def set_jump(self, t_jump_s: float) -> None:
+        """Move the bias jump to ``t_jump_s`` (rebuilds its columns)."""
+        self.t_jump = float(t_jump_s)
+        self.build_columns(["bias_jump"])
+        self.keep["bias_jump"] = self.observable_columns("bias_jump")
+
+    def test(self, name: str, small: "_Fit", big: "_Fit") -> tuple[float, float]:
+        """F test of adding ``name`` (``big`` = ``small`` + name), its p-value multiplied by the number
+        of values its nonlinear parameter was searched over (the jump time: Bonferroni)."""
+        f, p = f_test(small, big)
+        return f, min(1.0, p * self.multiplicity.get(name, 1))
 
     def build_columns(self, names) -> None:
         x = self.inputs()
@@ -245,6 +279,26 @@ def f_test(small: _Fit, big: _Fit) -> tuple[float, float]:
 
 
 # -- coverage -------------------------------------------------------------------------------
+def jump_times(t_s: np.ndarray) -> np.ndarray:
+    """Candidate bias-jump times: midpoints between consecutive distinct step times that leave at least
+    ``MIN_JUMP_SIDE`` steps on each side."""
+    t = np.unique(np.asarray(t_s, float))
+    mids = 0.5 * (t[:-1] + t[1:])
+    return mids[MIN_JUMP_SIDE - 1:len(mids) - MIN_JUMP_SIDE + 1]
+
+
+def scan_jump(prob: "_Problem", others: list) -> float:
+    """Put ``bias_jump`` at the step boundary that lowers chi2 most with ``others`` in the model."""
+    best = (np.inf, prob.t_jump)
+    for tj in prob.jump_grid:
+        prob.set_jump(tj)
+        rss = prob.fit(list(others) + ["bias_jump"]).rss
+        if rss < best[0]:
+            best = (rss, tj)
+    prob.set_jump(best[1])
+    return best[1]
+
+
 def coverage_problem(name: str, steps: StepMeans, ctx: StepContext, pose_free: bool) -> str | None:
     """Why the session cannot observe effect ``name`` by design (None when it can)."""
     lib = LIBRARY[name]
@@ -257,6 +311,12 @@ def coverage_problem(name: str, steps: StepMeans, ctx: StepContext, pose_free: b
             return f"temperature span {span:.2f} C < {MIN_TEMP_SPAN_C:g} C"
         if name == "bias_tempco_quadratic" and len(np.unique(np.round(temps))) < 3:
             return "fewer than 3 distinct temperatures"
+        if name == "bias_tempco_cubic" and 1 + int(np.sum(np.diff(np.sort(temps)) > 1.0)) < 4:
+            return "fewer than 4 distinct temperatures (more than 1 C apart)"
+    if "rate" in lib.needs and (ctx.temp_rate is None or not np.all(np.isfinite(ctx.temp_rate))):
+        return "no temperature rate per step (temperature samples inside each step)"
+    if "time" in lib.needs and len(jump_times(np.asarray(steps.t_s, float))) == 0:
+        return f"fewer than {2 * MIN_JUMP_SIDE} steps at distinct times"
     if "legs" in lib.needs:
         h = ctx.heating
         if h is None or not (np.any(h > 0) and np.any(h < 0)):
@@ -312,6 +372,8 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
     selected, aliases = _select(prob, observable, false_alarm)
 
     # re-linearise the M-dependent terms at the final M and refit
+    if "bias_jump" in selected:
+        scan_jump(prob, [n for n in selected if n != "bias_jump"])
     final = prob.fit(selected)
     if not prob.pose_free:
         prob.matrix_g = _matrix_from(prob, final) / prob.lsb
@@ -321,17 +383,29 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
     sig = np.sqrt(np.diag(cov))
     prefix = [prob.fit(selected[:i]) for i in range(len(selected) + 1)]  # the model after each addition
     effects = _found_effects(prob, final, sig, selected, prefix)
-    z0 = (base_fit.resid * prob.w).reshape(3, k).T
     rows = _step_rows(steps, prob, ctx, base_fit, final)
     history = [("baseline", _rms_g(prob, base_fit), base_fit.rss / base_fit.dof)]
     history += [(e.name, e.rms_after_g, prefix[i + 1].rss / prefix[i + 1].dof) for i, e in enumerate(effects)]
     noise = float(np.sqrt(np.mean(np.asarray(steps.sem_counts, float) ** 2)) / prob.lsb)
     cal = None if prob.pose_free else _calibration(steps, prob, final, cov, selected, t0, t_ref, ctx)
+    closed, p_fit = verdict(final.rss, final.dof, false_alarm)
     return Discovery(rms_before_g=_rms_g(prob, base_fit), rms_after_g=_rms_g(prob, final), noise_rms_g=noise,
                      chi2_per_dof_before=base_fit.rss / base_fit.dof, chi2_per_dof_after=final.rss / final.dof,
                      effects=effects, aliases=aliases, unobservable=unobservable, unobservable_why=why,
-                     steps=rows, where=localise(steps, ctx, z0), history=history, false_alarm=false_alarm,
-                     calibration=cal, not_named=dict(getattr(prob, "last_pass", {})))
+                     steps=rows, where=localise(steps, ctx, (base_fit.resid * prob.w).reshape(3, k).T), history=history, false_alarm=false_alarm,
+                     calibration=cal, not_named=dict(getattr(prob, "last_pass", {})), gap_closed=closed,
+                     dof_after=final.dof, p_fit=p_fit,
+                     unexplained=None if closed else unexplained(steps, ctx, (final.resid * prob.w).reshape(3, k).T,
+                                                                 false_alarm))
+
+
+def verdict(chi2: float, dof: int, false_alarm: float) -> tuple[bool, float]:
+    """Whether the model explains the data to the noise level: the chi-square of the final fit (weights
+    1/sem^2) is not beyond its upper ``false_alarm`` quantile on ``dof``; and its upper-tail probability."""
+    if dof <= 0:
+        return True, 1.0
+    p = float(stats.chi2.sf(chi2, dof))
+    return bool(p >= false_alarm), p
 
 
 def _triage(prob: "_Problem", names: list, steps: StepMeans, ctx: StepContext) -> tuple[list, list, dict]:
@@ -364,8 +438,9 @@ def _found_effects(prob: "_Problem", final, sig: np.ndarray, selected: list, pre
         for col, (blk, idx) in enumerate(final.names):
             if blk == n:
                 est[idx], sd[idx] = final.theta[col], sig[col]
+        extra = {"t_jump_s": prob.t_jump} if n == "bias_jump" else {}
         effects.append(FoundEffect(n, list(lib.params), lib.unit, est.tolist(), sd.tolist(),
-                                   _rms_g(prob, prefix[i + 1]), f_test(prefix[i], prefix[i + 1])[1]))
+                                   _rms_g(prob, prefix[i + 1]), prob.test(n, prefix[i], prefix[i + 1])[1], extra))
     return effects
 
 
@@ -390,18 +465,20 @@ def _select(prob: _Problem, observable: list, alpha: float) -> tuple[list, list]
     prob.last_pass = {}
 
     def fit(names):
-        key = tuple(names)
+        key = tuple(names) + ((prob.t_jump,) if "bias_jump" in names else ())
         if key not in cache:
             cache[key] = prob.fit(list(names))
         return cache[key]
 
     while True:
         remaining = [n for n in observable if n not in selected
-                     and (n != "bias_tempco_quadratic" or "bias_tempco" in selected)]
+                     and (n not in TEMP_EFFECTS or "bias_tempco" in selected)]
         if not remaining:
             break
         cur = fit(selected)
-        pvals = {n: f_test(cur, fit(selected + [n])) for n in remaining}
+        if "bias_jump" in remaining:
+            scan_jump(prob, selected)
+        pvals = {n: prob.test(n, cur, fit(selected + [n])) for n in remaining}
         thr = alpha / len(remaining)
         best = min(remaining, key=lambda n: (pvals[n][1], -pvals[n][0]))
         if pvals[best][1] >= thr:
@@ -411,8 +488,8 @@ def _select(prob: _Problem, observable: list, alpha: float) -> tuple[list, list]
         for n in remaining:
             if n == best or pvals[n][1] >= thr:
                 continue
-            p_n = f_test(fit(selected + [best]), fit(selected + [best, n]))[1]
-            p_b = f_test(fit(selected + [n]), fit(selected + [n, best]))[1]
+            p_n = prob.test(n, fit(selected + [best]), fit(selected + [best, n]))[1]
+            p_b = prob.test(best, fit(selected + [n]), fit(selected + [n, best]))[1]
             if p_n >= thr and p_b >= thr:
                 group.append(n)
         if len(group) > 1:
@@ -423,9 +500,9 @@ def _select(prob: _Problem, observable: list, alpha: float) -> tuple[list, list]
         full = fit(selected)
         drops = {}
         for n in selected:
-            if n == "bias_tempco" and "bias_tempco_quadratic" in selected:
+            if n == "bias_tempco" and any(e in selected for e in TEMP_EFFECTS):
                 continue
-            drops[n] = f_test(fit([s for s in selected if s != n]), full)[1]
+            drops[n] = prob.test(n, fit([s for s in selected if s != n]), full)[1]
         if not drops:
             break
         worst = max(drops, key=drops.get)
@@ -490,8 +567,12 @@ def _calibration(steps, prob, final, cov, selected, t0, t_ref, ctx):
                 est[idx], sd[idx] = final.theta[col], sig[col]
         entry = {"name": n, "unit": lib.unit, "axes": list(lib.params), "estimate": est.tolist(),
                  "sigma": sd.tolist()}
-        if n == "scale_tempco":
+        if n in ("scale_tempco", "bias_tempco_cubic"):
             entry["t0_c"] = t0
+        if n == "thermal_gradient":
+            entry["rate_window_s"] = float(ctx.rate_window_s)
+        if n == "bias_jump":
+            entry["t_jump_s"] = float(prob.t_jump)
         if n == "bias_drift":
             entry["t_ref_s"] = t_ref
         if n == "thermal_hysteresis":
@@ -560,4 +641,115 @@ def summary_lines(d: dict) -> list[str]:
                      f" (rms z first half {d['by_time']['first_half']:.1f}, second half "
                      f"{(d['by_time']['second_half'] or 0):.1f})")
     lines.append("worst poses: " + ", ".join(d["worst_poses"]))
+    return lines
+
+
+# -- what remains ---------------------------------------------------------------------------
+def unexplained(steps: StepMeans, ctx: StepContext, z: np.ndarray, false_alarm: float = 0.01) -> dict:
+    """Where the final model's normalised residual ``z`` (K, 3) sits and what structure it has.
+
+    Plain data: RMS of z by axis, pose, temperature, leg, time block and outer-axis angle; then
+    ``structure``: per axis, the residual against time, temperature and temperature rate (Pearson r),
+    a step in time (best split, Bonferroni over the splits) and an offset per pose or per outer-axis
+    angle (one-way F); each with its p-value, significant below ``false_alarm`` / (number of tests).
+    """
+    k = len(steps)
+    zr = np.sqrt(np.mean(z ** 2, axis=1))
+    t = np.asarray(steps.t_s, float)
+    out: dict = {"rms_z": float(np.sqrt(np.mean(z ** 2))),
+                 "by_axis": {a: float(np.sqrt(np.mean(z[:, j] ** 2))) for j, a in enumerate(AXES)}}
+    order = np.argsort(-zr)[:5]
+    out["worst_steps"] = [{"name": str(steps.names[i]), "t_s": float(t[i]), "z": z[i].tolist()} for i in order]
+    groups = _groups(steps, ctx)
+    for label, g in groups.items():
+        out[f"by_{label}"] = {str(v): float(np.sqrt(np.mean(zr[g == v] ** 2))) for v in dict.fromkeys(g.tolist())}
+    blocks = np.minimum((4 * np.argsort(np.argsort(t))) // max(k, 1), 3)
+    out["by_time_block"] = {f"{t[blocks == b].min():.0f}-{t[blocks == b].max():.0f} s":
+                            float(np.sqrt(np.mean(zr[blocks == b] ** 2))) for b in range(4) if np.any(blocks == b)}
+    tests = _structure_tests(steps, ctx, z, groups)
+    thr = false_alarm / max(len(tests), 1)
+    for s_ in tests:
+        s_["significant"] = bool(s_["p_value"] < thr)
+    out["structure"] = tests
+    out["threshold"] = thr
+    return out
+
+
+def _groups(steps: StepMeans, ctx: StepContext) -> dict:
+    """Step labels to group the residual by: pose, temperature, leg, outer-axis angle."""
+    g = {"pose": np.asarray([str(n) for n in steps.names], dtype=object)}
+    if steps.temp_c is not None:
+        g["temperature"] = np.round(np.asarray(steps.temp_c, float)).astype(int)
+    if ctx.heating is not None:
+        g["leg"] = np.asarray([{1: "heating", -1: "cooling"}.get(int(h), "unknown") for h in ctx.heating], dtype=object)
+    if ctx.angles_deg is not None and np.all(np.isfinite(ctx.angles_deg)):
+        g["outer_axis_deg"] = np.round(np.asarray(ctx.angles_deg, float)[:, 0] % 360).astype(int)
+    return g
+
+
+def _structure_tests(steps: StepMeans, ctx: StepContext, z: np.ndarray, groups: dict) -> list:
+    t = np.asarray(steps.t_s, float)
+    regressors = {"time": t}
+    if steps.temp_c is not None:
+        regressors["temperature"] = np.asarray(steps.temp_c, float)
+    if ctx.temp_rate is not None and np.all(np.isfinite(ctx.temp_rate)):
+        regressors["temperature_rate"] = np.asarray(ctx.temp_rate, float)
+    out = []
+    for j, a in enumerate(AXES):
+        for kind, x in regressors.items():
+            if np.ptp(x) > 0:
+                r, p = stats.pearsonr(x, z[:, j])
+                out.append({"kind": f"correlated_with_{kind}", "axis": a, "r": float(r), "p_value": float(p)})
+        out.append({"kind": "step_in_time", "axis": a, **_best_split(t, z[:, j])})
+        for label in ("pose", "outer_axis_deg"):
+            if label in groups and 1 < len(set(groups[label].tolist())) < len(z):
+                f, p = stats.f_oneway(*[z[groups[label] == v, j] for v in dict.fromkeys(groups[label].tolist())])
+                out.append({"kind": f"offset_per_{label}", "axis": a, "f": float(f), "p_value": float(p)})
+    return out
+
+
+def _best_split(t: np.ndarray, zj: np.ndarray) -> dict:
+    """The time split with the largest two-sample t statistic of ``zj``; p Bonferroni over the splits."""
+    grid = jump_times(t)
+    best = {"t_s": None, "shift_z": 0.0, "p_value": 1.0}
+    tmax = -1.0
+    for tj in grid:
+        a, b = zj[t < tj], zj[t >= tj]
+        se = np.sqrt(1.0 / len(a) + 1.0 / len(b))
+        stat = abs(a.mean() - b.mean()) / se  # z is unit-variance under the model
+        if stat > tmax:
+            tmax = stat
+            p = min(1.0, 2 * stats.norm.sf(stat) * len(grid))
+            best = {"t_s": float(tj), "shift_z": float(b.mean() - a.mean()), "p_value": float(p)}
+    return best
+
+
+#: plain-language hints for the structures of :func:`unexplained`
+HINTS = {"correlated_with_time": "something changing with time (drift that is not linear, warm-up, aging)",
+         "correlated_with_temperature": "a temperature dependence the library does not describe",
+         "correlated_with_temperature_rate": "a thermal lag or gradient (the temperature rate matters)",
+         "step_in_time": "a sudden change (a shock, a mode change, a re-mount)",
+         "offset_per_pose": "something that depends on the pose (mounting, nonlinearity, the fixture)",
+         "offset_per_outer_axis_deg": "something that depends on the outer-axis angle (the turntable: "
+                                      "wobble, tilt, a magnetic or electrical disturbance)"}
+
+
+def unexplained_lines(u: dict) -> list[str]:
+    """Plain sentences from :func:`unexplained`'s dict: where the residual sits and what to look for."""
+    lines = ["residual rms z " + f"{u['rms_z']:.2f} (1 expected); by axis: "
+             + ", ".join(f"{a} {v:.2f}" for a, v in u["by_axis"].items())]
+    for label in ("temperature", "leg", "time_block", "outer_axis_deg"):
+        if f"by_{label}" in u and len(u[f"by_{label}"]) > 1:
+            lines.append(f"rms z by {label.replace('_', ' ')}: "
+                         + ", ".join(f"{k} {v:.2f}" for k, v in u[f"by_{label}"].items()))
+    lines.append("worst steps: " + ", ".join(f"{s['name']} ({s['t_s']:.0f} s)" for s in u["worst_steps"]))
+    sig = [s for s in u["structure"] if s["significant"]]
+    for kind in dict.fromkeys(s["kind"] for s in sig):
+        axes = ", ".join(s["axis"] for s in sig if s["kind"] == kind)
+        at = next(s for s in sig if s["kind"] == kind)
+        when = f" near {at['t_s']:.0f} s" if kind == "step_in_time" and at.get("t_s") is not None else ""
+        lines.append(f"{kind.replace('_', ' ')}{when} (axes {axes}): look for {HINTS[kind]}")
+    if not sig:
+        lines.append("no simple structure (time, temperature, rate, step, pose, angle) is significant: look for "
+                     "noise larger than each step's scatter says (vibration, correlated noise)")
     return lines

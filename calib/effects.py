@@ -24,7 +24,15 @@ full_misalignment          rad        couplings below the diagonal: y += p_yx Mn
 table_tilt                 deg        f -> f + (tx * B e_y - ty * B e_x), B = base -> sensor rotation
 bias_drift                 g/s        p_j (t - t_ref_s)
 thermal_hysteresis         g          p_j / 2 * h,  h = +1 after heating, -1 after cooling, 0 unknown
+bias_tempco_cubic          g/C^3      p_j dT^3
+thermal_gradient           g/(C/s)    p_j dT/dt  (rate of temperature change, C/s)
+bias_jump                  g          p_j [t >= t_jump_s]  (t_jump_s: a nonlinear parameter, searched)
 =========================  =========  ===========================================================
+
+``thermal_gradient`` needs the temperature rate. In the search it is the least-squares
+slope of temp_c against t_s over each step's own samples; at ``apply`` time it is the
+least-squares slope over the samples within ``rate_window_s`` / 2 of each sample
+(:func:`temperature_rate`; the samples given must be one time-ordered record).
 
 ``table_tilt`` belongs to the turntable, not the sensor: it changes the true
 specific force of each pose, so :func:`effect_counts` (used by ``apply``) leaves
@@ -55,6 +63,8 @@ class EffectInputs:
     matrix_g : (3, 3) the fitted M divided by lsb_per_g (dimensionless).
     t0_c : reference temperature of the temperature terms, C.
     t_ref_s : reference time of the drift term, s.
+    temp_rate : (K,) rate of temperature change, C/s, or None (its terms are then zero).
+    t_jump_s : time of the bias jump, s, or None (its terms are then zero).
     """
 
     f_g: np.ndarray
@@ -65,6 +75,8 @@ class EffectInputs:
     matrix_g: np.ndarray | None = None
     t0_c: float = 25.0
     t_ref_s: float = 0.0
+    temp_rate: np.ndarray | None = None
+    t_jump_s: float | None = None
 
     def mn(self) -> np.ndarray:
         return np.eye(3) if self.matrix_g is None else np.asarray(self.matrix_g, float)
@@ -85,7 +97,8 @@ class Effect:
     description : one line for reports.
     unit : unit of every parameter.
     params : parameter labels (their order in ``estimate``).
-    needs : input the effect needs beyond poses: "temp", "legs", "rotation" (pose rotations), or "".
+    needs : input the effect needs beyond poses: "temp", "legs", "rotation" (pose rotations),
+        "rate" (temperature rate per step), "time" (step times), or "".
     coverage : the pose / temperature coverage that makes it observable (for reports).
     on_sensor : False for properties of the rig (applied by nobody at ``apply`` time).
     contribution : (params (P,), EffectInputs) -> (K, 3) output term, g.
@@ -146,6 +159,16 @@ def _tilt(p, x):
     return df @ x.mn().T
 
 
+def _rate(x):
+    return np.zeros(len(x.f_g)) if x.temp_rate is None else np.asarray(x.temp_rate, float)
+
+
+def _jump(x):
+    if x.t_jump_s is None:
+        return np.zeros(len(x.f_g))
+    return (np.asarray(x.t_s, float) >= x.t_jump_s).astype(float)
+
+
 def _heating(x):
     return np.zeros(len(x.f_g)) if x.heating is None else np.asarray(x.heating, float)
 
@@ -174,11 +197,43 @@ LIBRARY: dict[str, Effect] = {e.name: e for e in [
     Effect("thermal_hysteresis", "bias offset after heating versus after cooling (+h/2, -h/2)", "g", AXES,
            ("temp", "legs"), "the same temperatures visited on a heating and a cooling leg", True,
            _per_axis(lambda x: 0.5 * _heating(x)[:, None])),
+    Effect("bias_tempco_cubic", "bias cubic in temperature", "g/C^3", AXES, ("temp",),
+           "steps at 4 or more temperatures spread over at least 2 C", True,
+           _per_axis(lambda x: x.dt_c()[:, None] ** 3)),
+    Effect("thermal_gradient", "bias proportional to the rate of temperature change dT/dt", "g/(C/s)", AXES,
+           ("temp", "rate"), "steps captured at different temperature rates (while the chamber ramps)", True,
+           _per_axis(lambda x: _rate(x)[:, None])),
+    Effect("bias_jump", "a bias step at a time found by the search (shock, mode change)", "g", AXES, ("time",),
+           "steps before and after the jump (at least 3 on each side)", True,
+           _per_axis(lambda x: _jump(x)[:, None])),
 ]}
 
 #: extra fields an effect entry of a calibration file carries, per effect
 EXTRA_FIELDS = {"bias_tempco": ("t0_c",), "bias_tempco_quadratic": ("t0_c",), "scale_tempco": ("t0_c",),
-                "bias_drift": ("t_ref_s",), "thermal_hysteresis": ("band_c",)}
+                "bias_drift": ("t_ref_s",), "thermal_hysteresis": ("band_c",), "bias_tempco_cubic": ("t0_c",),
+                "thermal_gradient": ("rate_window_s",), "bias_jump": ("t_jump_s",)}
+TIME_EFFECTS = ("bias_drift", "bias_jump", "thermal_gradient")
+
+
+def temperature_rate(temp_c, t_s, window_s: float) -> np.ndarray:
+    """dT/dt (C/s) at each sample: least-squares slope of ``temp_c`` against ``t_s`` over the samples
+    within ``window_s / 2`` of it (one time-ordered record). 0 where fewer than 2 distinct times."""
+    t = np.asarray(t_s, float)
+    y = np.asarray(temp_c, float)
+    if t.ndim != 1 or len(t) < 2 or np.any(np.diff(t) < 0):
+        raise CalibError("thermal_gradient: apply() needs time-ordered t_s and temp_c of one record (>= 2 samples)")
+    lo = np.searchsorted(t, t - window_s / 2, "left")
+    hi = np.searchsorted(t, t + window_s / 2, "right")
+    tc = t - t[0]  # conditioning
+
+    def win(v):
+        c = np.concatenate([[0.0], np.cumsum(v)])
+        return c[hi] - c[lo]
+    n, st, sy = hi - lo, win(tc), win(y)
+    sxx = win(tc * tc) - st * st / n
+    sxy = win(tc * y) - st * sy / n
+    ok = sxx > 1e-12 * np.maximum(win(tc * tc), 1.0)
+    return np.where(ok, sxy / np.where(ok, sxx, 1.0), 0.0)
 
 
 def heating_state(temp_c, band_c: float = 0.5, initial: int = 0) -> np.ndarray:
@@ -210,7 +265,9 @@ def effect_counts(effects: list, f_g, temp_c, t_s, lsb_per_g: float, matrix_coun
     """Output (N, 3) in counts of a calibration file's ``effects`` at specific force ``f_g`` (N, 3), g.
 
     ``temp_c`` (N,) and ``t_s`` (N,) are needed by the temperature and time effects
-    (a clear error otherwise). Hysteresis follows the temperature series given.
+    (a clear error otherwise). Hysteresis follows the temperature series given;
+    ``thermal_gradient`` uses :func:`temperature_rate` of that series (so the samples
+    must be one time-ordered record); ``bias_jump`` adds its step from ``t_jump_s`` on.
     ``table_tilt`` (a property of the rig) contributes nothing here.
     """
     f = np.atleast_2d(np.asarray(f_g, float))
@@ -229,13 +286,15 @@ def effect_counts(effects: list, f_g, temp_c, t_s, lsb_per_g: float, matrix_coun
             if not np.all(np.isfinite(temp)):
                 raise CalibError(f"apply(): temp_c has NaN values but the calibration has the effect {lib.name}")
         t = None
-        if lib.name == "bias_drift":
+        if lib.name in TIME_EFFECTS:
             if t_s is None:
-                raise CalibError("this calibration has the effect bias_drift: apply() needs t_s")
+                raise CalibError(f"this calibration has the effect {lib.name}: apply() needs t_s")
             t = np.broadcast_to(np.asarray(t_s, float), (n,))
         heating = heating_state(temp, float(e.get("band_c", 0.5))) if lib.name == "thermal_hysteresis" else None
+        rate = temperature_rate(temp, t, float(e.get("rate_window_s", 5.0))) if lib.name == "thermal_gradient" else None
         x = EffectInputs(f_g=f, temp_c=temp, t_s=t if t is not None else np.zeros(n), heating=heating,
-                         matrix_g=mg, t0_c=float(e.get("t0_c", 25.0)), t_ref_s=float(e.get("t_ref_s", 0.0)))
+                         matrix_g=mg, t0_c=float(e.get("t0_c", 25.0)), t_ref_s=float(e.get("t_ref_s", 0.0)),
+                         temp_rate=rate, t_jump_s=float(e["t_jump_s"]) if "t_jump_s" in e else None)
         p = np.nan_to_num(np.asarray(e["estimate"], float).ravel())
         out += lib.contribution(p, x)
     return out * lsb_per_g

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from calib import calfile
-from calib.discovery import Discovery, StepContext, discover, summary_lines
+from calib.discovery import Discovery, StepContext, discover, summary_lines, unexplained_lines
 from calib.effects import LIBRARY, heating_state
 from calib.errors import CalibError
 from rig.analysis.solve import SOFTWARE, sensor_section
@@ -75,7 +75,26 @@ def step_context(session: Session, step_indices: list[int]) -> StepContext:
         # steps sharing one unknown pose carry the same pose_group; otherwise each is its own
         groups = np.array([steps[i].pose_group if steps[i].pose_group is not None else 1_000_000 + i
                            for i in step_indices])
-    return StepContext(heating=heating, base_to_sensor=b2s, pose_group=groups, band_c=BAND_C)
+    rates, window = step_rates(session, step_indices)
+    return StepContext(heating=heating, base_to_sensor=b2s, pose_group=groups, band_c=BAND_C, temp_rate=rates,
+                       rate_window_s=window,
+                       angles_deg=np.asarray(angles, float) if all(a is not None for a in angles) else None)
+
+
+def step_rates(session: Session, step_indices: list[int]) -> tuple[np.ndarray | None, float]:
+    """Rate of temperature change during each step (C/s): the least-squares slope of the step's own
+    temperature samples against time; and the median step duration (s). None without temperatures."""
+    if not session.has_temperature:
+        return None, 5.0
+    rates, spans = np.full(len(step_indices), np.nan), []
+    for pos, i in enumerate(step_indices):
+        s = session.step_samples(i)
+        t, tc = np.asarray(s["t_s"], float), np.asarray(s["temp_c"], float)
+        ok = np.isfinite(t) & np.isfinite(tc)
+        if ok.sum() >= 2 and np.ptp(t[ok]) > 0:
+            rates[pos] = np.polyfit(t[ok] - t[ok].mean(), tc[ok], 1)[0]
+            spans.append(float(np.ptp(t[ok])))
+    return (rates if np.all(np.isfinite(rates)) else None), (float(np.median(spans)) if spans else 5.0)
 
 
 def discover_session(session_dir, *, false_alarm: float = 0.01) -> tuple[Session, Discovery]:
@@ -119,6 +138,7 @@ def format_report(session: Session, d: Discovery) -> str:
     lines.append(f"gap: {d.rms_before_g * 1e6:.1f} -> {d.rms_after_g * 1e6:.1f} ug rms "
                  f"(noise {d.noise_rms_g * 1e6:.1f} ug), chi2/dof {d.chi2_per_dof_before:.2f} -> "
                  f"{d.chi2_per_dof_after:.2f}")
+    lines += verdict_lines(d)
     lines.append("per step (residual, ug; before -> after):")
     lines.append(f"  {'step':<14} {'temp C':>7} {'leg':>4}   {'x':>17} {'y':>17} {'z':>17}")
     for s in d.steps:
@@ -127,6 +147,18 @@ def format_report(session: Session, d: Discovery) -> str:
         cells = " ".join(f"{b * 1e6:7.0f} -> {a * 1e6:5.0f}" for b, a in zip(s.residual_before_g, s.residual_after_g))
         lines.append(f"  {s.name[:14]:<14} {temp} {leg:>4}   {cells}")
     return "\n".join(lines)
+
+
+def verdict_lines(d: Discovery) -> list[str]:
+    """The verdict in plain words: is the gap closed to the noise level, and if not, what remains."""
+    head = f"chi2/dof {d.chi2_per_dof_after:.2f} on {d.dof_after} dof, p = {d.p_fit:.2g}"
+    if d.gap_closed:
+        return [f"verdict: the model now explains the data to the noise level ({head})"]
+    lines = [f"verdict: something remains ({head}, beyond the false-alarm level {d.false_alarm:g}); "
+             "no effect in the library describes it:"]
+    if d.unexplained:
+        lines += ["  " + s for s in unexplained_lines(d.unexplained)]
+    return lines
 
 
 def _fmt(v) -> str:

@@ -33,7 +33,12 @@ EFFECT_FIELDS: dict[str, str] = {
     "cross_axis_nonlinearity": "cross_axis_nonlinearity",
     "bias_drift": "bias_drift_g_per_s",
     "thermal_hysteresis": "thermal_hysteresis_g",
+    "bias_tempco_cubic": "bias_tempco3_g_per_c3",
+    "thermal_gradient": "thermal_gradient_g_per_c_per_s",
+    "bias_jump": "bias_jump_g",
 }
+#: parameters of an effect that are not magnitudes (error-model field), e.g. when the bias jump happens
+EFFECT_PARAMS: dict[str, str] = {"bias_jump_t_s": "bias_jump_t_s"}
 WORLD_EFFECTS = ("table_tilt", "full_misalignment")
 MAX_MAGNITUDE = 1e6  # no error-model term or effect is anywhere near this
 
@@ -66,7 +71,7 @@ def _field_names(cls) -> list[str]:
 AccelOverrides = _overrides("AccelOverrides", _field_names(AccelErrorModel), "Overrides of AccelErrorModel fields.")
 GyroOverrides = _overrides("GyroOverrides", _field_names(GyroErrorModel), "Overrides of GyroErrorModel fields.")
 MagOverrides = _overrides("MagOverrides", _field_names(MagErrorModel), "Overrides of MagErrorModel fields.")
-Effects = _overrides("Effects", [*EFFECT_FIELDS, *WORLD_EFFECTS], "Hidden effects by canonical name, magnitudes.")
+Effects = _overrides("Effects", [*EFFECT_FIELDS, *WORLD_EFFECTS, *EFFECT_PARAMS], "Hidden effects by canonical name, magnitudes.")
 Effects.mapping_hint = "expected a mapping of effect name to magnitude"
 
 

@@ -25,7 +25,7 @@ from drivers.sensors.sim.mpu9150 import Mpu9150Model
 from drivers.ximc.sim.emulator import ControllerEmulator, XimcFaults
 from rig.errors import RigInputError
 from rig.planning.kinematics import AXES
-from rig.simulation.settings import EFFECT_FIELDS, WORLD_EFFECTS, SimSettings  # noqa: F401 - SimSettings re-exported
+from rig.simulation.settings import EFFECT_FIELDS, EFFECT_PARAMS, WORLD_EFFECTS, SimSettings  # noqa: F401 - SimSettings re-exported
 from rig.simulation.world import AxisLink, SimChamber, WorldModel
 
 
@@ -87,8 +87,8 @@ class SimulatedRig:
         d = errors.to_dict()
         d.update(self.settings.errors)
         for name, value in self.settings.effects.items():
-            if name in EFFECT_FIELDS:
-                key = EFFECT_FIELDS[name]
+            if name in EFFECT_FIELDS or name in EFFECT_PARAMS:
+                key = EFFECT_FIELDS.get(name) or EFFECT_PARAMS[name]
                 d[key] = _broadcast_like(value, d.get(key), name)
             elif name == "full_misalignment":
                 # a small mounting rotation about the sensor's x axis couples y and z

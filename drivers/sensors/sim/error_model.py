@@ -7,6 +7,9 @@ rounded to counts by the chip model)::
         + bias_g + bias_tempco * dT + bias_tempco2 * dT^2 + bias_drift * t
         + scale_nonlinearity * f^2 + cross_axis_nonlinearity @ (fx fy, fy fz, fz fx)
         + hysteresis (+h/2 after heating, -h/2 after cooling) + white noise
+        + bias_tempco3 * dT^3 + thermal_gradient * dT/dt + bias_jump * [t >= bias_jump_t_s]
+
+(the last three are off by default and then leave the output bit-identical)
 
 with dT = T - t_ref_c. ``matrix`` is dimensionless (diagonal = scale factor,
 off-diagonal = cross-axis / misalignment). Datasheet-class magnitudes
@@ -44,6 +47,10 @@ class AccelErrorModel:
     cross_axis_nonlinearity: list = field(default_factory=lambda: np.zeros((3, 3)).tolist())  # g per g^2
     bias_drift_g_per_s: list = _v()
     thermal_hysteresis_g: list = _v()
+    bias_tempco3_g_per_c3: list = _v()
+    thermal_gradient_g_per_c_per_s: list = _v()  # g per (C/s) of temperature rate
+    bias_jump_g: list = _v()
+    bias_jump_t_s: float = 0.0  # sampler (clock) time of the bias jump, s
     noise_density_g_per_rthz: list = _v(400e-6)
     t_ref_c: float = 25.0
     hysteresis_band_c: float = 0.5
@@ -83,8 +90,10 @@ class AccelErrorModel:
             raise ValueError("matrix and cross_axis_nonlinearity must be 3x3")
         return out
 
-    def output_g(self, f_g: np.ndarray, temp_c: np.ndarray, t_s: np.ndarray, heating: np.ndarray) -> np.ndarray:
-        """Noise-free output (N, 3), g. ``heating`` (N,) is +1 after heating, -1 after cooling, 0 unknown."""
+    def output_g(self, f_g: np.ndarray, temp_c: np.ndarray, t_s: np.ndarray, heating: np.ndarray,
+                 temp_rate: np.ndarray | None = None) -> np.ndarray:
+        """Noise-free output (N, 3), g. ``heating`` (N,) is +1 after heating, -1 after cooling, 0 unknown;
+        ``temp_rate`` (N,) the true dT/dt, C/s (needed only with ``thermal_gradient_g_per_c_per_s``)."""
         f = np.asarray(f_g, float)
         dt = (np.asarray(temp_c, float) - self.t_ref_c)[:, None]
         lin = f @ np.asarray(self.matrix).T
@@ -95,7 +104,22 @@ class AccelErrorModel:
         prods = np.stack([f[:, 0] * f[:, 1], f[:, 1] * f[:, 2], f[:, 2] * f[:, 0]], axis=1)
         out = out + prods @ np.asarray(self.cross_axis_nonlinearity).T
         out = out + 0.5 * np.asarray(self.thermal_hysteresis_g) * np.asarray(heating, float)[:, None]
+        return self._extra_g(out, dt, t_s, temp_rate)
+
+    def _extra_g(self, out, dt, t_s, temp_rate):
+        """The cubic tempco, thermal-gradient and bias-jump terms (only those switched on)."""
+        if np.any(self.bias_tempco3_g_per_c3):
+            out = out + np.asarray(self.bias_tempco3_g_per_c3) * dt**3
+        if np.any(self.thermal_gradient_g_per_c_per_s):
+            if temp_rate is None:
+                raise ValueError("thermal_gradient_g_per_c_per_s needs the temperature rate")
+            out = out + np.asarray(self.thermal_gradient_g_per_c_per_s) * np.asarray(temp_rate, float)[:, None]
+        if np.any(self.bias_jump_g):
+            out = out + np.asarray(self.bias_jump_g) * (np.asarray(t_s, float) >= self.bias_jump_t_s)[:, None]
         return out
+
+    def needs_rate(self) -> bool:
+        return bool(np.any(self.thermal_gradient_g_per_c_per_s))
 
 
 class HysteresisState:

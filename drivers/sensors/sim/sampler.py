@@ -57,6 +57,10 @@ class LazySampler:
     def stop(self) -> None:
         self.running = False
 
+    def _temp_rate(self, t: np.ndarray, h: float = 0.5) -> np.ndarray:
+        """True dT/dt (C/s) of the physics' sensor temperature (central difference over +-h s)."""
+        return (np.asarray(self.physics(t + h).temp_c, float) - np.asarray(self.physics(t - h).temp_c, float)) / (2 * h)
+
     def catch_up(self, keep_last: int):
         """Samples due since the last call: dict of arrays (t_s, accel_g, temp_c, gyro_dps, skipped).
 
@@ -82,7 +86,8 @@ class LazySampler:
         dlpf = self.noise.dlpf
         ph = self.physics(t - self.delay_s if dlpf else t)
         heating = self.hyst.update(ph.temp_c)
-        a = self.accel.output_g(ph.specific_force_g, ph.temp_c, t, heating)
+        rate = self._temp_rate(t - self.delay_s if dlpf else t) if self.accel.needs_rate() else None
+        a = self.accel.output_g(ph.specific_force_g, ph.temp_c, t, heating, rate)
         if dlpf:
             a = a + self.accel_noise.sample(t, self.accel.noise_density_g_per_rthz, self.bandwidth_hz)
         else:
