@@ -100,13 +100,21 @@ def check_against_manifest(path: Path, info: SessionManifest, samples: dict) -> 
     a finished step with more or fewer rows than recorded (rows duplicated or lost)."""
     sensor = info.rig.sensor
     if sensor.accel_range_g and sensor.accel_lsb_per_g:
-        limit = max(2.0 * float(sensor.accel_range_g) * float(sensor.accel_lsb_per_g), 32768.0)
-        over = np.abs(samples["accel_counts"]) > limit
+        limit = float(sensor.accel_range_g) * float(sensor.accel_lsb_per_g)  # full scale: [-limit, limit - 1]
+        a = samples["accel_counts"]
+        over = (a > limit - 1) | (a < -limit)
         if over.any():
             row, axis = np.argwhere(over)[0]
             raise SessionFormatError(str(path), int(row) + 2, f"a{'xyz'[axis]}",
                                      f"{samples['accel_counts'][row, axis]} counts is beyond the "
                                      f"{sensor.accel_range_g:g} g range of the {sensor.model} ({limit:.0f} counts)")
+    gyro = samples.get("gyro_counts")
+    if gyro is not None and sensor.gyro_lsb_per_dps and info.rig.turntable is not None:
+        missing = ~np.all(np.isfinite(gyro), axis=1)
+        if missing.any():
+            row = int(np.argmax(missing))
+            raise SessionFormatError(str(path), row + 2, "wx", "the sensor recorded its gyroscope in every row; "
+                                     "this row has an empty or NaN gyro count")
     counts = np.bincount(samples["step"], minlength=len(info.steps)) if len(samples["step"]) else \
         np.zeros(len(info.steps), int)
     for step in info.steps:

@@ -40,6 +40,8 @@ def _cell(lines, row, column, value):
 
 @pytest.mark.parametrize("column, value, expected", [
     ("ax", "40000000", "beyond the 4 g range"),
+    ("ay", "32768", "beyond the 4 g range"),
+    ("wz", "nan", "empty or NaN gyro count"),
     ("az", "1e19", "raw counts beyond"),
     ("wx", "1.5", "raw counts must be integers"),
     ("temp_c", "1e300", "expected a temperature in C"),
