@@ -21,8 +21,7 @@ REPO = Path(__file__).resolve().parents[1]
 MAX_CLASS_LINES = 250
 MAX_FUNCTION_LINES = 60
 #: modules imported inside functions on purpose: heavy and needed by one command only
-OPTIONAL_HEAVY = ("matplotlib", "scipy", "pandas", "libximc", "smbus2", "serial.tools", "rich", "termios", "tty",
-                  "pty", "fcntl", "resource", "readline", "importlinter")
+OPTIONAL_HEAVY = ("matplotlib",)
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
+from scipy import stats
 
 from calib.errors import ObservabilityError
 from calib.frames import AXES
@@ -152,6 +153,18 @@ def check_model(designs: dict, cond_max: float = 1e10) -> None:
                                  + (f"; needs {'; '.join(hints)}" if hints else "") + ")")
 
 
+def misfit(chi2: float, dof: int, level: float) -> tuple[bool, float]:
+    """Whether a weighted fit's chi-square is beyond its upper ``level`` quantile on ``dof`` (the model
+    misses something the noise does not explain), and its upper-tail probability (1 when dof <= 0).
+
+    The one rule behind the Birge-ratio rescaling of the solvers and the discovery verdict.
+    """
+    if dof <= 0:
+        return False, 1.0
+    p = float(stats.chi2.sf(chi2, dof))
+    return p < level, p
+
+
 def solve_wls(g: np.ndarray, y: np.ndarray, sem: np.ndarray, names: list[str],
               misfit_p: float = 0.01) -> AxisFit:
     """Weighted least squares with 1/sem^2 weights.
@@ -173,11 +186,6 @@ def solve_wls(g: np.ndarray, y: np.ndarray, sem: np.ndarray, names: list[str],
     res = y - g @ params
     chi2 = float(np.sum((res * w) ** 2))
     dof = g.shape[0] - g.shape[1]
-    inflated = False
-    cov = cov0
-    if dof > 0:
-        from scipy.stats import chi2 as chi2_dist
-        inflated = bool(chi2_dist.sf(chi2, dof) < misfit_p)
-        if inflated:
-            cov = cov0 * (chi2 / dof)
+    inflated, _ = misfit(chi2, dof, misfit_p)
+    cov = cov0 * (chi2 / dof) if inflated else cov0
     return AxisFit(list(names), params, cov, cov0, res, chi2, dof, inflated)

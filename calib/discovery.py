@@ -36,7 +36,7 @@ from scipy import stats
 
 from calib.accel.inputs import StepMeans
 from calib.accel.solve import TRIANGULAR_NAMES, assemble
-from calib.design import AxisFit
+from calib.design import AxisFit, misfit
 from calib.effects import LIBRARY, EffectInputs
 from calib.errors import CalibError
 from calib.frames import AXES
@@ -402,10 +402,8 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
 def verdict(chi2: float, dof: int, false_alarm: float) -> tuple[bool, float]:
     """Whether the model explains the data to the noise level: the chi-square of the final fit (weights
     1/sem^2) is not beyond its upper ``false_alarm`` quantile on ``dof``; and its upper-tail probability."""
-    if dof <= 0:
-        return True, 1.0
-    p = float(stats.chi2.sf(chi2, dof))
-    return bool(p >= false_alarm), p
+    significant, p = misfit(chi2, dof, false_alarm)
+    return not significant, p
 
 
 def _triage(prob: "_Problem", names: list, steps: StepMeans, ctx: StepContext) -> tuple[list, list, dict]:

@@ -18,8 +18,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import least_squares
 
+from calib.design import misfit
 from calib.errors import ObservabilityError
+
+MISFIT_P = 0.01  # a misfit this improbable rescales the sigmas by chi2/dof
 
 
 @dataclass(frozen=True)
@@ -66,8 +70,6 @@ def fit_magnitude(mean_counts, sem_counts=None, *, radius: float = 1.0, min_inte
     """
     if not radius > 0:
         raise ValueError("radius must be > 0")
-    from scipy.optimize import least_squares
-
     a = np.asarray(mean_counts, float)
     k = len(a)
     _check_intervals(a, min_intervals)
@@ -97,8 +99,7 @@ def fit_magnitude(mean_counts, sem_counts=None, *, radius: float = 1.0, min_inte
         cov_q = np.linalg.inv(jac.T @ jac)
     except np.linalg.LinAlgError:
         raise ObservabilityError("the static intervals do not determine the model (singular Jacobian)") from None
-    from scipy.stats import chi2 as chi2_dist
-    if dof > 0 and chi2_dist.sf(chi2, dof) < 0.01:
+    if misfit(chi2, dof, MISFIT_P)[0]:  # Birge ratio only for a significant misfit, as calib.design
         cov_q = cov_q * chi2 / dof
     cov = np.zeros((len(p), len(p)))
     cov[np.ix_(keep, keep)] = cov_q

@@ -46,16 +46,8 @@ class Stage(XimcLink):
         Used for waiting (default real time).
     deg_per_step : float
         Degrees per full motor step at the table (8MR191: 0.01).
-    timeout_s : float
-        Per-read timeout, s (wall time).
-    retries : int
-        Attempts per transaction before giving up.
-    name : str
-        Axis name for messages (a1, a2, a3).
-    on_event : callable or None
-        ``on_event(kind, detail)`` for recovered faults (e.g. the session's event log).
-    reopen_s : float
-        How long to keep trying to reopen a vanished port, wall seconds.
+    timeout_s, retries, name, on_event, reopen_s
+        As :class:`~drivers.ximc.link.XimcLink` (transactions, retries, reopening the port).
     """
 
     def __init__(self, port: str, *, clock: Clock | None = None, deg_per_step: float = MR191.deg_per_step,

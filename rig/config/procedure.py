@@ -18,8 +18,8 @@ from rig.config.procedure_schema import (ACCEL_RANGES_G, ADXL345_RATES_HZ, FORMA
                                          MIN_DWELL_SAMPLES, MODELS, RATE_MAX_DEG_S, AnglesStep, Dwell,
                                          ProcedureDoc, RateStep, RepeatStep, SensorSpec, Settle, SolveSpec,
                                          TemperatureStep, TemperatureTarget, PromptStep)
-from rig.config.schema import validate_located
-from rig.config.yamlload import load_located, read_source
+from rig.config.schema import validate_document
+from rig.config.yamlload import read_source
 from rig.errors import RigInputError
 from rig.planning.kinematics import f_nominal, rot_x, rot_y
 from rig.planning.poses import pose_angles_deg
@@ -94,10 +94,8 @@ def load_procedure(path) -> Procedure:
 
 def load_procedure_text(text: str, path: str = "<procedure>") -> Procedure:
     """Validate procedure YAML text (``path`` only names it in errors)."""
-    doc, loc = load_located(text, path)
-    if not isinstance(doc, dict):
-        raise RigInputError(path, 1, None, "expected a mapping with format, name, steps, ...")
-    spec: ProcedureDoc = validate_located(ProcedureDoc, doc, path=path, loc=loc)
+    doc, loc, spec = validate_document(ProcedureDoc, text, path,
+                                       "expected a mapping with format, name, steps, ...")
     return _Expander(path, loc, spec).procedure(doc, text)
 
 

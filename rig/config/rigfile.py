@@ -22,9 +22,10 @@ from pydantic.json_schema import SkipJsonSchema
 
 from drivers.sensors.chips import CHIPS, SENSOR_MODELS
 from drivers.ximc.stages import MR191
-from rig.config.schema import Strict, check_mapping, choice, fail, flag, label, number, validate_located
+from rig.config.schema import (Strict, check_mapping, choice, fail, flag, label, number, validate_document,
+                              validate_located)
 from rig.config.sections import SectionUnavailable, section
-from rig.config.yamlload import load_located, read_source
+from rig.config.yamlload import read_source
 from rig.errors import RigInputError
 from rig.planning.kinematics import AXES
 
@@ -204,10 +205,8 @@ def load_rig_file(path) -> RigFile:
 
 
 def parse_rig_file(text: str, path: str = "<rig>") -> RigFile:
-    doc, loc = load_located(text, path)
-    if not isinstance(doc, dict):
-        raise RigInputError(path, 1, None, "expected a mapping with format, name, turntable, sensor")
-    spec: RigFileDoc = validate_located(RigFileDoc, doc, path=path, loc=loc)
+    doc, loc, spec = validate_document(RigFileDoc, text, path,
+                                       "expected a mapping with format, name, turntable, sensor")
     sections = {name: _section(name, spec.kind, doc, path, loc) for name in ("sim", "faults")
                 if doc.get(name) is not None}
     axes = {n: dataclasses.replace(getattr(spec.turntable.axes, n), name=n) for n in AXES}

@@ -22,6 +22,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, TypeAdapter, Valida
 from pydantic import model_validator
 from pydantic_core import ArgsKwargs, PydanticCustomError
 
+from rig.config.yamlload import load_located
 from rig.errors import RigInputError
 
 #: validation context of a document read from a file (internal fields are refused there)
@@ -185,6 +186,15 @@ def adapter(model) -> TypeAdapter:
     if model not in _ADAPTERS:
         _ADAPTERS[model] = TypeAdapter(model)
     return _ADAPTERS[model]
+
+
+def validate_document(model, text: str, path: str, expected: str):
+    """Parse YAML ``text`` (the hostile-YAML guards) and validate the whole document as ``model``;
+    return (document, line marks, validated model). ``expected`` says what the top level must be."""
+    doc, loc = load_located(text, path)
+    if not isinstance(doc, dict):
+        raise RigInputError(path, 1, None, expected)
+    return doc, loc, validate_located(model, doc, path=path, loc=loc)
 
 
 def validate_located(model, value, *, path: str, loc, doc=None, prefix: tuple = ()):

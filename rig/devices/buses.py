@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
+import smbus2
+
 from rig.errors import RigInputError
 
 #: bus name -> factory returning an smbus2.SMBus-compatible object
@@ -28,8 +30,6 @@ def unregister_bus(name: str) -> None:
 def open_bus(spec: int | str, *, where: str | None = None) -> Any:
     """Open an I2C bus: ``1`` or ``"/dev/i2c-1"`` through smbus2, a registered name otherwise."""
     if isinstance(spec, int) or (isinstance(spec, str) and (spec.isdigit() or spec.startswith("/dev/"))):
-        import smbus2
-
         return smbus2.SMBus(int(spec) if str(spec).isdigit() else spec)
     factory = NAMED_BUSES.get(str(spec))
     if factory is None:

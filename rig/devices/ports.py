@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import glob
 
+import smbus2
+from serial.tools import list_ports as lp
+
 from drivers.sensors.chips import CHIPS
 from drivers.ximc.stage import Stage
 
@@ -17,7 +20,6 @@ def list_ports() -> list[str]:
     """One line per serial port and per I2C bus, saying what answered."""
     lines: list[str] = []
     try:
-        from serial.tools import list_ports as lp
         ports = list(lp.comports())
     except Exception as exc:  # noqa: BLE001 - report, don't crash
         ports = []
@@ -49,7 +51,6 @@ def _probe_ximc(device: str) -> str:
 
 def _probe_i2c(bus_no: int) -> str:
     try:
-        import smbus2
         bus = smbus2.SMBus(bus_no)
     except Exception as exc:  # noqa: BLE001
         return f"cannot open ({exc})"

@@ -90,11 +90,12 @@ class Engine:
         check_before_recording(self.procedure, self.ctx.rig, self.ctx.operator, first_step=self.first_step,
                                start_deg=start_deg)
 
-    def prepare(self, resuming: bool) -> None:
-        """Preflight, then apply the move settings and the rig's home/zero policy."""
+    def prepare(self, resuming: bool, preflight: bool = True) -> None:
+        """Preflight (unless the caller ran :func:`check_before_recording` already), then apply the move
+        settings and the rig's home/zero policy."""
         rig = self.ctx.rig
-        start = {n: rig.axes[n].stage.get_position_deg() for n in AXES} if resuming else None
-        self.preflight(start)
+        if preflight:
+            self.preflight({n: rig.axes[n].stage.get_position_deg() for n in AXES} if resuming else None)
         for axis in rig.axes.values():
             axis.stage.set_speed_deg_s(axis.config.speed_deg_s, accel_deg_s2=axis.config.accel_deg_s2)
         if rig.home_policy == "home":

@@ -94,17 +94,21 @@ def _bias_poly_ms2(a) -> tuple[float, np.ndarray]:
     return float(t.t0_c), np.asarray(t.coefficients, float) * G_MS2 / a.lsb_per_g
 
 
+def _offsets_and_scales(a, offset_name: str, scale_name: str) -> dict:
+    """The diagonal model both autopilots hold: per axis X, Y, Z the offset in m/s^2 at the nominal scale
+    (``offset_name.format(axis)``) and the dimensionless scale that corrects it (``scale_name``)."""
+    k = np.diag(np.asarray(a.matrix_counts_per_g, float))
+    b = np.asarray(a.bias_counts, float) * G_MS2 / a.lsb_per_g
+    p = {offset_name.format(axis): float(b[j]) for j, axis in enumerate("XYZ")}
+    p.update({scale_name.format(axis): float(a.lsb_per_g / k[j]) for j, axis in enumerate("XYZ")})
+    return p
+
+
 def px4_params(cal) -> dict:
     """PX4: ``corrected = R (raw - TC_offset(T) - CAL_ACC0_OFF) * CAL_ACC0_SCALE``, raw in m/s^2 at the
     nominal scale; TC_offset(T) = X0 + X1 dT + X2 dT^2 + X3 dT^3, dT = clip(T) - TREF."""
     a = cal.accelerometer
-    k = np.diag(np.asarray(a.matrix_counts_per_g, float))
-    b = np.asarray(a.bias_counts, float) * G_MS2 / a.lsb_per_g
-    p: dict = {}
-    for j, axis in enumerate("XYZ"):
-        p[f"CAL_ACC0_{axis}OFF"] = float(b[j])
-    for j, axis in enumerate("XYZ"):
-        p[f"CAL_ACC0_{axis}SCALE"] = float(a.lsb_per_g / k[j])
+    p = _offsets_and_scales(a, "CAL_ACC0_{}OFF", "CAL_ACC0_{}SCALE")
     if a.temperature is not None:
         t0, c = _bias_poly_ms2(a)
         p.update({"TC_A_ENABLE": 1, "TC_A0_TREF": t0, "TC_A0_TMIN": TC_RANGE_C[0], "TC_A0_TMAX": TC_RANGE_C[1]})
@@ -127,13 +131,7 @@ def ardupilot_params(cal) -> dict:
     """ArduPilot: ``corrected = ((raw - tcal(T)) - INS_ACCOFFS) * INS_ACCSCAL`` in the sensor frame, with
     tcal(T) = P(T - 35) - P(INS_ACC1_CALTEMP - 35), P(d) = (ACC1 d + ACC2 d^2 + ACC3 d^3) * 1e-6."""
     a = cal.accelerometer
-    k = np.diag(np.asarray(a.matrix_counts_per_g, float))
-    b = np.asarray(a.bias_counts, float) * G_MS2 / a.lsb_per_g
-    p: dict = {}
-    for j, axis in enumerate("XYZ"):
-        p[f"INS_ACCOFFS_{axis}"] = float(b[j])
-    for j, axis in enumerate("XYZ"):
-        p[f"INS_ACCSCAL_{axis}"] = float(a.lsb_per_g / k[j])
+    p = _offsets_and_scales(a, "INS_ACCOFFS_{}", "INS_ACCSCAL_{}")
     if a.temperature is not None:
         t0, c = _bias_poly_ms2(a)
         shifted = _shift_polynomial(c, AP_TEMP_REFERENCE_C - t0) * AP_SCALE_FACTOR

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from rig.errors import SessionFormatError
 from rig.session import adapter
@@ -238,8 +239,6 @@ class _Body:
 
 def _parse(text: _Body, header: list[str], known: list[str]) -> dict[str, np.ndarray]:
     """The known columns as float arrays (empty cells are NaN)."""
-    import pandas as pd
-
     if not text.body.strip():
         return {c: np.empty(0) for c in known}
     try:

@@ -113,15 +113,19 @@ def start_session(procedure, rig: Rig, new: NewSession) -> SessionWriter:
 
 
 def execute(procedure, rig: Rig, writer: SessionWriter, operator: Operator, *, first_step: int = 0,
-            resuming: bool = False, time_offset_s: float = 0.0,
+            resuming: bool = False, time_offset_s: float = 0.0, checked: bool = False,
             options: EngineOptions = EngineOptions()) -> list[StepOutcome]:
-    """Run the engine into ``writer``; on any failure mark the session aborted and re-raise."""
+    """Run the engine into ``writer``; on any failure mark the session aborted and re-raise.
+
+    ``checked``: the caller ran ``check_before_recording`` on this procedure and rig (a new run does, before
+    its session directory exists), so the engine does not preflight a second time.
+    """
     _record_stage_events(rig, writer)
     engine = Engine(procedure, rig, writer, operator, first_step=first_step, options=options,
                     time_offset_s=time_offset_s,
                     magnetometer_samples=procedure.sensor.mag_samples if procedure.sensor.magnetometer else 0)
     try:
-        engine.prepare(resuming=resuming)
+        engine.prepare(resuming=resuming, preflight=not checked)
         return engine.run()
     except BaseException as exc:
         if isinstance(exc, RunAborted):

@@ -63,7 +63,7 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
         lock = SessionLock(writer.session_dir).acquire()
         operator.info(f"session {writer.session_dir}")
         try:
-            outcomes = execute(procedure, rig, writer, operator, options=options)
+            outcomes = execute(procedure, rig, writer, operator, checked=True, options=options)
         finally:
             rig.close()
         return finish(procedure, writer, outcomes, solve=solve)
