@@ -179,3 +179,21 @@ def test_resuming_a_complete_session_is_refused(tmp_path, capsys):
     d = _only_session(tmp_path)
     assert main(["run", "--resume", str(d), "--time-scale", "0"]) == 2
     assert "already complete" in capsys.readouterr().err
+
+
+def test_a_resume_on_another_sensor_or_rig_file_is_refused_before_anything_is_touched(tmp_path, capsys):
+    out = tmp_path / "s"
+    proc = _spawn(["run", SIX, "--out", str(out), "--seed", "21", "--time-scale", "4", "--quiet"])
+    d = _wait_for_steps(out, 1, proc)
+    proc.kill()
+    proc.wait()
+    before = {p.name: p.read_bytes() for p in d.iterdir() if p.name != "session.lock"}
+    other_rig = tmp_path / "other.yaml"
+    other_rig.write_text((RIGS / "sim.yaml").read_text().replace("initial_c: 27.6", "initial_c: 20.0"))
+    for extra, why in ((["--seed", "22"], "seed 22 (recorded 21)"), (["--rig", str(other_rig)], "rig file")):
+        assert main(["run", "--resume", str(d), "--time-scale", "0", *extra]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        warnings = [line for line in err[:-1] if not line.startswith("warning: took over the lock of pid")]
+        assert not warnings and "cannot resume on another rig or sensor" in err[-1] and why in err[-1], err
+    assert {p.name: p.read_bytes() for p in d.iterdir() if p.name != "session.lock"} == before
+    assert main(["run", "--resume", str(d), "--time-scale", "0", "--quiet"]) == 0  # the same rig still resumes
