@@ -17,7 +17,8 @@ from pathlib import Path
 from typing import Any, ClassVar, Optional
 
 import yaml
-from pydantic import BeforeValidator, ConfigDict, Field, field_validator, with_config
+from pydantic import (BeforeValidator, ConfigDict, Field, FiniteFloat, NonNegativeInt, StrictBool, field_validator,
+                      with_config)
 from pydantic.json_schema import SkipJsonSchema
 from typing_extensions import Annotated, TypedDict
 
@@ -53,6 +54,36 @@ class SensorInfo(TypedDict, total=False):
     serial: Any
 
 
+@with_config(ConfigDict(extra="forbid"))
+class LimitRecord(TypedDict):
+    """One acceptance limit applied (:class:`calib.acceptance.LimitCheck`)."""
+
+    name: Text
+    limit: Text
+    value: Optional[FiniteFloat]
+    passed: StrictBool
+    line: Text
+
+
+@with_config(ConfigDict(extra="forbid"))
+class AcceptanceRecord(TypedDict):
+    """The procedure's acceptance limits and the verdict: ``passed`` only when every limit passed."""
+
+    passed: StrictBool
+    limits: list[LimitRecord]
+
+
+@with_config(ConfigDict(extra="forbid"))
+class CoverageRecord(TypedDict):
+    """Written only when the session solved was incomplete: what was planned and what was missing."""
+
+    complete: StrictBool
+    status: Text
+    steps_planned: NonNegativeInt
+    steps_recorded: NonNegativeInt
+    pending_steps: list[Text]
+
+
 class CalibrationFile(CalibrationSection):
     """One ``rig-calibration/1`` file: header fields and the typed sensor sections.
 
@@ -66,12 +97,14 @@ class CalibrationFile(CalibrationSection):
     accelerometer : :class:`AccelCalibration` (counts <-> g, sensor frame).
     gyroscope : :class:`GyroCalibration` (counts <-> deg/s) or None; a dict is validated into one.
     magnetometer : :class:`MagCalibration` (uT) or None; a dict is validated into one.
+    coverage : :class:`CoverageRecord` when the session solved was incomplete, else None (not written).
+    acceptance : :class:`AcceptanceRecord` when the procedure has ``accept:`` limits, else None (not written).
     extra : not written (kept for callers that attach data in memory).
     """
 
     CAL_TYPE: ClassVar[str] = ""
     FILE_REQUIRED: ClassVar[tuple[str, ...]] = ("format",)
-    model_config = ConfigDict(frozen=True, extra="ignore",
+    model_config = ConfigDict(frozen=True, extra="forbid",
                               json_schema_extra={"$schema": "https://json-schema.org/draft/2020-12/schema",
                                                  "$id": SCHEMA_ID})
 
@@ -83,7 +116,21 @@ class CalibrationFile(CalibrationSection):
     accelerometer: AccelCalibration
     gyroscope: Optional[GyroCalibration] = None
     magnetometer: Optional[MagCalibration] = None
+    coverage: Optional[CoverageRecord] = Field(
+        None, description="present only when the session was incomplete: steps planned, recorded, still pending")
+    acceptance: Optional[AcceptanceRecord] = Field(
+        None, description="the procedure's accept: limits, each check and the verdict (absent: no limits)")
     extra: SkipJsonSchema[dict] = Field(default_factory=dict, exclude=True)
+
+    #: written only when present (files without them are the common case and stay as they were)
+    OMITTED_WHEN_NONE: ClassVar[tuple[str, ...]] = ("coverage", "acceptance")
+
+    def to_dict(self) -> dict:
+        d = super().to_dict()
+        for key in self.OMITTED_WHEN_NONE:
+            if d.get(key) is None:
+                d.pop(key, None)
+        return d
 
     @field_validator("format", mode="before")
     @classmethod

@@ -29,7 +29,7 @@ computed by the caller (``rig.analysis.discover``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import stats
@@ -40,6 +40,7 @@ from calib.design import AxisFit, misfit
 from calib.effects import LIBRARY, EffectInputs
 from calib.errors import CalibError
 from calib.frames import AXES
+from calib.magnitude import fit_magnitude
 
 #: baseline columns: which force components enter each output axis (the seed's triangular model)
 TRIANGULAR_COLUMNS = {"x": [0, 1, 2], "y": [1, 2], "z": [2]}
@@ -48,6 +49,7 @@ MIN_JUMP_SIDE = 3  # steps a bias jump needs on each side
 TEMP_EFFECTS = ("bias_tempco_quadratic", "bias_tempco_cubic")  # enter only after bias_tempco
 MISFIT_P = 0.01
 COLUMN_TOL = 1e-6
+MIN_RADIAL_STEPS = 12  # pose-free steps the magnitude baseline (9 parameters) needs, with dof to spare
 
 
 @dataclass(frozen=True)
@@ -132,6 +134,7 @@ class Discovery:
     dof_after: int = 0
     p_fit: float = 1.0  # chi-square upper-tail probability of the final model's chi2
     unexplained: dict | None = None  # where and what remains when the gap stays open
+    baseline: str = "seed"  # seed (known poses) | pose_groups (a bias per unknown pose) | magnitude (|f| = 1 g)
 
     def to_json(self) -> dict:
         verdict = {"gap_closed": bool(self.gap_closed), "dof_after": int(self.dof_after), "p_fit": self.p_fit}
@@ -252,21 +255,95 @@ class _Problem:
 
     def observable_columns(self, name: str) -> np.ndarray:
         """Mask of the effect's parameters the design determines (beyond the baseline)."""
-        bw = self.base * self.w[:, None]
-        q, _ = np.linalg.qr(bw)
-        cw = self.cols[name] * self.w[:, None]
-        keep = np.zeros(cw.shape[1], bool)
-        basis = q
-        for i in range(cw.shape[1]):
-            c = cw[:, i]
-            norm = np.linalg.norm(c)
-            if norm == 0:
-                continue
-            r = c - basis @ (basis.T @ c)
-            if np.linalg.norm(r) > COLUMN_TOL * norm:
-                keep[i] = True
-                basis = np.concatenate([basis, (r / np.linalg.norm(r))[:, None]], axis=1)
-        return keep
+        q, _ = np.linalg.qr(self.base * self.w[:, None])
+        return _independent(q, self.cols[name] * self.w[:, None])
+
+    @property
+    def baseline_name(self) -> str:
+        return "pose_groups" if self.pose_free else "seed"
+
+    def normalised(self, fit: _Fit) -> np.ndarray:
+        """(K, 3) residuals in units of their standard errors (each ~N(0, 1) when the model holds)."""
+        return (fit.resid * self.w).reshape(3, self.k).T
+
+    def rms_g(self, fit: _Fit) -> float:
+        """RMS residual of a fit, g."""
+        return float(np.sqrt(np.mean(fit.resid ** 2)) / self.lsb)
+
+
+def _independent(basis: np.ndarray, cw: np.ndarray) -> np.ndarray:
+    """Mask of the (weighted) columns ``cw`` that add a direction to the orthonormal ``basis`` (and to
+    the columns kept before them)."""
+    keep = np.zeros(cw.shape[1], bool)
+    for i in range(cw.shape[1]):
+        c = cw[:, i]
+        norm = np.linalg.norm(c)
+        if norm == 0:
+            continue
+        r = c - basis @ (basis.T @ c)
+        if np.linalg.norm(r) > COLUMN_TOL * norm:
+            keep[i] = True
+            basis = np.concatenate([basis, (r / np.linalg.norm(r))[:, None]], axis=1)
+    return keep
+
+
+class _RadialProblem(_Problem):
+    """Sessions with unknown poses that never repeat (an imu_tk-style hand-held recording): the
+    magnitude model ``|M^-1 (a - b)| = 1 g`` as the baseline.
+
+    The fit is linearised at the magnitude solution: each step's direction ``f_i`` is estimated from
+    it, and only the component of each step's residual along ``u_i = unit(U^T f_i)`` (``U = M^-1``) is
+    used, the one a change of the unknown direction cannot absorb (to first order). One row per step;
+    its weight is the step's standard error along ``u_i``. Residuals are reported per axis as
+    ``u_i r_i`` so the localisation and the verdict read them like any other session's.
+    Only bias-type effects are candidates (poses unknown).
+    """
+
+    def __init__(self, steps: StepMeans, ctx: StepContext, t0_c: float, t_ref_s: float) -> None:
+        a = np.asarray(steps.mean_counts, float)
+        sem = np.asarray(steps.sem_counts, float)
+        mfit = fit_magnitude(a, sem, radius=1.0)
+        u = np.linalg.inv(mfit.matrix)
+        f = (a - mfit.bias) @ u.T
+        f /= np.linalg.norm(f, axis=1)[:, None]
+        super().__init__(replace(steps, f_nominal_g=f), ctx, t0_c, t_ref_s)
+        proj = f @ u
+        self.u = proj / np.linalg.norm(proj, axis=1)[:, None]
+        self.sd = np.sqrt(np.sum((self.u * sem) ** 2, axis=1))
+        self.w = np.tile(1.0 / self.sd, 3)
+        self.pose_free = True  # directions estimated, not known: no calibration, no force effects
+
+    @property
+    def baseline_name(self) -> str:
+        return "magnitude"
+
+    def project(self, m: np.ndarray) -> np.ndarray:
+        """(3K, ...) axis-major rows -> (K, ...) components along each step's ``u_i``."""
+        k = self.k
+        return sum(self.u[:, j].reshape((k,) + (1,) * (m.ndim - 1)) * m[j * k:(j + 1) * k] for j in range(3))
+
+    def fit(self, effects) -> _Fit:
+        g, names = self.design(effects)
+        gp, yp = self.project(g), self.project(self.y)
+        q, r = np.linalg.qr(gp / self.sd[:, None])
+        theta = np.linalg.solve(r, q.T @ (yp / self.sd))
+        rinv = np.linalg.inv(r)
+        rows = yp - gp @ theta
+        resid = (self.u * rows[:, None]).T.ravel()
+        return _Fit(theta, rinv @ rinv.T, float(np.sum((rows / self.sd) ** 2)), self.k - g.shape[1], resid, names)
+
+    def observable_columns(self, name: str) -> np.ndarray:
+        q, _ = np.linalg.qr(self.project(self.base) / self.sd[:, None])
+        return _independent(q, self.project(self.cols[name]) / self.sd[:, None])
+
+    def normalised(self, fit: _Fit) -> np.ndarray:
+        """Each step's radial residual in standard errors, spread over the axes as ``sqrt(3) u_i z_i``:
+        a step's mean square over the axes is ``z_i^2`` (~1 when the model holds), as for other sessions."""
+        return np.sqrt(3.0) * super().normalised(fit)
+
+    def rms_g(self, fit: _Fit) -> float:
+        """RMS over the steps of the radial residual, g."""
+        return float(np.sqrt(np.mean(np.sum(fit.resid.reshape(3, self.k) ** 2, axis=0))) / self.lsb)
 
 
 def f_test(small: _Fit, big: _Fit) -> tuple[float, float]:
@@ -358,7 +435,9 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
     t0 = float(t0_c) if t0_c is not None else (float(np.mean(temps)) if temps is not None else 25.0)
     t_ref = float(np.mean(steps.t_s))
     prob = _Problem(steps, ctx, t0, t_ref)
-    if prob.base.shape[1] >= 3 * k:
+    if prob.pose_free and prob.base.shape[1] >= 3 * k and k > MIN_RADIAL_STEPS:
+        prob = _RadialProblem(steps, ctx, t0, t_ref)  # poses never repeat: the magnitude model is the baseline
+    if prob.base.shape[1] >= (k if isinstance(prob, _RadialProblem) else 3 * k):
         raise CalibError(f"discover: {k} steps cannot determine the baseline model ({prob.base.shape[1]} parameters)")
     names = list(candidates) if candidates is not None else list(LIBRARY)
     unknown = [n for n in names if n not in LIBRARY]
@@ -392,10 +471,10 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
     return Discovery(rms_before_g=_rms_g(prob, base_fit), rms_after_g=_rms_g(prob, final), noise_rms_g=noise,
                      chi2_per_dof_before=base_fit.rss / base_fit.dof, chi2_per_dof_after=final.rss / final.dof,
                      effects=effects, aliases=aliases, unobservable=unobservable, unobservable_why=why,
-                     steps=rows, where=localise(steps, ctx, (base_fit.resid * prob.w).reshape(3, k).T), history=history, false_alarm=false_alarm,
+                     steps=rows, where=localise(steps, ctx, prob.normalised(base_fit)), history=history, false_alarm=false_alarm,
                      calibration=cal, not_named=dict(getattr(prob, "last_pass", {})), gap_closed=closed,
-                     dof_after=final.dof, p_fit=p_fit,
-                     unexplained=None if closed else unexplained(steps, ctx, (final.resid * prob.w).reshape(3, k).T,
+                     dof_after=final.dof, p_fit=p_fit, baseline=prob.baseline_name,
+                     unexplained=None if closed else unexplained(steps, ctx, prob.normalised(final),
                                                                  false_alarm))
 
 
@@ -446,8 +525,8 @@ def _step_rows(steps: StepMeans, prob: "_Problem", ctx: StepContext, base_fit, f
     """Per-step residuals (g) and normalised residuals before and after the selected effects."""
     k = len(steps)
     temps = None if steps.temp_c is None else np.asarray(steps.temp_c, float)
-    z0 = (base_fit.resid * prob.w).reshape(3, k).T
-    z1 = (final.resid * prob.w).reshape(3, k).T
+    z0 = prob.normalised(base_fit)
+    z1 = prob.normalised(final)
     r0 = base_fit.resid.reshape(3, k).T / prob.lsb
     r1 = final.resid.reshape(3, k).T / prob.lsb
     return [StepRow(str(steps.names[i]), None if temps is None else float(temps[i]),
@@ -511,7 +590,7 @@ def _select(prob: _Problem, observable: list, alpha: float) -> tuple[list, list]
 
 
 def _rms_g(prob: _Problem, fit: _Fit) -> float:
-    return float(np.sqrt(np.mean(fit.resid ** 2)) / prob.lsb)
+    return prob.rms_g(fit)
 
 
 def _matrix_from(prob: _Problem, fit: _Fit) -> np.ndarray:

@@ -122,6 +122,9 @@ def _check_array(value: Any, shape: tuple, positive: bool, nonneg: bool) -> np.n
         raise ValueError(f"shape {want}, got {list(arr.shape) if value is not None else None}")
     if any(isinstance(x, (bool, np.bool_)) for x in flat):
         raise ValueError("numbers, got true/false")
+    text = next((x for x in flat if isinstance(x, (str, bytes))), None)
+    if text is not None:
+        raise ValueError(f"numbers, got the string {text!r}"[:200])
     if not np.all(np.isfinite(arr)):
         raise ValueError("finite values (no NaN or infinity)")
     if positive and np.any(arr <= 0):
@@ -196,7 +199,8 @@ def file_error(exc: ValidationError, path: str | None, root: str) -> Calibration
     if kind == "missing":
         expected = "missing (required field)"
     elif kind == "extra_forbidden":
-        expected = "unknown field"
+        expected = ("unknown field (a typo, or a file written by a newer rig; this reader knows only the "
+                    "fields of docs/calibration-file.md)")
     elif kind in ("dict_type", "model_type", "model_attributes_type"):
         expected = "expected a mapping"
     elif kind == "list_type":

@@ -108,7 +108,7 @@ class AccelCalibration(CalibrationSection):
     """
 
     CAL_TYPE: ClassVar[str] = "accelerometer"
-    model_config = ConfigDict(frozen=True, extra="ignore")  # fields are only ever added within rig-calibration/1
+    model_config = ConfigDict(frozen=True, extra="forbid")  # a misspelt key is refused (docs/calibration-file.md)
 
     model: choice(*MODELS) = unit("-", "triangular (seed), full (12 parameters), diagonal (flip method)")
     lsb_per_g: number(positive=True) = unit("counts/g", "nominal sensitivity of the recorded range")

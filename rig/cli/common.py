@@ -9,21 +9,35 @@ import numpy as np
 from calib.gyro import GyroCalibration
 from calib.magnetometer import MagCalibration
 from rig.lab import record_calibration
+from rig.lab.acceptance import as_lines, judge
 
-#: exit codes (contract: docs/cli.md)
-EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+#: exit codes (contract: docs/cli.md); 3: the calibration was written but failed the procedure's accept: limits
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_REJECTED = 0, 1, 2, 3
 
 
 class UsageError(Exception):
     """Bad command-line input (exit 2)."""
 
 
-def record_in_history(command: str, session_dir, calibration_path) -> None:
+def record_in_history(command: str, session_dir, calibration_path, verdict: str | None = None) -> None:
     """Every solve goes into the calibration history (docs/history.md); a history problem is one
     warning line and never changes the command's result."""
-    warning = record_calibration(session_dir, calibration_path)
+    warning = record_calibration(session_dir, calibration_path, verdict=verdict)
     if warning is not None:
         print(f"rig {command}: warning: {warning}", file=sys.stderr)
+
+
+def conclude(command: str, session_dir, calibration_path, *, quiet: bool = False) -> int:
+    """After every solve: apply the procedure's ``accept:`` limits (the verdict goes into the
+    calibration file), print PASS or FAIL with one line per failed limit, record the calibration in
+    the history with its verdict. Returns EXIT_OK, or EXIT_REJECTED when a limit failed."""
+    acceptance = judge(session_dir, calibration_path)
+    verdict = None if acceptance is None else acceptance.verdict
+    if acceptance is not None and not (quiet and acceptance.passed):
+        for line in as_lines(acceptance):
+            print(line)
+    record_in_history(command, session_dir, calibration_path, verdict=verdict)
+    return EXIT_REJECTED if acceptance is not None and not acceptance.passed else EXIT_OK
 
 
 def report_warnings(command: str, session) -> None:

@@ -12,6 +12,7 @@ from typing import Annotated, Any, ClassVar, Optional, Union
 
 from pydantic import BeforeValidator, Discriminator, Field, Tag, WithJsonSchema, model_validator
 
+from calib.acceptance import AcceptanceLimits, known_pattern
 from drivers.sensors.chips import CHIPS, SENSOR_MODELS
 from drivers.ximc.stages import MR191
 from rig.config.schema import Strict, choice, fail, flag, label, number, text
@@ -151,6 +152,55 @@ class SolveSpec(Strict):
         return getattr(self, key, default)
 
 
+def _pattern(v):
+    if not isinstance(v, str) or not known_pattern(v):
+        raise fail(f"unknown parameter {v!r} (names such as accel.bias_x, accel.scale_*, accel.alpha_yz, "
+                   "gyro.bias_*, mag.hard_iron_*; see docs/procedures.md)")
+    return v
+
+
+ParameterPattern = Annotated[str, BeforeValidator(_pattern), WithJsonSchema({
+    "type": "string", "description": "parameter name or shell-style pattern (accel.bias_*)"})]
+Bound = number(ge=-1e12, le=1e12)
+
+
+def _range(v):
+    if not (isinstance(v, (list, tuple)) and len(v) == 2):
+        raise fail("expected [low, high] in the parameter's unit")
+    return v
+
+
+class AcceptSpec(Strict):
+    """``accept:``: limits the calibration must meet (docs/procedures.md); a failed limit fails the run."""
+
+    mapping_hint: ClassVar[str] = ("expected a mapping (ranges, max_sigma, max_chi2_per_dof, max_residual_g, "
+                                   "max_attitude_error_deg, max_drift_sigma)")
+    ranges: dict[ParameterPattern, Annotated[tuple[Bound, Bound], BeforeValidator(_range)]] = {}
+    max_sigma: dict[ParameterPattern, number(gt=0, le=1e12)] = {}
+    max_chi2_per_dof: Optional[number(gt=0, le=1e9)] = None
+    max_residual_g: Optional[number(gt=0, le=16)] = None
+    max_attitude_error_deg: Optional[number(gt=0, le=180)] = None
+    max_drift_sigma: Optional[number(gt=0, le=1e6)] = None
+
+    @model_validator(mode="after")
+    def _sane(self):
+        for pattern, (lo, hi) in self.ranges.items():
+            if not lo < hi:
+                raise fail(f"expected low < high, got [{lo:g}, {hi:g}]", at=("ranges", pattern))
+        if not (self.ranges or self.max_sigma or any(v is not None for v in (
+                self.max_chi2_per_dof, self.max_residual_g, self.max_attitude_error_deg, self.max_drift_sigma))):
+            raise fail("no limits given (an empty accept: would pass anything)")
+        return self
+
+    def limits(self) -> AcceptanceLimits:
+        """The limits for :func:`calib.acceptance.evaluate`."""
+        return AcceptanceLimits(ranges={k: (float(lo), float(hi)) for k, (lo, hi) in self.ranges.items()},
+                                max_sigma={k: float(v) for k, v in self.max_sigma.items()},
+                                max_chi2_per_dof=self.max_chi2_per_dof, max_residual_g=self.max_residual_g,
+                                max_attitude_error_deg=self.max_attitude_error_deg,
+                                max_drift_sigma=self.max_drift_sigma)
+
+
 # -- steps -------------------------------------------------------------------------------------------
 StepName = Optional[label(description="the step's name in the session (default: from the pose)")]
 
@@ -272,6 +322,8 @@ class ProcedureDoc(Strict):
     order: choice(("as_written", "shortest"), "expected as_written or shortest, got {got}") = "as_written"
     steps: Steps
     solve: Optional[SolveSpec] = None
+    accept: Optional[AcceptSpec] = None
+    report: flag("write SESSION/report.html at the end of the run (rig report)") = False
 
     @model_validator(mode="after")
     def _plain_name(self):

@@ -24,6 +24,8 @@ import numpy as np
 import yaml
 
 from calib import calfile
+from calib.parameters import finite_or_none as _fnum
+from calib.parameters import sensor_parameters
 from rig import __version__
 from rig.errors import RigInputError
 from rig.lab.identity import rig_identity, sensor_identity, temperatures
@@ -175,58 +177,6 @@ def _migrate(conn: sqlite3.Connection, path: Path) -> None:
 
 
 # ---------------------------------------------------------------------------------------------- parameters
-
-def _fnum(x) -> float | None:
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return None
-    return v if math.isfinite(v) else None
-
-
-def _vector(out: list, prefix: str, values, sigmas, unit: str) -> None:
-    values = np.asarray(values, float).ravel()
-    sig = np.asarray(sigmas, float).ravel() if sigmas is not None else np.full(values.shape, np.nan)
-    for axis, v, s in zip("xyz", values, sig):
-        out.append((f"{prefix}_{axis}", float(v), _fnum(s), unit))
-
-
-def accel_parameters(a) -> list[tuple[str, float, float | None, str]]:
-    """(name, value, sigma, unit) of every accelerometer parameter of an AccelCalibration."""
-    out: list = []
-    sig = a.sigma
-    _vector(out, "accel.bias", a.bias_counts, sig.get("bias_counts"), "counts")
-    _vector(out, "accel.scale", a.scale_counts_per_g, sig.get("scale_counts_per_g"), "counts/g")
-    if a.misalignment:
-        sm = sig.get("misalignment") or {}
-        for k in ("alpha_yz", "alpha_zy", "alpha_zx"):
-            out.append((f"accel.{k}", float(a.misalignment[k]), _fnum(sm.get(k)), "rad"))
-    elif a.model == "full":
-        m, sm = np.asarray(a.matrix_counts_per_g, float), np.asarray(sig.get("matrix_counts_per_g"), float)
-        for i, j in [(i, j) for i in range(3) for j in range(3) if i != j]:
-            out.append((f"accel.m_{'xyz'[i]}{'xyz'[j]}", float(m[i, j]), _fnum(sm[i, j]), "counts/g"))
-    if a.temperature is not None:
-        coeffs = np.asarray(a.temperature.coefficients, float)
-        st = ((sig.get("temperature") or {}).get("coefficients"))
-        st = np.asarray(st, float) if st is not None and np.shape(st) == coeffs.shape else np.full(coeffs.shape, np.nan)
-        out.append(("accel.t0_c", float(a.temperature.t0_c), None, "C"))  # the biases above are at t0
-        for s in range(coeffs.shape[1]):
-            _vector(out, f"accel.tempco{s + 1}", coeffs[:, s], st[:, s], f"counts/C^{s + 1}")
-    return out
-
-
-def sensor_parameters(cal) -> list[tuple[str, float, float | None, str]]:
-    """Every parameter with its sigma: accelerometer, gyroscope and magnetometer biases when present."""
-    out = accel_parameters(cal.accelerometer)
-    g = cal.gyroscope
-    if g is not None:
-        _vector(out, "gyro.bias", g.bias_counts, [g.sigma.get(f"b_{x}") for x in "xyz"], "counts")
-        _vector(out, "gyro.scale", g.scale_counts_per_dps, [g.sigma.get(f"k_{x}") for x in "xyz"], "counts/(deg/s)")
-    m = cal.magnetometer
-    if m is not None:
-        _vector(out, "mag.hard_iron", m.hard_iron_ut, [m.sigma.get(f"hard_iron_{x}") for x in "xyz"], "uT")
-    return out
-
 
 # ---------------------------------------------------------------------------------------------- recording
 

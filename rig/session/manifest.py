@@ -114,13 +114,17 @@ class ProcedureInfo(_Section):
 
     def solve_spec(self) -> dict | None:
         """The procedure's ``solve:`` section, or None (no text, not YAML, no such section)."""
+        return self.section("solve")
+
+    def section(self, key: str) -> dict | None:
+        """A top-level mapping of the recorded procedure (``solve``, ``accept``), or None."""
         if not self.text:
             return None
         try:  # the recorded procedure was validated when it ran: hostile YAML here means tampering
             doc, _ = load_located(self.text, "session.yaml: procedure.text")
         except RigInputError as exc:
             raise SessionFormatError(None, None, "procedure.text", exc.message) from None
-        spec = doc.get("solve") if isinstance(doc, dict) else None
+        spec = doc.get(key) if isinstance(doc, dict) else None
         return spec if isinstance(spec, dict) else None
 
 

@@ -6,7 +6,7 @@ import math
 import signal
 import sys
 
-from rig.cli.common import EXIT_FAILURE, EXIT_OK, UsageError, format_calibration, record_in_history
+from rig.cli.common import EXIT_FAILURE, EXIT_OK, UsageError, conclude, format_calibration
 from rig.cli.console import ConsoleUI
 from rig.execution.context import RunAborted
 from rig.session import SessionManifest
@@ -56,11 +56,11 @@ def run(args) -> int:
         print("flagged steps (left out of the solve): " + "; ".join(
             f"{s.index + 1} ({s.name}: {'; '.join(map(str, (s.stats.problems if s.stats else None) or ['bad data']))})"
             for s in flagged))
-    if result.calibration is not None:
-        record_in_history("run", result.session_dir, result.calibration_path)
-        print(f"calibration: {result.calibration_path}")
-        print(format_calibration(result.calibration))
-    return EXIT_OK
+    if result.calibration is None:
+        return EXIT_OK
+    print(f"calibration: {result.calibration_path}")
+    print(format_calibration(result.calibration))
+    return conclude("run", result.session_dir, result.calibration_path)
 
 
 def stop_on_signals() -> None:

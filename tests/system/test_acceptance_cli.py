@@ -1,0 +1,96 @@
+"""Acceptance limits from the command line: a procedure's ``accept:`` limits are applied after the
+solve, PASS or FAIL is printed with one line per failed limit, a failure exits 3 (docs/cli.md), the
+verdict is written into the calibration file and recorded in the history."""
+
+from __future__ import annotations
+
+import json
+import re
+import textwrap
+
+import pytest
+
+from calib import calfile
+from rig.cli import main
+
+from conftest import PROCEDURES
+
+SIX = (PROCEDURES / "six_position.yaml").read_text()
+
+
+def _procedure(tmp_path, accept: str, name="accepted") -> str:
+    text = SIX.replace("name: six_position", f"name: {name}").replace("dwell: {seconds: 10}", "dwell: {seconds: 2}")
+    p = tmp_path / f"{name}.yaml"
+    p.write_text(text + "accept:\n" + textwrap.indent(textwrap.dedent(accept), "  "))
+    return str(p)
+
+
+def _run(tmp_path, proc, seed=3, db=None):
+    out = tmp_path / "sessions"
+    args = ["run", proc, "--seed", str(seed), "--time-scale", "0", "--out", str(out), "--quiet"]
+    return main(args), sorted(out.iterdir(), key=lambda p: p.stat().st_mtime)[-1]
+
+
+def test_a_failed_limit_exits_3_names_each_failure_and_is_recorded(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("RIG_HISTORY", str(tmp_path / "h.sqlite"))
+    proc = _procedure(tmp_path, """\
+        ranges: {accel.bias_x: [-100, 100], accel.scale_*: [8000, 8400]}
+        max_chi2_per_dof: 5
+    """)
+    code, session = _run(tmp_path, proc)
+    out = capsys.readouterr().out
+    assert code == 3
+    assert "acceptance: FAIL (1 of 5 limits)" in out
+    assert re.search(r"^  FAIL accel\.bias_x = 39\d\.\d counts: outside \[-100, 100\] counts$", out, re.M), out
+    cal = calfile.read(session / "calibration.yaml")
+    assert cal.acceptance["passed"] is False and len(cal.acceptance["limits"]) == 5
+    assert main(["history", "sim-seed-3", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["calibrations"][-1]["verdict"] == "FAIL"
+
+
+def test_limits_that_hold_pass_with_exit_0_and_drift_is_judged_against_the_previous_calibration(
+        tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("RIG_HISTORY", str(tmp_path / "h.sqlite"))
+    proc = _procedure(tmp_path, """\
+        ranges: {accel.bias_*: [-1000, 1000]}
+        max_sigma: {accel.bias_*: 3}
+        max_attitude_error_deg: 0.1
+        max_drift_sigma: 5
+    """)
+    code, first = _run(tmp_path, proc)
+    out = capsys.readouterr().out
+    assert code == 0 and "acceptance: PASS (8 limits met)" in out
+    assert "first calibration of this sensor" in calfile.read(first / "calibration.yaml").acceptance["limits"][-1]["line"]
+    # the same sensor recalibrated: no drift beyond the noise
+    assert _run(tmp_path, proc)[0] == 0
+    second = sorted((tmp_path / "sessions").iterdir(), key=lambda p: p.stat().st_mtime)[-1]
+    drift = calfile.read(second / "calibration.yaml").acceptance["limits"][-1]
+    assert drift["name"] == "max_drift_sigma" and drift["passed"] and abs(drift["value"]) < 1e-9
+
+
+def test_rig_solve_applies_the_recorded_limits_too(tmp_path, capsys):
+    proc = _procedure(tmp_path, "ranges: {accel.bias_y: [0, 10]}\n")
+    code, session = _run(tmp_path, proc)
+    assert code == 3
+    capsys.readouterr()
+    assert main(["solve", str(session), "-o", str(tmp_path / "again.yaml")]) == 3
+    out = capsys.readouterr().out
+    assert "acceptance: FAIL" in out and "accel.bias_y = -41" in out and "outside [0, 10] counts" in out
+    assert calfile.read(tmp_path / "again.yaml").acceptance["passed"] is False
+
+
+@pytest.mark.parametrize("accept, message", [
+    ("ranges: {accel.bias: [-1, 1]}\n", "accept.ranges.accel.bias: unknown parameter 'accel.bias'"),
+    ("ranges: {accel.bias_x: [5, 1]}\n", "expected low < high, got [5, 1]"),
+    ("ranges: {accel.bias_x: [5]}\n", "expected [low, high]"),
+    ("max_chi2_per_dof: -1\n", "accept.max_chi2_per_dof: expected a number > 0"),
+    ("max_sigma: {accel.bias_x: nan}\n", "accept.max_sigma.accel.bias_x: expected a number"),
+    ("{}\n", "no limits given"),
+    ("max_residul_g: 0.1\n", "max_residul_g"),
+])
+def test_bad_limits_are_refused_before_anything_moves(tmp_path, capsys, accept, message):
+    proc = _procedure(tmp_path, accept)
+    assert main(["run", proc, "--time-scale", "0", "--out", str(tmp_path / "s"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err and f"{proc}:" in err, err
+    assert not (tmp_path / "s").exists()
