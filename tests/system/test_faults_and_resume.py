@@ -197,3 +197,25 @@ def test_a_resume_on_another_sensor_or_rig_file_is_refused_before_anything_is_to
         assert not warnings and "cannot resume on another rig or sensor" in err[-1] and why in err[-1], err
     assert {p.name: p.read_bytes() for p in d.iterdir() if p.name != "session.lock"} == before
     assert main(["run", "--resume", str(d), "--time-scale", "0", "--quiet"]) == 0  # the same rig still resumes
+
+
+def test_a_second_ctrl_c_does_not_cut_the_cleanup_short(tmp_path):
+    """Technicians press Ctrl-C twice. The second one, while the motors stop and the session is
+    closed, only says "please wait": the session is still closed as aborted and resumable, and the
+    last line is the real resume command."""
+    out = tmp_path / "s"
+    proc = _spawn(["run", SIX, "--out", str(out), "--seed", "5", "--time-scale", "4", "--quiet"])
+    d = _wait_for_steps(out, 1, proc)
+    proc.send_signal(signal.SIGINT)
+    for _ in range(3):
+        time.sleep(0.01)
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=30)
+    lines = err.strip().splitlines()
+    assert proc.returncode == 1, err
+    assert lines[-1].startswith("rig run: aborted") and lines[-1].endswith(f"Resume with: rig run --resume {d}"), lines
+    assert all(line == lines[-1] or "please wait" in line for line in lines), lines
+    assert yaml.safe_load((d / "session.yaml").read_text())["status"] == "aborted"
+    assert main(["run", "--resume", str(d), "--time-scale", "0", "--quiet"]) == 0
+    assert yaml.safe_load((d / "session.yaml").read_text())["status"] == "complete"
