@@ -28,7 +28,8 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from types import SimpleNamespace
 from pathlib import Path
 
 import numpy as np
@@ -59,6 +60,7 @@ class _Step:
 @dataclass
 class _Info:
     steps: list
+    rig: object = field(default_factory=lambda: SimpleNamespace(sensor=SimpleNamespace(model="MPU-9150")))  # the adapter reads the chip's bias stability
 
 
 class StepSession:
@@ -87,8 +89,11 @@ def simulate(err: AccelErrorModel, f: np.ndarray, rate: float, bw: float, seed: 
         a = err.output_g(np.tile(fi, (n, 1)), np.full(n, err.t_ref_c), t, np.zeros(n))
         if noise:
             a = a + proc.sample(t, err.noise_density_g_per_rthz, bw)
-        t_all.append(t), a_all.append(np.round(a * LSB)), step.append(np.full(n, i))
-    samples = {"t_s": np.concatenate(t_all), "accel_counts": np.concatenate(a_all).astype(np.int64),
+        # the noise-free reference is the unrounded physics: rounding a noiseless constant would offset
+        # each step mean by up to half a count (noise dithers that away in the real sessions)
+        t_all.append(t), a_all.append(np.round(a * LSB) if noise else a * LSB), step.append(np.full(n, i))
+    counts = np.concatenate(a_all)
+    samples = {"t_s": np.concatenate(t_all), "accel_counts": counts.astype(np.int64) if noise else counts,
                "step": np.concatenate(step), "temp_c": np.full(n * len(f), np.nan)}
     return StepSession(samples, f)
 

@@ -434,11 +434,7 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
     temps = None if steps.temp_c is None else np.asarray(steps.temp_c, float)
     t0 = float(t0_c) if t0_c is not None else (float(np.mean(temps)) if temps is not None else 25.0)
     t_ref = float(np.mean(steps.t_s))
-    prob = _Problem(steps, ctx, t0, t_ref)
-    if prob.pose_free and prob.base.shape[1] >= 3 * k and k > MIN_RADIAL_STEPS:
-        prob = _RadialProblem(steps, ctx, t0, t_ref)  # poses never repeat: the magnitude model is the baseline
-    if prob.base.shape[1] >= (k if isinstance(prob, _RadialProblem) else 3 * k):
-        raise CalibError(f"discover: {k} steps cannot determine the baseline model ({prob.base.shape[1]} parameters)")
+    prob = _problem(steps, ctx, t0, t_ref)
     names = list(candidates) if candidates is not None else list(LIBRARY)
     unknown = [n for n in names if n not in LIBRARY]
     if unknown:
@@ -476,6 +472,18 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
                      dof_after=final.dof, p_fit=p_fit, baseline=prob.baseline_name,
                      unexplained=None if closed else unexplained(steps, ctx, prob.normalised(final),
                                                                  false_alarm))
+
+
+def _problem(steps: StepMeans, ctx: StepContext, t0: float, t_ref: float) -> _Problem:
+    """The baseline: the seed's model (known poses), a bias per unknown pose, or, when unknown poses
+    never repeat, the magnitude model; CalibError when the steps cannot determine it."""
+    k = len(steps)
+    prob = _Problem(steps, ctx, t0, t_ref)
+    if prob.pose_free and prob.base.shape[1] >= 3 * k and k > MIN_RADIAL_STEPS:
+        prob = _RadialProblem(steps, ctx, t0, t_ref)
+    if prob.base.shape[1] >= (k if isinstance(prob, _RadialProblem) else 3 * k):
+        raise CalibError(f"discover: {k} steps cannot determine the baseline model ({prob.base.shape[1]} parameters)")
+    return prob
 
 
 def verdict(chi2: float, dof: int, false_alarm: float) -> tuple[bool, float]:

@@ -2,11 +2,44 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from calib.errors import CalibError
+
+
+#: Allan deviation floor of flicker noise = sqrt(2 ln 2 / pi) * flicker coefficient (IEEE Std 952, annex C)
+FLICKER_FLOOR = math.sqrt(2 * math.log(2) / math.pi)
+
+
+@dataclass(frozen=True)
+class BiasStability:
+    """How far a sensor's bias wanders, as an Allan-variance characterisation states it.
+
+    bias_instability_g : Allan deviation floor B of the bias (flicker), g.
+    random_walk_g_per_rts : bias random walk K, g/sqrt(s).
+    flicker_corner_s : longest correlation time of the flicker (beyond it the bias no longer wanders
+        as flicker), s.
+
+    A calibration session of duration T sees one realisation of the slow part of that wander: its
+    bias differs from the sensor's long-run bias by :meth:`sigma_g` (1-sigma), which no amount of
+    averaging within the session reveals (docs/sensors.md, "Bias stability").
+    """
+
+    bias_instability_g: float
+    random_walk_g_per_rts: float
+    flicker_corner_s: float
+
+    def sigma_g(self, duration_s: float) -> float:
+        """1-sigma of a session's mean bias about the long-run bias, g: the flicker power between
+        the session length and the flicker corner, ``(B / 0.664)^2 ln(T_c / T) / (2 pi)``, plus the
+        random walk's mean over the session, ``K^2 T / 3``."""
+        t = max(float(duration_s), 1.0)
+        coeff = self.bias_instability_g / FLICKER_FLOOR
+        flicker = coeff**2 * max(math.log(self.flicker_corner_s / t), 0.0) / (2 * math.pi)
+        return math.sqrt(flicker + self.random_walk_g_per_rts**2 * t / 3.0)
 
 
 @dataclass(frozen=True)
@@ -23,6 +56,8 @@ class StepMeans:
     temp_c : (K,) mean temperature per step, C, or None (no thermometer).
     t_s : (K,) mid-time of each step, s from session start.
     lsb_per_g : nominal sensitivity at the recorded range, counts per g.
+    bias_stability : the sensor's :class:`BiasStability`, or None (unknown: bias sigmas are then the
+        fit's alone).
     """
 
     names: tuple
@@ -33,6 +68,7 @@ class StepMeans:
     temp_c: np.ndarray | None
     t_s: np.ndarray
     lsb_per_g: float
+    bias_stability: BiasStability | None = None
 
     def __post_init__(self) -> None:
         k = len(self.names)
@@ -69,4 +105,11 @@ class StepMeans:
                          f_nominal_g=self.f_nominal_g[idx], mean_counts=self.mean_counts[idx],
                          sem_counts=self.sem_counts[idx], n_samples=self.n_samples[idx],
                          temp_c=None if self.temp_c is None else self.temp_c[idx], t_s=self.t_s[idx],
-                         lsb_per_g=self.lsb_per_g)
+                         lsb_per_g=self.lsb_per_g, bias_stability=self.bias_stability)
+
+    def bias_stability_counts(self) -> float:
+        """1-sigma (counts) by which the session's bias stands off the sensor's long-run bias
+        (:meth:`BiasStability.sigma_g` over the span of the steps' times); 0 when unknown."""
+        if self.bias_stability is None or len(self) == 0:
+            return 0.0
+        return self.bias_stability.sigma_g(float(np.ptp(self.t_s))) * float(self.lsb_per_g)

@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
@@ -117,7 +118,7 @@ def assemble(steps: StepMeans, model: str, fits: dict, order: int, t0_c: float, 
         fit = fits[a]
         p = dict(zip(fit.names, fit.params))
         s = dict(zip(fit.names, np.sqrt(np.diag(fit.cov))))
-        b[j], sb[j] = p[f"b_{a}"], s[f"b_{a}"]
+        b[j], sb[j] = p[f"b_{a}"], math.hypot(s[f"b_{a}"], steps.bias_stability_counts())
         for s_ in range(1, order + 1):
             coef[j, s_ - 1], scoef[j, s_ - 1] = p[f"c{s_}_{a}"], s[f"c{s_}_{a}"]
         if model == "triangular":
@@ -313,7 +314,8 @@ def solve_magnitude(steps: StepMeans) -> AccelCalibration:
     sm = np.asarray(fit.sigma_matrix, float)
     smis = {"alpha_yz": float(sm[0, 1] / k[0]), "alpha_zy": float(sm[0, 2] / k[0]),
             "alpha_zx": float(sm[1, 2] / k[1])}
-    sigma = {"bias_counts": np.asarray(fit.sigma_bias, float).tolist(), "scale_counts_per_g": np.diag(sm).tolist(),
+    sb = np.hypot(np.asarray(fit.sigma_bias, float), steps.bias_stability_counts())
+    sigma = {"bias_counts": sb.tolist(), "scale_counts_per_g": np.diag(sm).tolist(),
              "matrix_counts_per_g": sm.tolist(), "misalignment": smis, "temperature": None}
     summary = FitSummary(steps=len(steps), samples=int(np.sum(steps.n_samples)),
                          residual_rms_g=float(fit.residual_rms), chi2_per_dof=float(fit.chi2_per_dof),

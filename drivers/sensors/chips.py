@@ -42,6 +42,12 @@ class ChipSpec:
         Thermometer, gyroscope, magnetometer (the MPU-9150's AK8975) on board.
     driver : callable
         ``driver(bus, address, clock=clock) -> AccelSensor``.
+    accel_bias_instability_g, accel_random_walk_g_per_rts, accel_flicker_corner_s : float
+        The accelerometer bias's Allan-variance characterisation (datasheet class; the datasheets
+        give only the noise density, so these are typical figures of consumer MEMS parts of the
+        family, docs/sensors.md): flicker floor B (g), random walk K (g/sqrt(s)) and the longest
+        correlation time of the flicker (s). The simulator's ``dlpf`` noise draws its bias wander
+        from them and the solver states how far a session's bias may stand off the long-run bias.
     """
 
     model: str
@@ -55,6 +61,9 @@ class ChipSpec:
     has_gyro: bool
     has_magnetometer: bool
     driver: Callable[..., AccelSensor]
+    accel_bias_instability_g: float = 40e-6
+    accel_random_walk_g_per_rts: float = 4e-6
+    accel_flicker_corner_s: float = 5000.0
 
     def accepts_rate(self, rate_hz: float) -> bool:
         """Whether the chip can run at ``rate_hz`` (Hz, within 1e-9 relative)."""
@@ -66,12 +75,14 @@ CHIPS: dict[str, ChipSpec] = {
         model="MPU-9150", default_address=mpu9150_regs.DEFAULT_ADDRESS, addresses=mpu9150_regs.ADDRESSES,
         identity_register=mpu9150_regs.WHO_AM_I, identity_value=mpu9150_regs.WHO_AM_I_VALUE,
         accel_ranges_g=tuple(mpu9150_regs.ACCEL_RANGES), sample_rates_hz=mpu9150_regs.SAMPLE_RATES_HZ,
-        has_temperature=True, has_gyro=True, has_magnetometer=True, driver=Mpu9150),
+        has_temperature=True, has_gyro=True, has_magnetometer=True, driver=Mpu9150,
+        accel_bias_instability_g=40e-6, accel_random_walk_g_per_rts=4e-6, accel_flicker_corner_s=5000.0),
     "ADXL345": ChipSpec(
         model="ADXL345", default_address=adxl345_regs.DEFAULT_ADDRESS, addresses=adxl345_regs.ADDRESSES,
         identity_register=adxl345_regs.DEVID, identity_value=adxl345_regs.DEVID_VALUE,
         accel_ranges_g=tuple(adxl345_regs.RANGE_BITS), sample_rates_hz=adxl345_regs.SAMPLE_RATES_HZ,
-        has_temperature=False, has_gyro=False, has_magnetometer=False, driver=Adxl345),
+        has_temperature=False, has_gyro=False, has_magnetometer=False, driver=Adxl345,
+        accel_bias_instability_g=100e-6, accel_random_walk_g_per_rts=10e-6, accel_flicker_corner_s=5000.0),
 }
 
 #: every supported model name, in the registry's order

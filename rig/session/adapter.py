@@ -12,10 +12,12 @@ from typing import Protocol
 
 import numpy as np
 
+from calib.accel import BiasStability
 from calib.data import StepMeans
 from calib.gyro import RateStepMeans
 from calib.magnetometer import MagStepMeans
 from calib.uncertainty import step_standard_errors
+from drivers.sensors.chips import CHIPS
 from rig.errors import SessionFormatError
 from rig.planning.kinematics import sensor_to_world
 from rig.session.manifest import MAG_COUNTS_PER_UT, SessionManifest, SiteInfo
@@ -35,6 +37,17 @@ class Session(Protocol):
     def lsb_per_g(self) -> float: ...
 
     def static_step_indices(self, include_flagged: bool = False, unknown_pose: bool = False) -> list[int]: ...
+
+def bias_stability(session) -> BiasStability | None:
+    """The recorded chip's bias characterisation (:data:`drivers.sensors.chips.CHIPS`), or None for a
+    sensor the registry does not know (imports of other sensors: their bias sigmas are the fit's alone)."""
+    info = getattr(session, "info", None)
+    model = getattr(getattr(getattr(info, "rig", None), "sensor", None), "model", None)
+    chip = CHIPS.get(model) if isinstance(model, str) else None
+    if chip is None:
+        return None
+    return BiasStability(chip.accel_bias_instability_g, chip.accel_random_walk_g_per_rts, chip.accel_flicker_corner_s)
+
 
 #: the standard error of a mean never goes below the quantisation of one count
 _QUANTUM_SIGMA = 1.0 / np.sqrt(12.0)
@@ -79,7 +92,7 @@ def step_means(session: Session, include=None) -> StepMeans:
     return StepMeans(names=tuple(names), f_nominal_g=np.array(f_nom, float), mean_counts=np.array(means),
                      sem_counts=sems, n_samples=np.array(ns, int),
                      temp_c=np.array(temps) if session.has_temperature else None, t_s=np.array(ts),
-                     lsb_per_g=session.lsb_per_g)
+                     lsb_per_g=session.lsb_per_g, bias_stability=bias_stability(session))
 
 
 def _step_temperature(session: Session, rows: np.ndarray, i: int) -> float:

@@ -37,16 +37,21 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.signal import lfilter
 
+from drivers.sensors.chips import CHIPS
+
 NOISE_MODELS = ("white", "dlpf")
 #: the model a chip uses when none is given (flip to "dlpf" once the golden files are re-recorded)
 DEFAULT_NOISE_MODEL = "white"
 #: Allan deviation floor of flicker noise = sqrt(2 ln 2 / pi) * B (IEEE Std 952, annex C)
 FLICKER_FLOOR = math.sqrt(2 * math.log(2) / math.pi)
 
-_CHIP_PARAMS = {
-    "MPU-9150": {"accel_bias_instability_g": 40e-6, "accel_random_walk_g_per_rts": 4e-6},
-    "ADXL345": {"accel_bias_instability_g": 100e-6, "accel_random_walk_g_per_rts": 10e-6},
-}
+
+
+def _chip_params(chip: str) -> dict:
+    """The chip registry's bias characterisation (one source for the simulator and the solver)."""
+    spec = CHIPS.get(chip, CHIPS["MPU-9150"])
+    return {"accel_bias_instability_g": spec.accel_bias_instability_g,
+            "accel_random_walk_g_per_rts": spec.accel_random_walk_g_per_rts}
 
 
 def _v(x: float):
@@ -81,8 +86,9 @@ class NoiseConfig:
     @classmethod
     def for_chip(cls, chip: str = "MPU-9150", model: str | None = None) -> "NoiseConfig":
         """Datasheet-class parameters of ``chip`` with ``model`` (default :data:`DEFAULT_NOISE_MODEL`)."""
-        p = {k: [v] * 3 for k, v in _CHIP_PARAMS.get(chip, _CHIP_PARAMS["MPU-9150"]).items()}
-        return cls(model=model or DEFAULT_NOISE_MODEL, **p)
+        p = {k: [v] * 3 for k, v in _chip_params(chip).items()}
+        corner = CHIPS.get(chip, CHIPS["MPU-9150"]).accel_flicker_corner_s
+        return cls(model=model or DEFAULT_NOISE_MODEL, flicker_band_s=(0.02, corner), **p)
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
