@@ -18,6 +18,7 @@ from calib import calfile
 from calib.discovery import Discovery, StepContext, discover, summary_lines, unexplained_lines
 from calib.effects import LIBRARY, heating_state
 from calib.errors import CalibError
+from rig.analysis import plots
 from rig.analysis.solve import SOFTWARE, sensor_section
 from rig.planning.kinematics import sensor_to_world
 from rig.session import Session, load_session, step_means
@@ -107,13 +108,18 @@ def discover_session(session_dir, *, false_alarm: float = 0.01) -> tuple[Session
     return session, discover(steps, ctx, false_alarm=false_alarm)
 
 
+#: how the report names each baseline model (calib.discovery.Discovery.baseline)
+BASELINE_LABELS = {"seed": "baseline (bias, scale, triangular misalignment)",
+                   "pose_groups": "pose-free baseline (one constant per axis and unknown pose)",
+                   "magnitude": "magnitude baseline (|M^-1 (a - b)| = 1 g, poses unknown and never repeated; "
+                                "only each step's residual along its gravity direction counts)"}
+
+
 def format_report(session: Session, d: Discovery) -> str:
     """The plain-text report: localisation, effects named, gap before and after, per-step table."""
     lines = [f"session {session.id}: {len(d.steps)} static steps, noise level {d.noise_rms_g * 1e6:.1f} ug rms "
              f"(from each step's own scatter)"]
-    pose_free = any(s.f_nominal_g is None for s in d.steps)
-    label = "pose-free baseline (one constant per axis and unknown pose)" if pose_free else \
-        "baseline (bias, scale, triangular misalignment)"
+    label = BASELINE_LABELS[d.baseline]
     lines.append(f"{label}: residual {d.rms_before_g * 1e6:.1f} ug rms, chi2/dof {d.chi2_per_dof_before:.2f}")
     lines.append("where the model and the data disagree:")
     lines += ["  " + s for s in summary_lines(d.where)]
@@ -167,41 +173,24 @@ def _fmt(v) -> str:
     return f"{v:.4g}"
 
 
-def write_plot(d: Discovery, path) -> Path:
-    """PNG: residuals before and after against step (pose order) and temperature."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def write_plot(d: Discovery, path=None, *, session_id: str | None = None):
+    """Residuals before and after against step (pose names) and temperature, in µg.
 
-    r0 = np.array([s.residual_before_g for s in d.steps]) * 1e3
-    r1 = np.array([s.residual_after_g for s in d.steps]) * 1e3
-    temps = np.array([np.nan if s.temp_c is None else s.temp_c for s in d.steps])
-    fig, axes = plt.subplots(2, 2, figsize=(12, 7), sharey="row")
-    k = np.arange(len(d.steps))
-    for j, (lab, col) in enumerate(zip("xyz", ("tab:red", "tab:green", "tab:blue"))):
-        axes[0, 0].plot(k, r0[:, j], ".", color=col, label=lab)
-        axes[0, 1].plot(k, r1[:, j], ".", color=col, label=lab)
-        if np.isfinite(temps).any():
-            axes[1, 0].plot(temps, r0[:, j], ".", color=col, label=lab)
-            axes[1, 1].plot(temps, r1[:, j], ".", color=col, label=lab)
-    added = ", ".join(e.name for e in d.effects) or "nothing"
-    axes[0, 0].set_title(f"baseline: {d.rms_before_g * 1e6:.0f} ug rms")
-    axes[0, 1].set_title(f"+ {added}: {d.rms_after_g * 1e6:.0f} ug rms")
-    for a in axes[0]:
-        a.set_xlabel("step (pose order)")
-    for a in axes[1]:
-        a.set_xlabel("temperature, C")
-    for a in axes[:, 0]:
-        a.set_ylabel("residual, mg")
-    for a in axes.ravel():
-        a.axhline(0, color="0.6", lw=0.8)
-        if a.get_legend_handles_labels()[0]:
-            a.legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
-    p = Path(path)
-    fig.savefig(p, dpi=100)
-    plt.close(fig)
-    return p
+    ``path`` a file or a directory (then ``SESSION-discover.png`` inside it): writes the plot and
+    returns the absolute path written; ``path`` None: returns the matplotlib Figure (nothing written).
+    """
+    r0 = np.array([s.residual_before_g for s in d.steps]) * 1e6
+    r1 = np.array([s.residual_after_g for s in d.steps]) * 1e6
+    added = ", ".join(e.name for e in d.effects) or "nothing added"
+    series = [(f"baseline model: {d.rms_before_g * 1e6:.1f} {plots.RESIDUAL_UNIT} rms", r0),
+              (f"+ {added}: {d.rms_after_g * 1e6:.1f} {plots.RESIDUAL_UNIT} rms", r1)]
+    title = (f"rig discover, session {session_id or '(unnamed)'}: residuals before and after "
+             f"(noise {d.noise_rms_g * 1e6:.1f} {plots.RESIDUAL_UNIT} rms)")
+    fig = plots.residuals_figure(title, [s.name for s in d.steps], [s.temp_c for s in d.steps], series)
+    if path is None:
+        return fig
+    target = plots.resolve_plot_path(path, plots.safe_name(f"{session_id or 'session'}-discover") + ".png")
+    return plots.save(fig, target, dpi=100)
 
 
 def write_calibration(session: Session, d: Discovery, path) -> Path:

@@ -10,6 +10,7 @@ import json
 import math
 from dataclasses import dataclass, field
 
+from rig.analysis import plots
 from rig.lab.history import History, HistoryCorrupt
 
 DRIFT_LIMIT_SIGMA = 3.0
@@ -130,27 +131,23 @@ def _unit(records, name) -> str:
     return next(r.parameters[name][2] for r in records if name in r.parameters) or "-"
 
 
-def plot_history(key: str, records: list[CalibrationRecord], path) -> None:
-    """Each parameter over time with 1-sigma error bars, one panel per parameter (matplotlib, Agg)."""
-    import matplotlib  # optional heavy dependency: only for --plot
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def plot_history(key: str, records: list[CalibrationRecord], path=None):
+    """Each parameter over the calibrations with 1-sigma error bars, one panel per parameter, its unit
+    on the y axis; the x axis names each calibration (number, date, procedure), the footnote its session.
 
-    names = list(drift(records))
-    cols = 3
-    rows = max(1, math.ceil(len(names) / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 2.4 * rows), squeeze=False)
-    ticks = [f"#{i + 1}\n{r.info['calibrated_at'][:16].replace('T', ' ')}" for i, r in enumerate(records)]
-    for ax, name in zip(axes.ravel(), names):
-        pts = [(i, *r.parameters[name][:2]) for i, r in enumerate(records) if name in r.parameters]
-        ax.errorbar([p[0] for p in pts], [p[1] for p in pts], yerr=[p[2] or 0.0 for p in pts], fmt="o-", capsize=3)
-        ax.set_title(f"{name} ({_unit(records, name)})", fontsize=8)
-        ax.set_xticks(range(len(records)), ticks, fontsize=5)
-        ax.set_xlim(-0.5, len(records) - 0.5)
-        ax.tick_params(axis="y", labelsize=6)
-    for ax in axes.ravel()[len(names):]:
-        ax.set_visible(False)
-    fig.suptitle(f"{key}: {len(records)} calibrations, oldest first (1-sigma error bars)", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    ``path`` a file or a directory (then ``history-SENSOR.png`` inside it): writes the plot and returns
+    the absolute path written; ``path`` None: returns the matplotlib Figure (nothing written).
+    """
+    ticks = [f"#{i + 1}\n{(r.info.get('calibrated_at') or '')[:16].replace('T', ' ')}\n"
+             f"{r.info.get('procedure_name') or ''}" for i, r in enumerate(records)]
+    panels = [(name, _unit(records, name), [(i, *r.parameters[name][:2]) for i, r in enumerate(records)
+                                           if name in r.parameters]) for name in drift(records)]
+    sessions = [f"#{i + 1} {r.info.get('session_id') or '-'}" for i, r in enumerate(records)]
+    footnote = "sessions: " + ";  ".join(sessions) if len(records) <= 8 else \
+        f"sessions: {sessions[0]} ... {sessions[-1]} (rig history {key} lists them all)"
+    fig = plots.parameters_figure(f"calibration history of sensor {key}: {len(records)} calibration(s), "
+                                  "oldest first, 1-sigma error bars", ticks, panels, footnote=footnote)
+    if path is None:
+        return fig
+    target = plots.resolve_plot_path(path, plots.safe_name(f"history-{key}") + ".png")
+    return plots.save(fig, target, dpi=110)

@@ -118,14 +118,18 @@ class ProcedureInfo(_Section):
 
     def section(self, key: str) -> dict | None:
         """A top-level mapping of the recorded procedure (``solve``, ``accept``), or None."""
+        spec = self.value(key)
+        return spec if isinstance(spec, dict) else None
+
+    def value(self, key: str):
+        """A top-level value of the recorded procedure (``report: true``), or None."""
         if not self.text:
             return None
         try:  # the recorded procedure was validated when it ran: hostile YAML here means tampering
             doc, _ = load_located(self.text, "session.yaml: procedure.text")
         except RigInputError as exc:
             raise SessionFormatError(None, None, "procedure.text", exc.message) from None
-        spec = doc.get(key) if isinstance(doc, dict) else None
-        return spec if isinstance(spec, dict) else None
+        return doc.get(key) if isinstance(doc, dict) else None
 
 
 class SoftwareInfo(_Section):

@@ -14,7 +14,8 @@ def add_parser(sub) -> None:
     s = sub.add_parser("history", help="calibration history: the sensors, or every calibration of one and its drift")
     s.add_argument("sensor", nargs="?", default=None, help="sensor key (or a unique part of it); none: list sensors")
     s.add_argument("--json", action="store_true", help="print the rig-history/1 document")
-    s.add_argument("--plot", default=None, metavar="FILE.png", help="parameters over time with 1-sigma error bars")
+    s.add_argument("--plot", default=None, metavar="FILE.png",
+                   help="parameters over time with 1-sigma error bars (a directory: written inside it)")
     s.add_argument("--history", default=None, metavar="PATH",
                    help=f"database (default ${ENV_VAR}, else ~/.local/share/rig/history.sqlite)")
     s.add_argument("--record", default=None, metavar="SESSION", help="record SESSION's calibration first")
@@ -47,14 +48,15 @@ def _run(args) -> int:
             return _print_sensors(list_sensors(h), args)
         key = resolve_sensor(h, args.sensor)
         records = sensor_history(h, key)
-    if args.plot:
-        plot_history(key, records, args.plot)
+    plot = plot_history(key, records, args.plot) if args.plot else None
     if args.json:
         print(json.dumps(history_document(key, records), indent=2, default=json_default))
+        if plot is not None:  # stdout is the JSON document
+            print(f"plot: {plot}", file=sys.stderr)
     else:
         print(format_history(key, records))
-        if args.plot:
-            print(f"plot: {args.plot}")
+        if plot is not None:
+            print(f"plot: {plot}")
     return EXIT_OK
 
 

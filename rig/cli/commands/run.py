@@ -8,6 +8,7 @@ import sys
 
 from rig.cli.common import EXIT_FAILURE, EXIT_OK, UsageError, conclude, format_calibration
 from rig.cli.console import ConsoleUI
+from rig.lab.report import write_report
 from rig.execution.context import RunAborted
 from rig.session import SessionManifest
 from rig.workflow.run import run_procedure
@@ -60,7 +61,10 @@ def run(args) -> int:
         return EXIT_OK
     print(f"calibration: {result.calibration_path}")
     print(format_calibration(result.calibration))
-    return conclude("run", result.session_dir, result.calibration_path)
+    code = conclude("run", result.session_dir, result.calibration_path)
+    if recorded.procedure.value("report") is True:  # the procedure asks for rig report at the end
+        print(f"report: {write_report(result.session_dir)}")
+    return code
 
 
 def stop_on_signals() -> None:

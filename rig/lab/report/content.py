@@ -1,0 +1,384 @@
+"""What ``rig report`` shows, computed from the session, its calibration file, ``rig discover``'s output
+and the calibration history (docs/report.md). No HTML here: :mod:`rig.lab.report.render` draws it.
+
+Every part that may be missing (no temperature, no known poses, no discover run, no history) is a
+value with a ``note`` saying why, never an exception: the report always says what it could not show.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import calib
+from calib import calfile
+from calib.effects import LIBRARY
+from calib.errors import CalibError
+from calib.gyro.result import NONORTHOGONALITY_NAMES
+from calib.mag.result import sigma_names as mag_sigma_names
+from calib.parameters import accel_parameters
+from rig.errors import RigInputError
+from rig.lab.drift import CalibrationRecord, drift, sensor_history
+from rig.lab.history import HistoryError, default_path, open_history
+from rig.lab.identity import sensor_identity
+from rig.session import Session, load_session, step_means
+
+#: the seed paper's verification procedure (an independent roll/pitch check)
+VERIFY_PROCEDURE = "procedures/verify_seed_table.yaml"
+#: files in the session larger than this are not read as discover output
+MAX_DISCOVER_BYTES = 50_000_000
+HISTORY_TIMEOUT_S = 5.0
+#: a chi2/dof above this gets a hint in the verdict (a hint, not a test: the solvers' test is calib.design.misfit)
+CHI2_HINT = 3.0
+
+
+@dataclass
+class Parameter:
+    section: str
+    name: str
+    value: float
+    sigma: float | None
+    unit: str
+    change: dict | None = None  # since the previous calibration of this sensor: {delta, combined_sigma, z, flagged}
+
+
+@dataclass
+class Verdict:
+    """``state``: pass | fail | none (no acceptance limits). ``incomplete``: lines flagging an unfinished session."""
+
+    state: str
+    headline: str
+    failed: list[str] = field(default_factory=list)
+    limits: list[dict] = field(default_factory=list)
+    fit: list[tuple[str, str]] = field(default_factory=list)
+    incomplete: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+
+@dataclass
+class Residuals:
+    """The calibration's residual at every static step: calibrated minus nominal specific force (µg, per
+    axis), or ``|f| - 1`` (µg) when the poses are unknown."""
+
+    names: list[str] = field(default_factory=list)
+    temps_c: list[float | None] = field(default_factory=list)
+    values_ug: np.ndarray | None = None
+    labels: tuple[str, ...] = ("x", "y", "z")
+    note: str = ""
+
+    @property
+    def rms_ug(self) -> float:
+        return float(np.sqrt(np.mean(self.values_ug ** 2))) if self.values_ug is not None else float("nan")
+
+
+@dataclass
+class SeedTable:
+    evaluation: object | None = None  # calib.Evaluation
+    note: str = ""
+
+
+@dataclass
+class DiscoverSummary:
+    """What ``rig discover`` left in the session: its JSON document and/or augmented calibration files."""
+
+    documents: list[tuple[Path, dict]] = field(default_factory=list)
+    calibrations: list[tuple[Path, list[dict]]] = field(default_factory=list)
+    note: str = ""
+
+
+@dataclass
+class HistoryView:
+    path: Path | None = None
+    key: str = ""
+    records: list[CalibrationRecord] = field(default_factory=list)
+    current: int | None = None  # index of this report's calibration in records
+    flagged: list[str] = field(default_factory=list)
+    note: str = ""
+
+
+@dataclass
+class ReportContent:
+    session: Session
+    calibration: object  # calib.calfile.CalibrationFile
+    calibration_path: Path
+    verdict: Verdict
+    parameters: list[Parameter]
+    residuals: Residuals
+    seed: SeedTable
+    discover: DiscoverSummary
+    history: HistoryView
+    sensor_key: str
+    other_calibrations: list[tuple[Path, object]] = field(default_factory=list)
+
+
+# ---------------------------------------------------------------------------------------------- loading
+
+def load(session_dir, calibration=None) -> tuple[Session, object, Path]:
+    """The session and its calibration file (``SESSION/calibration.yaml`` unless ``calibration``).
+
+    Raises SessionFormatError (not a session), RigInputError (no calibration yet, another sensor),
+    CalibrationFileError (a damaged calibration file): all exit 2.
+    """
+    session = load_session(session_dir)
+    path = Path(calibration) if calibration is not None else Path(session_dir) / "calibration.yaml"
+    if not path.exists():
+        if calibration is None:
+            raise RigInputError(str(path), None, None, f"no calibration yet: run `rig solve {session_dir}` first "
+                                "(or give one with --calibration)")
+        raise RigInputError(str(path), None, "--calibration", "no such calibration file")
+    cal = calfile.read(path)
+    lsb = float(cal.accelerometer.lsb_per_g)
+    if not math.isclose(lsb, session.lsb_per_g, rel_tol=1e-9):
+        raise RigInputError(str(path), None, "accelerometer.lsb_per_g", f"the calibration is for {lsb:g} counts/g, "
+                            f"the session recorded {session.lsb_per_g:g} counts/g (another range or sensor)")
+    return session, cal, path
+
+
+def other_calibrations(session: Session, main: Path) -> list[tuple[Path, object]]:
+    """The other calibration files in the session folder (re-solves, ``rig discover -o``), readable ones."""
+    out = []
+    for p in sorted(session.path.glob("calibration*.yaml")):
+        if p.resolve() == main.resolve():
+            continue
+        try:
+            out.append((p, calfile.read(p)))
+        except CalibError:
+            continue
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- verdict
+
+def _field(obj, name, default=None):
+    """``obj.name`` or ``obj[name]`` (the acceptance section may be a model or a plain mapping)."""
+    if isinstance(obj, dict):
+        return obj.get(name, default)
+    return getattr(obj, name, default)
+
+
+def completeness(session: Session) -> tuple[list[str], list[str]]:
+    """(lines flagging an unfinished session, warnings about flagged steps)."""
+    info = session.info
+    incomplete, warnings = [], []
+    if info.status != "complete":
+        resume = f" (resume it with `rig run --resume {session.path}`)" if info.rig.kind != "import" else ""
+        incomplete.append(f"session status is '{info.status}', not 'complete': the run did not finish{resume}")
+    missing = [s for s in info.steps if s.status in ("pending", "failed")]
+    if missing:
+        names = ", ".join(f"{s.label} ({s.status})" for s in missing[:8]) + (" ..." if len(missing) > 8 else "")
+        incomplete.append(f"{len(missing)} of {len(info.steps)} steps not recorded: {names}")
+    for s in info.steps:
+        if s.status == "flagged":
+            problems = (s.stats.problems if s.stats is not None else None) or []
+            warnings.append(f"step {s.label} is flagged" + (f": {'; '.join(map(str, problems))}" if problems else ""))
+    return incomplete, warnings
+
+
+def fit_quality(cal) -> list[tuple[str, str]]:
+    """(label, text) lines of how well each section's model fits its data."""
+    a = cal.accelerometer
+    fit = a.fit
+    chi2 = fit.chi2_per_dof
+    lines = [("accelerometer", f"{a.model} model by {fit.method or 'pinv'}: {fit.steps} steps used "
+                               f"({fit.samples} samples), residual {fit.residual_rms_g * 1e6:.1f} µg rms, chi2/dof "
+                               + (f"{chi2:.2f}" if math.isfinite(chi2) else "n/a (no degrees of freedom)")
+                               + (" (well above 1: the model misses something the noise does not explain; see "
+                                  "rig discover)" if math.isfinite(chi2) and chi2 > CHI2_HINT else ""))]
+    g = cal.gyroscope
+    if g is not None:
+        lines.append(("gyroscope", f"{g.n_steps} rate steps, residual {g.residual_rms_dps:.4f} deg/s rms, "
+                                   f"chi2/dof {g.chi2_per_dof:.2f}"))
+    m = cal.magnetometer
+    if m is not None:
+        lines.append(("magnetometer", f"{m.method}: {m.n_steps} steps, residual {m.residual_rms_ut:.3f} µT rms"))
+    return lines
+
+
+def verdict(session: Session, cal) -> Verdict:
+    """PASS/FAIL from the calibration's acceptance section when it has one, else 'no acceptance limits';
+    always the fit quality and the completeness of the session."""
+    incomplete, warnings = completeness(session)
+    warnings += list(session.warnings)
+    coverage = getattr(cal, "coverage", None)
+    if coverage is not None and not _field(coverage, "complete", True):
+        pending = list(_field(coverage, "pending_steps", None) or [])
+        incomplete.append(f"the calibration was solved from {_field(coverage, 'steps_recorded', '?')} of "
+                          f"{_field(coverage, 'steps_planned', '?')} planned steps (session "
+                          f"{_field(coverage, 'status', '?')})" + (f"; pending: {', '.join(map(str, pending[:8]))}"
+                                                                    if pending else ""))
+    if cal.session and cal.session != session.id:
+        warnings.append(f"the calibration was solved from session {cal.session}; this report evaluates it on "
+                        f"session {session.id}")
+    acceptance = getattr(cal, "acceptance", None)
+    v = Verdict(state="none", headline="no acceptance limits", fit=fit_quality(cal), incomplete=incomplete,
+                warnings=warnings)
+    if acceptance is None:
+        return v
+    limits = [{"name": str(_field(e, "name", "")), "limit": _field(e, "limit"), "value": _field(e, "value"),
+               "passed": bool(_field(e, "passed", False)), "line": str(_field(e, "line", "") or "")}
+              for e in (_field(acceptance, "limits") or [])]
+    passed = bool(_field(acceptance, "passed", False))
+    v.state, v.limits = ("pass" if passed else "fail"), limits
+    v.failed = [e["line"] or f"{e['name']}: {e['value']} beyond {e['limit']}" for e in limits if not e["passed"]]
+    v.headline = (f"PASS: all {len(limits)} acceptance limits met" if passed else
+                  f"FAIL: {len(v.failed)} of {len(limits)} acceptance limits not met")
+    return v
+
+
+# ---------------------------------------------------------------------------------------------- parameters
+
+def _vector(out, section, prefix, values, sigmas, unit):
+    for axis, v, s in zip("xyz", np.asarray(values, float).ravel(), sigmas):
+        out.append(Parameter(section, f"{prefix}_{axis}", float(v), _num(s), unit))
+
+
+def _num(x) -> float | None:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def parameters(cal) -> list[Parameter]:
+    """Every parameter of the calibration file with its 1-sigma and unit (the history's names)."""
+    out = [Parameter("accelerometer", n, v, s, u) for n, v, s, u in accel_parameters(cal.accelerometer)]
+    for e in cal.accelerometer.effects:
+        lib = LIBRARY.get(e["name"])
+        names = lib.params if lib is not None else [str(i) for i in range(len(e.get("estimate") or []))]
+        for pname, v, s in zip(names, e.get("estimate") or [], e.get("sigma") or []):
+            if v is not None:
+                out.append(Parameter("accelerometer effects", f"effect.{e['name']}.{pname}", float(v), _num(s),
+                                     str(e.get("unit", "-"))))
+    g = cal.gyroscope
+    if g is not None:
+        _vector(out, "gyroscope", "gyro.bias", g.bias_counts, [g.sigma.get(f"b_{x}") for x in "xyz"], "counts")
+        _vector(out, "gyroscope", "gyro.scale", g.scale_counts_per_dps, [g.sigma.get(f"k_{x}") for x in "xyz"],
+                "counts/(deg/s)")
+        for n in NONORTHOGONALITY_NAMES:
+            out.append(Parameter("gyroscope", f"gyro.{n}", float(g.nonorthogonality[n]), _num(g.sigma.get(n)), "-"))
+    m = cal.magnetometer
+    if m is not None:
+        _vector(out, "magnetometer", "mag.hard_iron", m.hard_iron_ut, [m.sigma.get(f"hard_iron_{x}") for x in "xyz"],
+                "uT")
+        a = np.asarray(m.matrix, float)
+        for n in mag_sigma_names()[3:]:
+            i, j = "xyz".index(n[2]), "xyz".index(n[3])
+            out.append(Parameter("magnetometer", f"mag.{n}", float(a[i, j]), _num(m.sigma.get(n)), "-"))
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- residuals
+
+def residuals(session: Session, cal) -> Residuals:
+    """Calibrated minus nominal specific force at every complete static step (µg), or |f| - 1 without poses."""
+    known = session.static_step_indices()
+    idx = known or session.static_step_indices(unknown_pose=True)
+    if not idx:
+        return Residuals(note="the session has no complete static step: no residuals to show")
+    try:
+        means = step_means(session, idx)
+        f = cal.accelerometer.apply(means.mean_counts, temp_c=means.temp_c, t_s=means.t_s)
+    except (CalibError, RigInputError) as exc:
+        return Residuals(note=f"the residuals cannot be computed: {exc}")
+    temps = [None if t is None or not np.isfinite(t) else float(t) for t in
+             (means.temp_c if means.temp_c is not None else [None] * len(idx))]
+    if known:
+        values, labels = (f - means.f_nominal_g) * 1e6, ("x", "y", "z")
+    else:
+        values, labels = (np.linalg.norm(f, axis=1, keepdims=True) - 1.0) * 1e6, ("|f| - 1",)
+    note = "" if known else "the poses are unknown: the residual is |f| - 1 (the calibrated magnitude against 1 g)"
+    return Residuals(names=list(means.names), temps_c=temps, values_ug=values, labels=labels, note=note)
+
+
+def seed_table(session: Session, cal) -> SeedTable:
+    """The seed paper's roll/pitch table (``rig evaluate``) over the steps with known poses."""
+    if not session.static_step_indices():
+        return SeedTable(note="no static step with a known pose: the roll/pitch table needs verification poses")
+    try:
+        ev = calib.evaluate(cal.accelerometer, session.step_means())
+    except (CalibError, RigInputError) as exc:
+        return SeedTable(note=f"the roll/pitch table cannot be computed: {exc}")
+    if cal.session == session.id:
+        note = (f"In-sample: these are the poses the calibration was fitted to. For an independent check run "
+                f"{VERIFY_PROCEDURE} and `rig report VERIFY_SESSION --calibration {session.path}/calibration.yaml`.")
+    else:
+        note = f"Independent check: the calibration was solved from session {cal.session or '(unknown)'}."
+    return SeedTable(evaluation=ev, note=note)
+
+
+# ---------------------------------------------------------------------------------------------- discover
+
+def _discover_document(path: Path) -> dict | None:
+    try:
+        if path.stat().st_size > MAX_DISCOVER_BYTES:
+            return None
+        doc = json.loads(path.read_text(encoding="utf-8", errors="replace"))
+    except (OSError, ValueError):
+        return None
+    return doc if isinstance(doc, dict) and str(doc.get("format", "")).startswith("rig-discover/") else None
+
+
+def discover_outputs(session: Session, others: list[tuple[Path, object]]) -> DiscoverSummary:
+    """``rig discover`` documents (``--json`` saved in the session) and augmented calibration files (``-o``)."""
+    docs = [(p, d) for p in sorted(session.path.glob("*.json")) if (d := _discover_document(p)) is not None]
+    cals = [(p, list(c.accelerometer.effects)) for p, c in others if c.accelerometer.effects]
+    note = "" if docs or cals else (
+        "rig discover has not been run on this session, or its output was not saved in the session folder; "
+        f"to include it: rig discover {session.path} --json > {session.path}/discover.json")
+    return DiscoverSummary(documents=docs, calibrations=cals, note=note)
+
+
+# ---------------------------------------------------------------------------------------------- history
+
+def history_view(session: Session, cal, cal_path: Path, history_db=None) -> HistoryView:
+    """This sensor's calibrations in the history database; a note instead when there are none."""
+    key = sensor_identity(session.manifest or {}, cal)["key"]
+    path = default_path(history_db)
+    if not path.exists():
+        return HistoryView(path=path, key=key, note=f"no history database at {path} (docs/history.md)")
+    try:
+        with open_history(history_db, create=False, timeout_s=HISTORY_TIMEOUT_S) as h:
+            records = sensor_history(h, key)
+    except HistoryError as exc:
+        return HistoryView(path=path, key=key, note=f"the history could not be read: {exc}")
+    if not records:
+        return HistoryView(path=path, key=key, note=f"no calibration of sensor {key} in the history {path}")
+    mine = [i for i, r in enumerate(records) if r.info.get("session_id") == session.id]
+    exact = [i for i in mine if _cal_path(records[i]) == str(cal_path.resolve())]
+    current = (exact or mine or [None])[-1]
+    flagged = sorted({n for n, col in drift(records).items() for c in col if c and c["flagged"]})
+    return HistoryView(path=path, key=key, records=records, current=current, flagged=flagged)
+
+
+def _cal_path(record: CalibrationRecord) -> str:
+    return str(record.info.get("calibration_path") or "")
+
+
+def attach_changes(params: list[Parameter], hist: HistoryView) -> None:
+    """The change of each parameter since the previous calibration of this sensor (combined sigmas)."""
+    if hist.current is None or hist.current == 0:
+        return
+    changes = drift(hist.records)
+    for p in params:
+        col = changes.get(p.name)
+        if col is not None:
+            p.change = col[hist.current]
+
+
+# ---------------------------------------------------------------------------------------------- all of it
+
+def gather(session_dir, *, calibration=None, history_db=None) -> ReportContent:
+    session, cal, cal_path = load(session_dir, calibration)
+    others = other_calibrations(session, cal_path)
+    params = parameters(cal)
+    hist = history_view(session, cal, cal_path, history_db)
+    attach_changes(params, hist)
+    return ReportContent(session=session, calibration=cal, calibration_path=cal_path, verdict=verdict(session, cal),
+                         parameters=params, residuals=residuals(session, cal), seed=seed_table(session, cal),
+                         discover=discover_outputs(session, others), history=hist, sensor_key=hist.key,
+                         other_calibrations=others)

@@ -1,0 +1,347 @@
+"""The report as one self-contained HTML page: standard library only (``html.escape``), the style in
+the page, every plot a ``data:image/png;base64`` picture, no script and no web address (docs/report.md).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from datetime import datetime, timezone
+from html import escape
+from pathlib import Path
+
+import numpy as np
+
+from rig import __version__
+from rig.analysis import plots
+from rig.lab.drift import plot_history
+from rig.lab.report.content import DiscoverSummary, HistoryView, ReportContent, Residuals, SeedTable, Verdict
+from rig.lab.report.style import CSS
+
+PLOT_DPI = 90
+#: longer tables are folded (a <details> element) under their summary line
+LONG_TABLE_ROWS = 14
+
+
+# ---------------------------------------------------------------------------------------------- small pieces
+
+def sigma_digits(sigma) -> int | None:
+    """Decimals that show ``sigma`` to two significant digits (None without a usable sigma)."""
+    if sigma is None or not math.isfinite(sigma) or sigma <= 0:
+        return None
+    return 1 - math.floor(math.log10(sigma))
+
+
+def fmt_value(value, sigma, digits: int | None = None) -> tuple[str, str]:
+    """(value, sigma) as text, both to the sigma's second significant digit (or ``digits`` decimals)."""
+    if value is None or not math.isfinite(value):
+        return "n/a", "–"
+    d = sigma_digits(sigma) if digits is None else digits
+    if d is None:
+        return f"{value:.6g}", "–"
+    if d < 0:
+        return f"{value:.0f}", f"{sigma:.0f}"
+    if d > 9:
+        return f"{value:.4e}", f"{sigma:.1e}"
+    return f"{value:.{d}f}", f"{sigma:.{d}f}"
+
+
+def _num(v, spec: str, missing: str = "–") -> str:
+    """``v`` formatted, ``missing`` for None or NaN; a value that rounds to zero is written as zero (no "-0.0")."""
+    if v is None or not math.isfinite(float(v)):
+        return missing
+    text = format(float(v), spec)
+    return format(0.0, spec) if not text.lstrip("+-").strip("0.") else text
+
+
+def _value(v) -> str:
+    """A limit's value: 6 significant digits; 'not evaluated' when there is none."""
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        return _num(v, ".6g")
+    return "not evaluated" if v is None else escape(str(v))
+
+
+def when(text) -> str:
+    """An ISO time stamp as ``2026-11-23 09:21:59 UTC`` (other zones keep their offset); other text unchanged."""
+    try:
+        t = datetime.fromisoformat(str(text))
+    except ValueError:
+        return str(text)
+    if t.tzinfo is not None and t.utcoffset().total_seconds() == 0:
+        return t.strftime("%Y-%m-%d %H:%M:%S UTC")
+    return t.isoformat(sep=" ", timespec="seconds")
+
+
+def table(headers, rows, *, id_=None, cls="data", numeric=()) -> str:
+    """A table; ``rows`` hold already escaped cell HTML; ``numeric`` column indices are right-aligned."""
+    head = "".join(f'<th{" class=num" if i in numeric else ""}>{h}</th>' for i, h in enumerate(headers))
+    body = "".join("<tr>" + "".join(f'<td{" class=num" if i in numeric else ""}>{c}</td>' for i, c in enumerate(r))
+                   + "</tr>" for r in rows)
+    ident = f' id="{id_}"' if id_ else ""
+    return f'<table{ident} class="{cls}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
+def section(id_: str, title: str, body: str) -> str:
+    return f'<section id="{id_}"><h2>{escape(title)}</h2>{body}</section>'
+
+
+def note(text: str, cls: str = "note") -> str:
+    return f'<p class="{cls}">{escape(text)}</p>' if text else ""
+
+
+def figure(fig, caption: str, id_: str) -> str:
+    uri = plots.png_data_uri(fig, dpi=PLOT_DPI)
+    return (f'<figure id="{id_}"><img src="{uri}" alt="{escape(caption)}">'
+            f"<figcaption>{escape(caption)}</figcaption></figure>")
+
+
+def definitions(pairs) -> str:
+    """A definition list of (label, text) pairs; None values are left out."""
+    items = "".join(f"<dt>{escape(k)}</dt><dd>{escape(str(v))}</dd>" for k, v in pairs if v not in (None, ""))
+    return f'<dl class="facts">{items}</dl>'
+
+
+# ---------------------------------------------------------------------------------------------- sections
+
+def verdict_html(v: Verdict) -> str:
+    """The verdict card, then (inside the same section) the incomplete-session flag, warnings, the limits."""
+    badge = {"pass": "PASS", "fail": "FAIL", "none": "NO LIMITS"}[v.state]
+    parts = [f'<div class="verdict verdict-{v.state}"><div class="badge">{badge}</div><div class="verdict-body">'
+             f'<p class="headline">{escape(v.headline)}</p>']
+    if v.state == "none":
+        parts.append('<p class="muted">The calibration file carries no acceptance limits; the fit quality is the '
+                     "verdict:</p>")
+    if v.failed:
+        parts.append('<ul class="failed">' + "".join(f"<li>{escape(x)}</li>" for x in v.failed) + "</ul>")
+    parts.append(definitions(v.fit) + "</div></div>")
+    if v.incomplete:
+        parts.append('<div id="incomplete" class="alert alert-incomplete"><strong>INCOMPLETE SESSION</strong><ul>'
+                     + "".join(f"<li>{escape(x)}</li>" for x in v.incomplete) + "</ul>"
+                     "<p>The calibration was solved from what was recorded.</p></div>")
+    if v.warnings:
+        parts.append('<div class="alert alert-warning"><ul>' + "".join(f"<li>{escape(x)}</li>" for x in v.warnings)
+                     + "</ul></div>")
+    if v.limits:
+        rows = [[escape(e["name"]), _value(e["value"]), f'<span class="nowrap">{escape(str(e["limit"]))}</span>',
+                 '<span class="ok">pass</span>' if e["passed"] else '<span class="bad">fail</span>', escape(e["line"])]
+                for e in v.limits]
+        parts.append(table(["check", "value", "limit", "result", "explanation"], rows, id_="acceptance-table",
+                           numeric=(1,)))
+    return f'<section id="verdict" class="verdict-section">{"".join(parts)}</section>'
+
+
+def identity_html(c: ReportContent) -> str:
+    info, s = c.session.info, c.session.info.rig.sensor
+    ident = s.identity if isinstance(s.identity, dict) else {}
+    self_test = s.self_test.get("passed") if isinstance(s.self_test, dict) else None
+    sensor = [("model", s.model), ("I2C address", f"0x{s.address:02x}" if isinstance(s.address, int) else None),
+              ("serial", s.serial), ("identity register", ident.get("identity_value") if ident else None),
+              ("history key", c.sensor_key),
+              ("accelerometer", f"±{s.accel_range_g:g} g, {s.accel_lsb_per_g:g} counts/g" if s.accel_range_g
+               else f"{s.accel_lsb_per_g:g} counts/g"),
+              ("gyroscope", f"±{s.gyro_range_dps:g} deg/s" if s.gyro_range_dps else None),
+              ("magnetometer", s.magnetometer.model if s.magnetometer else None),
+              ("sample rate", f"{s.sample_rate_hz:g} Hz"), ("thermometer", "yes" if s.has_temperature else "no"),
+              ("self-test", None if self_test is None else ("passed" if self_test else "FAILED"))]
+    table_ = info.rig.turntable
+    axes = [(f"axis {n}", f"controller serial {a.serial}, firmware {a.firmware}" + (f", {a.port}" if a.port else ""))
+            for n, a in sorted((table_.axes or {}).items())] if table_ is not None else []
+    imp = info.import_
+    rig = [("kind", (table_.kind if table_ else None) or info.rig.kind), ("rig file", info.rig.rig_file),
+           ("simulated sensor seed", info.seed), ("replay of", info.replay_of), *axes,
+           ("imported from", f"{imp.source}: {imp.file}" if imp else None)]
+    counts = {k: sum(st.status == k for st in info.steps) for k in ("complete", "flagged", "pending", "failed")}
+    sess = [("id", info.id), ("folder", str(c.session.path.resolve())), ("procedure", info.procedure.name),
+            ("procedure sha256", (info.procedure.sha256 or "")[:16]), ("started", when(info.created)),
+            ("ended", when(info.ended) if info.ended else None),
+            ("status", info.status), ("steps", ", ".join(f"{n} {k}" for k, n in counts.items() if n)),
+            ("samples", len(c.session.samples["t_s"]))]
+    cal = c.calibration
+    calib_ = [("file", str(c.calibration_path.resolve())), ("created", when(cal.created)),
+              ("software", " ".join(str(v) for v in (cal.software or {}).values() if v)),
+              ("solved from session", cal.session)]
+    blocks = [("Sensor", sensor), ("Rig", rig), ("Session", sess), ("Calibration file", calib_)]
+    body = "".join(f'<div class="card"><h3>{escape(t)}</h3>{definitions(p)}</div>' for t, p in blocks)
+    return section("identity", "Sensor, rig and session", f'<div class="cards">{body}</div>')
+
+
+def _change(ch) -> str:
+    if not ch or not math.isfinite(ch.get("z", float("nan"))):
+        return "–"
+    text = f"{ch['z']:+.1f}σ"
+    return f'<span class="bad">{text} !</span>' if ch["flagged"] else text
+
+
+def _stem(name: str) -> str:
+    return re.sub(r"_[xyz]$", "", name)
+
+
+def parameters_html(c: ReportContent) -> str:
+    with_change = any(p.change for p in c.parameters)
+    headers = ["parameter", "value", "1σ", "unit"] + (["change since previous calibration"] if with_change else [])
+    head = "".join(f'<th{" class=num" if i in (1, 2, 4) else ""}>{h}</th>' for i, h in enumerate(headers))
+    groups: dict[str, list[str]] = {}
+    decimals: dict[str, int] = {}  # one number of decimals for the x, y, z of a quantity
+    for p in c.parameters:
+        d = sigma_digits(p.sigma)
+        if d is not None:
+            decimals[_stem(p.name)] = max(d, decimals.get(_stem(p.name), d))
+    for p in c.parameters:
+        v, s = fmt_value(p.value, p.sigma, decimals.get(_stem(p.name)) if sigma_digits(p.sigma) is not None else None)
+        cells = [f"<code>{escape(p.name)}</code>", v, s, escape(p.unit)] + ([_change(p.change)] if with_change else [])
+        groups.setdefault(p.section, []).append(
+            '<tr class="param">' + "".join(f'<td{" class=num" if i in (1, 2, 4) else ""}>{x}</td>'
+                                           for i, x in enumerate(cells)) + "</tr>")
+    bodies = "".join(f'<tbody><tr class="group"><th colspan="{len(headers)}" scope="rowgroup">{escape(g)}</th></tr>'
+                     + "".join(rows) + "</tbody>" for g, rows in groups.items())
+    text = ("Every parameter of the calibration file with its 1-sigma uncertainty and unit (names as in the "
+            "calibration history).")
+    if with_change:
+        text += (" The change is in combined sigmas of this and the previous calibration of the sensor; ! marks more "
+                 "than 3. Biases reported at another temperature (a thermal model's t0, or another chamber "
+                 "temperature) show the temperature difference as a change, not ageing (docs/history.md).")
+    return section("parameters", "Parameters", note(text, "muted") + f'<table id="parameter-table" class="data">'
+                   f"<thead><tr>{head}</tr></thead>{bodies}</table>")
+
+
+def residuals_html(c: ReportContent) -> str:
+    r: Residuals = c.residuals
+    if r.values_ug is None:
+        return section("residuals", "Residuals", note(r.note))
+    model = c.calibration.accelerometer.model
+    title = f"session {c.session.id}: residuals of the {model} calibration"
+    fig = plots.residuals_figure(title, r.names, r.temps_c, [(f"calibration: {r.rms_ug:.1f} µg rms", r.values_ug)],
+                                 labels=r.labels)
+    cols = [f"{lab}, µg" for lab in r.labels]
+    rows = [[escape(n), _num(t, ".2f")] + [f"{v:+.1f}" for v in row]
+            for n, t, row in zip(r.names, r.temps_c, r.values_ug)]
+    details = ("<details><summary>residuals by step (table)</summary>"
+               + table(["step", "temperature, °C"] + cols, rows, id_="residual-table",
+                       numeric=tuple(range(1, 2 + len(cols)))) + "</details>")
+    text = ("Calibrated minus nominal specific force at every complete static step, sensor frame, in µg; "
+            "left: by step in recorded order, right: by temperature.")
+    return section("residuals", "Residuals by step and by temperature",
+                   note(r.note or text, "muted") + figure(fig, title, "residual-plot") + details)
+
+
+def seed_html(seed: SeedTable) -> str:
+    ev = seed.evaluation
+    if ev is None:
+        return section("seed-table", "Roll and pitch (the seed paper's table)", note(seed.note))
+    rows = [[escape(r.name), f"{_num(r.roll_deg, '.1f')} / {_num(r.pitch_deg, '.1f')}",
+             _num(r.roll_error_deg, "+.3f", "n/a"), _num(r.pitch_error_deg, "+.3f"), _num(r.angle_error_deg, ".4f"),
+             _num(r.norm_error_g * 1e6, "+.0f")] for r in ev.rows]
+    summary = (f"max |error|: roll {ev.max_abs('roll_error_deg'):.3f} deg, pitch {ev.max_abs('pitch_error_deg'):.3f}"
+               f" deg, angle {ev.max_abs('angle_error_deg'):.4f} deg, ||f| - 1| {ev.max_abs('norm_error_g') * 1e6:.0f} µg")
+    grid = table(["step", "nominal roll / pitch, deg", "roll error, deg", "pitch error, deg", "angle error, deg",
+                  "|f| - 1, µg"], rows, id_="roll-pitch-table", numeric=(1, 2, 3, 4, 5))
+    if len(rows) > LONG_TABLE_ROWS:
+        grid = f"<details><summary>all {len(rows)} poses (table)</summary>{grid}</details>"
+    body = (note("Roll and pitch computed from the calibrated specific force at each pose against the nominal pose "
+                 "(as rig evaluate prints them). Roll is not scored at gimbal lock (pitch ±90).", "muted")
+            + f'<p class="summary">{escape(summary)}</p>' + grid + note(seed.note))
+    return section("seed-table", "Roll and pitch (the seed paper's table)", body)
+
+
+def _effects_rows(doc: dict) -> list[list[str]]:
+    rows = []
+    for e in doc.get("effects") or []:
+        est = ", ".join(f"{a} {fmt_value(v, s)[0]} ± {fmt_value(v, s)[1]}" if v is not None else f"{a} n/a"
+                        for a, v, s in zip(e.get("axes") or [], e.get("estimate") or [], e.get("sigma") or []))
+        rows.append([f"<code>{escape(str(e.get('name')))}</code>", escape(est), escape(str(e.get("unit", ""))),
+                     _num(e.get("p_value"), ".2g"), _num((e.get("rms_after_g") or float("nan")) * 1e6, ".1f")])
+    return rows
+
+
+def _discover_figure(doc: dict, session_id: str):
+    steps = [s for s in doc.get("steps") or [] if isinstance(s, dict)]
+    if not steps:
+        return None
+    r0 = np.array([[np.nan if x is None else x for x in s.get("residual_before_g") or [None] * 3] for s in steps]) * 1e6
+    r1 = np.array([[np.nan if x is None else x for x in s.get("residual_after_g") or [None] * 3] for s in steps]) * 1e6
+    names = ", ".join(str(e.get("name")) for e in doc.get("effects") or []) or "nothing added"
+    series = [(f"baseline model: {doc.get('rms_before_g', float('nan')) * 1e6:.1f} µg rms", r0),
+              (f"+ {names}: {doc.get('rms_after_g', float('nan')) * 1e6:.1f} µg rms", r1)]
+    return plots.residuals_figure(f"rig discover, session {session_id}: residuals before and after",
+                                  [str(s.get("name")) for s in steps], [s.get("temp_c") for s in steps], series)
+
+
+def _discover_document_html(path: Path, doc: dict, session_id: str) -> str:
+    gap = (f"gap: {_num(doc.get('rms_before_g', float('nan')) * 1e6, '.1f')} → "
+           f"{_num(doc.get('rms_after_g', float('nan')) * 1e6, '.1f')} µg rms (noise "
+           f"{_num(doc.get('noise_rms_g', float('nan')) * 1e6, '.1f')} µg), chi2/dof "
+           f"{_num(doc.get('chi2_per_dof_before'), '.2f')} → {_num(doc.get('chi2_per_dof_after'), '.2f')}")
+    closed = doc.get("gap_closed")
+    verdict = ("" if closed is None else "the model with the named effects explains the data to the noise level"
+               if closed else "something remains that no effect in the library describes")
+    parts = [f'<p class="summary">{escape(gap)}</p>', note(verdict and f"verdict: {verdict}", "muted")]
+    rows = _effects_rows(doc)
+    parts.append(table(["effect named", "estimate ± 1σ", "unit", "p-value", "residual after, µg"], rows,
+                       id_="discover-effects", numeric=(3, 4)) if rows else note("effects named: none"))
+    if doc.get("unobservable"):
+        parts.append(note("not observable in this session: " + ", ".join(map(str, doc["unobservable"])), "muted"))
+    fig = _discover_figure(doc, session_id)
+    if fig is not None:
+        parts.append(figure(fig, f"rig discover residuals before and after ({path.name})", "discover-plot"))
+    parts.append(note(f"from {path}", "source"))
+    return "".join(parts)
+
+
+def discover_html(d: DiscoverSummary, session_id: str) -> str:
+    if d.note:
+        return section("discover", "Discrepancy (rig discover)", note(d.note))
+    parts = [_discover_document_html(p, doc, session_id) for p, doc in d.documents[-1:]]
+    for p, effects in d.calibrations:
+        parts.append(note(f"augmented calibration {p} (rig discover -o): effects "
+                          + ", ".join(str(e.get("name")) for e in effects), "muted"))
+    return section("discover", "Discrepancy (rig discover)", "".join(parts))
+
+
+def history_html(h: HistoryView) -> str:
+    if h.note:
+        return section("history", "History of this sensor", note(h.note))
+    rows = []
+    for i, r in enumerate(h.records):
+        info = r.info
+        mark = ' <span class="tag">this report</span>' if i == h.current else ""
+        rows.append([f"#{i + 1}{mark}", escape(when(info.get("calibrated_at") or "–")),
+                     escape(str(info.get("procedure_name") or "–")), f"<code>{escape(str(info.get('session_id')))}</code>",
+                     _num(info.get("temp_mean_c"), ".1f"), _num((info.get("residual_rms_g") or float("nan")) * 1e6, ".1f"),
+                     _num(info.get("chi2_per_dof"), ".2f"), escape(str(info.get("verdict") or "–"))])
+    flagged = (f"drift beyond 3 combined sigma between consecutive calibrations: {', '.join(h.flagged)}"
+               if h.flagged else "no drift beyond 3 combined sigma between consecutive calibrations")
+    body = (note(f"sensor {h.key}: {len(h.records)} calibration(s) in {h.path}, oldest first", "muted")
+            + table(["#", "calibrated", "procedure", "session", "temperature, °C", "residual, µg", "chi2/dof",
+                     "verdict"], rows, id_="history-table", numeric=(4, 5, 6))
+            + f'<p class="summary">{escape(flagged)}</p>')
+    if len(h.records) >= 2:
+        body += figure(plot_history(h.key, h.records), f"parameters of sensor {h.key} over its calibrations",
+                       "history-plot")
+    return section("history", "History of this sensor", body)
+
+
+# ---------------------------------------------------------------------------------------------- the page
+
+CONTENTS = [("verdict", "Verdict"), ("identity", "Sensor, rig and session"), ("parameters", "Parameters"),
+            ("residuals", "Residuals"), ("seed-table", "Roll and pitch"), ("discover", "Discrepancy"),
+            ("history", "History")]
+
+
+def page(c: ReportContent) -> str:
+    """The whole HTML document."""
+    info = c.session.info
+    now = when(datetime.now(timezone.utc).isoformat(timespec="seconds"))
+    subject = " · ".join(x for x in (info.rig.sensor.model, info.procedure.name) if x)
+    nav = "".join(f'<a href="#{i}">{escape(t)}</a>' for i, t in CONTENTS)
+    body = "".join([verdict_html(c.verdict), identity_html(c), parameters_html(c), residuals_html(c),
+                    seed_html(c.seed), discover_html(c.discover, info.id), history_html(c.history)])
+    return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+            f'<meta name="viewport" content="width=device-width, initial-scale=1">'
+            f"<title>Calibration report: {escape(info.id)}</title><style>{CSS}</style></head><body>"
+            f'<header class="top"><div class="kicker">rig calibration report</div>'
+            f"<h1>{escape(subject or 'calibration')}</h1>"
+            f'<p class="sub">session <code>{escape(info.id)}</code> · calibrated {escape(when(c.calibration.created))}'
+            f" · report written {escape(now)}</p><nav>{nav}</nav></header>"
+            f"<main>{body}</main>"
+            f'<footer>Written by rig {escape(__version__)} (rig report). Self-contained: every figure is inside '
+            f"this file; it loads nothing from the network.</footer></body></html>\n")

@@ -1,0 +1,172 @@
+"""``rig report`` in a real browser: headless Chromium (the Debian package ``chromium``) renders the page,
+the rendered DOM carries the verdict and the parameter table, and the screenshot shows the page drawn
+(the verdict badge's colour, the embedded plots' markers).
+
+Without Chromium the tests skip, unless the environment variable ``CI`` is set: then they fail
+(``.ci/run`` installs Chromium).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from html.parser import HTMLParser
+from pathlib import Path
+
+import pytest
+import yaml
+
+from calib import calfile
+from calib.parameters import sensor_parameters
+from rig.cli import main
+from rig.lab.report import write_report
+
+from conftest import PROCEDURES
+
+WINDOW = (1280, 2400)
+#: colours drawn only when the page's style and pictures render (style.py, matplotlib's tab: colours)
+BADGE_NO_LIMITS, BADGE_FAIL = (9, 105, 218), (207, 34, 46)
+MARKER_RED, MARKER_BLUE = (214, 39, 40), (31, 119, 180)
+
+
+@pytest.fixture(scope="module")
+def chromium() -> str:
+    exe = shutil.which("chromium") or shutil.which("chromium-browser")
+    if exe is None:
+        if os.environ.get("CI"):
+            pytest.fail("CI is set but headless Chromium is not installed (.ci/run installs the Debian package "
+                        "chromium): the report's browser test must run in CI")
+        pytest.skip("headless Chromium is not installed (Debian: apt-get install chromium); "
+                    "the report's browser test needs it")
+    return exe
+
+
+def browse(exe: str, page: Path, tmp: Path, *, screenshot: Path | None = None) -> str:
+    """Run headless Chromium on ``page``: the rendered DOM (``--dump-dom``), or a screenshot."""
+    args = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+            "--disable-background-networking", "--disable-component-update", "--disable-sync",
+            f"--user-data-dir={tmp / 'chromium-profile'}", "--hide-scrollbars"]
+    args += [f"--screenshot={screenshot}", f"--window-size={WINDOW[0]},{WINDOW[1]}"] if screenshot else ["--dump-dom"]
+    proc = subprocess.run(args + [page.resolve().as_uri()], capture_output=True, text=True, timeout=180)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return proc.stdout
+
+
+class Dom(HTMLParser):
+    """Text of the elements with an id, and the rows of every table with an id."""
+
+    def __init__(self, text: str) -> None:
+        super().__init__()
+        self.text: dict[str, list[str]] = {}
+        self.rows: dict[str, list[list[str]]] = {}
+        self.images = 0
+        self._ids: list[tuple[str, str | None]] = []
+        self._table = self._row = self._cell = None
+        self.feed(text)
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "img":
+            self.images += (a.get("src") or "").startswith("data:image/png;base64,")
+            return
+        if tag in ("meta", "br"):
+            return
+        self._ids.append((tag, a.get("id")))
+        if a.get("id"):
+            self.text.setdefault(a["id"], [])
+        if tag == "table":
+            self._table = a.get("id")
+            self.rows.setdefault(self._table, [])
+        elif tag == "tr":
+            self._row = []
+        elif tag in ("td", "th") and self._row is not None:
+            self._cell = []
+
+    def handle_endtag(self, tag):
+        if tag in ("td", "th") and self._cell is not None:
+            self._row.append(" ".join("".join(self._cell).split()))
+            self._cell = None
+        elif tag == "tr" and self._row is not None:
+            self.rows[self._table].append(self._row)
+            self._row = None
+        while self._ids:
+            if self._ids.pop()[0] == tag:
+                break
+
+    def handle_data(self, data):
+        for _, ident in self._ids:
+            if ident:
+                self.text[ident].append(data)
+        if self._cell is not None:
+            self._cell.append(data)
+
+    def of(self, ident: str) -> str:
+        return " ".join(" ".join(self.text.get(ident, [])).split())
+
+
+def pixels(png: Path) -> dict:
+    from PIL import Image  # matplotlib's own dependency
+
+    with Image.open(png) as im:
+        assert im.size == WINDOW
+        counts = im.convert("RGB").getcolors(maxcolors=WINDOW[0] * WINDOW[1])
+    return {rgb: n for n, rgb in counts}
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    root = tmp_path_factory.mktemp("browser")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("RIG_HISTORY", str(root / "history.sqlite"))
+        assert main(["run", str(PROCEDURES / "six_position.yaml"), "--seed", "7", "--time-scale", "0",
+                     "--out", str(root / "s"), "--quiet"]) == 0
+    return next((root / "s").iterdir()), root / "history.sqlite"
+
+
+def test_chromium_renders_the_verdict_and_the_parameter_table(chromium, session, tmp_path):
+    s, db = session
+    page = write_report(s, tmp_path / "report.html", history_db=db)
+    dom = Dom(browse(chromium, page, tmp_path))
+    assert "NO LIMITS" in dom.of("verdict") and "no acceptance limits" in dom.of("verdict")
+    assert "6 steps used" in dom.of("verdict") and "incomplete" not in dom.text
+    rows = {r[0]: r for r in dom.rows["parameter-table"] if len(r) >= 4}
+    cal = calfile.read(s / "calibration.yaml")
+    for name, value, sigma, unit in sensor_parameters(cal):
+        assert rows[name][3] == unit and abs(float(rows[name][1]) - value) <= 0.05 * sigma, name
+    assert dom.images >= 1 and dom.rows["roll-pitch-table"][0][0] == "step"
+    shot = tmp_path / "report.png"
+    browse(chromium, page, tmp_path, screenshot=shot)
+    colours = pixels(shot)
+    assert colours.get(BADGE_NO_LIMITS, 0) > 2000  # the verdict badge, drawn with the page's own style
+    assert colours.get(MARKER_RED, 0) > 20 and colours.get(MARKER_BLUE, 0) > 20  # the embedded residual plot
+    assert len(colours) > 200  # text, tables and plots, not a blank or error page
+
+
+def test_chromium_renders_a_failed_verdict_and_an_incomplete_session(chromium, session, tmp_path, monkeypatch):
+    s, db = session
+    copy = tmp_path / s.name
+    shutil.copytree(s, copy, ignore=shutil.ignore_patterns("report.html"))
+    doc = yaml.safe_load((copy / "session.yaml").read_text())
+    doc["status"], doc["steps"][4]["status"] = "aborted", "failed"
+    (copy / "session.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
+    line = "accel.scale_x = 8146 counts/g: outside [8180, 8200] counts/g"
+    acceptance = {"passed": False, "limits": [{"name": "range accel.scale_x", "limit": "[8180, 8200]", "value": 8146.0,
+                                               "passed": False, "line": line}]}
+
+    class WithAcceptance:
+        def __init__(self, cal):
+            self._cal, self.acceptance = cal, acceptance
+
+        def __getattr__(self, name):
+            return getattr(self._cal, name)
+
+    real = calfile.read
+    monkeypatch.setattr(calfile, "read", lambda p: WithAcceptance(real(p)))
+    page = write_report(copy, tmp_path / "report.html", history_db=db)
+    dom = Dom(browse(chromium, page, tmp_path))
+    verdict = dom.of("verdict")
+    assert "FAIL" in verdict and line in verdict and "INCOMPLETE SESSION" in verdict and "+Y up (failed)" in verdict
+    shot = tmp_path / "report.png"
+    browse(chromium, page, tmp_path, screenshot=shot)
+    assert pixels(shot).get(BADGE_FAIL, 0) > 2000
