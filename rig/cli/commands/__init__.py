@@ -3,9 +3,9 @@
 from types import ModuleType
 
 from rig.cli.commands import apply, discover, evaluate, import_, ports, replay, run, sim, solve
-from rig.cli.commands import export, history
+from rig.cli.commands import compare, export, history, report
 
 #: command name -> module, in the order ``rig --help`` lists them
 COMMANDS: dict[str, ModuleType] = {"run": run, "solve": solve, "apply": apply, "evaluate": evaluate,
-                                   "discover": discover, "import": import_, "replay": replay, "sim": sim,
-                                   "ports": ports, "history": history, "export": export}
+                                   "discover": discover, "compare": compare, "import": import_, "replay": replay,
+                                   "sim": sim, "ports": ports, "history": history, "export": export, "report": report}

@@ -1,0 +1,300 @@
+"""``rig compare SESSION_A SESSION_B``: two sessions of the same procedure, step by step and axis by
+axis, each difference judged against the two step means' own standard errors (docs/twin.md).
+
+Measured against re-simulated (the twin of ``rig discover --twin``), before against after, sensor A
+against sensor B. For every static step complete in both sessions and every axis::
+
+    z = (mean_A - mean_B) / sqrt(se_A^2 + se_B^2)
+
+with the step means and their correlation-aware standard errors of the session adapter
+(:func:`rig.session.step_means`, :mod:`calib.uncertainty`). The sessions agree at the noise level
+unless some |z| is beyond the Bonferroni threshold or the chi-square sum of z^2 is beyond its upper
+quantile; the false-alarm rate P of that verdict is split evenly between the two tests (P/2 each).
+Where they disagree, the normalised differences are summarised by axis, temperature, leg, time and
+pose with :func:`calib.discovery.unexplained`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from calib import calfile
+from calib.data import StepMeans
+from calib.design import misfit
+from calib.discovery import unexplained, unexplained_lines
+from calib.frames import AXES
+from rig.analysis.discover import step_context
+from rig.errors import RigInputError
+from rig.session import Session, load_session, step_means
+
+FORMAT = "rig-compare/1"
+TEMP_NOTE_C = 0.2  # step temperatures further apart than this are pointed out
+TIME_NOTE_S = 30.0  # and step times (a thermometer-timed wait varies by a few seconds)
+LOADED_G = 0.5  # an axis carrying at least this much of gravity in a step is "loaded"
+
+
+@dataclass
+class Side:
+    """One session's values at the compared steps (g) and their standard errors (g)."""
+
+    session: Session
+    value_g: np.ndarray  # (K, 3)
+    se_g: np.ndarray  # (K, 3)
+    temp_c: np.ndarray | None  # (K,)
+    t_s: np.ndarray  # (K,)
+    f_nominal_g: np.ndarray  # (K, 3), NaN rows where the pose is unknown
+
+
+@dataclass
+class Comparison:
+    """The outcome of :func:`compare_sessions`; ``to_json`` is the ``rig-compare/1`` contract."""
+
+    a: Side
+    b: Side
+    indices: list  # session step indices compared
+    names: list
+    quantity: str  # raw | calibrated
+    quantity_note: str
+    false_alarm: float
+    z: np.ndarray  # (K, 3)
+    z_threshold: float
+    chi2: float
+    p_chi2: float
+    structure: dict | None = None
+    skipped: list = field(default_factory=list)  # (index, name, why)
+
+    @property
+    def flagged(self) -> np.ndarray:
+        return np.abs(self.z) > self.z_threshold
+
+    @property
+    def dof(self) -> int:
+        return int(self.z.size)
+
+    @property
+    def chi2_beyond(self) -> bool:
+        return self.p_chi2 < self.false_alarm / 2
+
+    @property
+    def agree(self) -> bool:
+        return not self.flagged.any() and not self.chi2_beyond
+
+    def largest(self) -> dict:
+        k, j = np.unravel_index(int(np.argmax(np.abs(self.z))), self.z.shape)
+        return {"index": int(self.indices[k]), "step": str(self.names[k]), "axis": AXES[j], "z": float(self.z[k, j])}
+
+    def where(self) -> dict:
+        """The disagreeing cells: steps (index and name), axes, temperature range and time span."""
+        f = self.flagged
+        rows = np.flatnonzero(f.any(axis=1))
+        out = {"cells": int(f.sum()), "steps": [str(self.names[k]) for k in rows],
+               "indices": [int(self.indices[k]) for k in rows],
+               "axes": [a for j, a in enumerate(AXES) if f[:, j].any()]}
+        if len(rows):
+            out["time_span_s"] = [float(self.a.t_s[rows].min()), float(self.a.t_s[rows].max())]
+            if self.a.temp_c is not None:
+                out["temp_range_c"] = [float(self.a.temp_c[rows].min()), float(self.a.temp_c[rows].max())]
+        return out
+
+    def by_axis(self) -> dict:
+        return {a: {"rms_z": float(np.sqrt(np.mean(self.z[:, j] ** 2))), "disagreeing": int(self.flagged[:, j].sum())}
+                for j, a in enumerate(AXES)}
+
+    def by_load(self) -> dict | None:
+        """RMS z on the axes carrying gravity in a step (|f_j| >= 0.5 g) and on the others: a difference on
+        the loaded axes only is scale-like, one on every axis alike bias-like. None when poses are unknown."""
+        f = np.abs(self.a.f_nominal_g)
+        if not np.all(np.isfinite(f)):
+            return None
+        loaded = f >= LOADED_G
+        rms = {k: float(np.sqrt(np.mean(self.z[m] ** 2))) for k, m in (("loaded", loaded), ("unloaded", ~loaded))
+               if m.any()}
+        return rms or None
+
+    def differences(self) -> dict:
+        """Largest |temperature| and |time| difference between the sessions' steps (None without)."""
+        dt_c = None
+        if self.a.temp_c is not None and self.b.temp_c is not None:
+            dt_c = float(np.max(np.abs(self.a.temp_c - self.b.temp_c)))
+        return {"max_temp_diff_c": dt_c, "max_time_diff_s": float(np.max(np.abs(self.a.t_s - self.b.t_s)))}
+
+    def to_json(self) -> dict:
+        steps = []
+        for k, i in enumerate(self.indices):
+            temps = [None if s.temp_c is None else float(s.temp_c[k]) for s in (self.a, self.b)]
+            f_nom = self.a.f_nominal_g[k]
+            steps.append({"index": int(i), "name": str(self.names[k]), "temp_c": temps,
+                          "f_nominal_g": f_nom.tolist() if np.all(np.isfinite(f_nom)) else None,
+                          "t_s": [float(self.a.t_s[k]), float(self.b.t_s[k])],
+                          "difference_g": (self.a.value_g[k] - self.b.value_g[k]).tolist(),
+                          "se_g": np.hypot(self.a.se_g[k], self.b.se_g[k]).tolist(), "z": self.z[k].tolist(),
+                          "disagree": self.flagged[k].tolist()})
+        return {"format": FORMAT, "a": _side_json(self.a), "b": _side_json(self.b), "quantity": self.quantity,
+                "quantity_note": self.quantity_note, "unit": "g", "false_alarm": self.false_alarm,
+                "agree": bool(self.agree), "z_threshold": self.z_threshold, "cells": self.dof,
+                "cells_disagreeing": int(self.flagged.sum()), "chi2": self.chi2, "dof": self.dof,
+                "chi2_per_dof": self.chi2 / self.dof, "p_chi2": self.p_chi2, "chi2_beyond": bool(self.chi2_beyond),
+                "largest": self.largest(), "where": self.where(), "by_axis": self.by_axis(),
+                "by_load": self.by_load(), **self.differences(),
+                "structure": self.structure,
+                "skipped": [{"index": i, "name": n, "why": w} for i, n, w in self.skipped], "steps": steps}
+
+
+def _side_json(s: Side) -> dict:
+    return {"session": s.session.id, "path": str(s.session.path)}
+
+
+# -- which steps, which quantity ---------------------------------------------------------------------------
+def _describe(step) -> tuple:
+    angles = None if step.angles_deg is None else tuple(round(float(x), 6) for x in step.angles_deg)
+    return step.kind, step.name, angles
+
+
+def check_same_procedure(a: Session, b: Session) -> None:
+    """Refuse two sessions whose steps (kind, name, pose) differ: not the same procedure."""
+    sa, sb = a.info.steps, b.info.steps
+    if len(sa) != len(sb):
+        raise RigInputError(str(b.path), None, None, f"not a session of the same procedure as {a.path}: "
+                            f"{len(sb)} steps, expected {len(sa)}")
+    for x, y in zip(sa, sb):
+        if _describe(x) != _describe(y):
+            raise RigInputError(str(b.path), None, None, f"not a session of the same procedure as {a.path}: step "
+                                f"{x.index + 1} is {y.kind} {y.name!r} at {y.angles_deg}, expected {x.kind} "
+                                f"{x.name!r} at {x.angles_deg}")
+
+
+def common_steps(a: Session, b: Session) -> tuple[list, list]:
+    """Static steps complete in both sessions, and the static steps left out (index, name, why)."""
+    done_a = set(a.static_step_indices(unknown_pose=True))
+    done_b = set(b.static_step_indices(unknown_pose=True))
+    keep, skipped = [], []
+    for st in a.info.steps:
+        if not st.is_static:
+            continue
+        if st.index in done_a and st.index in done_b:
+            keep.append(st.index)
+        else:
+            skipped.append((st.index, st.name, "not complete in " + " and ".join(
+                n for n, done in (("A", done_a), ("B", done_b)) if st.index not in done)))
+    if not keep:
+        raise RigInputError(str(b.path), None, "steps", f"no static step is complete in both {a.path} and {b.path}")
+    return keep, skipped
+
+
+def _raw_unit(a: Session, b: Session) -> str:
+    sa, sb = a.info.rig.sensor, b.info.rig.sensor
+    if sa.model != sb.model or a.lsb_per_g != b.lsb_per_g:
+        raise RigInputError(str(b.path), None, "rig.sensor", f"{sb.model} at {b.lsb_per_g:g} counts/g, but A "
+                            f"({a.path}) is {sa.model} at {a.lsb_per_g:g} counts/g: raw counts do not compare; "
+                            "use --calibrated (each session's own calibration.yaml)")
+    return (f"raw accelerometer counts / nominal {a.lsb_per_g:g} counts/g (both sessions: {sa.model}, same range); "
+            "the same sensor model and range, uncalibrated")
+
+
+def side(session: Session, idx: list, calibrated: bool) -> tuple[Side, StepMeans]:
+    """One session's step means at ``idx``: raw counts / nominal sensitivity, or calibrated by the session's
+    own ``calibration.yaml`` (standard errors through M^-1); and the adapter's step means."""
+    m = step_means(session, idx)
+    temps = None if m.temp_c is None else np.asarray(m.temp_c, float)
+    t, f_nom = np.asarray(m.t_s, float), np.asarray(m.f_nominal_g, float)
+    if not calibrated:
+        return Side(session, m.mean_counts / m.lsb_per_g, m.sem_counts / m.lsb_per_g, temps, t, f_nom), m
+    cal = calfile.read(session.path / "calibration.yaml").accelerometer
+    f = cal.apply(m.mean_counts, temp_c=temps, t_s=m.t_s)
+    minv = np.linalg.inv(np.asarray(cal.matrix_counts_per_g, float))
+    se = np.sqrt(np.asarray(m.sem_counts, float) ** 2 @ (minv ** 2).T)
+    return Side(session, f, se, temps, t, f_nom), m
+
+
+# -- the comparison -----------------------------------------------------------------------------------------
+def judge(z: np.ndarray, false_alarm: float) -> tuple[float, float, float]:
+    """The |z| threshold (two-sided, Bonferroni over the cells at ``false_alarm`` / 2), the chi-square sum of
+    z^2 and its upper-tail probability on one degree of freedom per cell (judged at ``false_alarm`` / 2)."""
+    zc = float(stats.norm.isf(false_alarm / 2 / (2 * z.size)))
+    chi2 = float(np.sum(np.asarray(z, float) ** 2))
+    return zc, chi2, misfit(chi2, z.size, false_alarm / 2)[1]
+
+
+def compare_sessions(path_a, path_b, *, false_alarm: float = 0.01, calibrated: bool = False) -> Comparison:
+    """Compare two sessions of the same procedure (see the module docstring)."""
+    a, b = load_session(path_a), load_session(path_b)
+    check_same_procedure(a, b)
+    idx, skipped = common_steps(a, b)
+    note = ("specific force calibrated by each session's own calibration.yaml, g" if calibrated
+            else _raw_unit(a, b))
+    (sa, means_a), (sb, _) = side(a, idx, calibrated), side(b, idx, calibrated)
+    z = (sa.value_g - sb.value_g) / np.hypot(sa.se_g, sb.se_g)
+    zc, chi2, p = judge(z, false_alarm)
+    c = Comparison(a=sa, b=sb, indices=idx, names=[a.info.steps[i].name for i in idx],
+                   quantity="calibrated" if calibrated else "raw", quantity_note=note, false_alarm=false_alarm,
+                   z=z, z_threshold=zc, chi2=chi2, p_chi2=p, skipped=skipped)
+    if not c.agree and len(idx) >= 2:
+        c.structure = unexplained(means_a, step_context(a, idx), z, false_alarm)
+    return c
+
+
+def format_report(c: Comparison) -> str:
+    """The plain-text report: what was compared, the per-step table, the verdict and where."""
+    lines = [f"A: {c.a.session.id} ({c.a.session.path})", f"B: {c.b.session.id} ({c.b.session.path})",
+             f"compared: {c.quantity_note}",
+             f"{len(c.indices)} static steps x 3 axes; z = (A - B) / sqrt(se_A^2 + se_B^2) with each step's own "
+             f"standard errors; |z| threshold {c.z_threshold:.2f} (Bonferroni over {c.dof} cells)",
+             f"chi2 {c.chi2:.1f} on {c.dof} dof (chi2/dof {c.chi2 / c.dof:.2f}, p = {c.p_chi2:.2g})",
+             "by axis: " + ", ".join(f"{a} rms z {v['rms_z']:.2f} ({v['disagreeing']} beyond)"
+                                     for a, v in c.by_axis().items())]
+    load = c.by_load()
+    if load and len(load) == 2:
+        lines.append(f"rms z on the axes carrying gravity (|f| >= {LOADED_G:g} g) {load['loaded']:.2f}, on the others "
+                     f"{load['unloaded']:.2f} (a difference on the loaded axes only is scale-like)")
+    lines += _difference_notes(c)
+    for i, n, why in c.skipped:
+        lines.append(f"left out: step {i + 1} {n} ({why})")
+    lines.append("per step (A - B in ug, z; * beyond the threshold):")
+    lines.append(f"  {'#':>3} {'step':<16} {'T_A C':>7} {'T_B C':>7}   {'x':>16} {'y':>16} {'z':>16}")
+    for k, i in enumerate(c.indices):
+        d = (c.a.value_g[k] - c.b.value_g[k]) * 1e6
+        cells = " ".join(f"{d[j]:7.0f} {c.z[k, j]:6.1f}{'*' if c.flagged[k, j] else ' '}" for j in range(3))
+        ta = "      -" if c.a.temp_c is None else f"{c.a.temp_c[k]:7.2f}"
+        tb = "      -" if c.b.temp_c is None else f"{c.b.temp_c[k]:7.2f}"
+        lines.append(f"  {i + 1:>3} {str(c.names[k])[:16]:<16} {ta} {tb}   {cells}")
+    return "\n".join(lines + verdict_lines(c))
+
+
+def _difference_notes(c: Comparison) -> list[str]:
+    d = c.differences()
+    out = []
+    if d["max_temp_diff_c"] is not None and d["max_temp_diff_c"] > TEMP_NOTE_C:
+        out.append(f"note: the steps' temperatures differ by up to {d['max_temp_diff_c']:.2f} C between A and B "
+                   "(temperature effects then show as differences)")
+    if d["max_time_diff_s"] > TIME_NOTE_S:
+        out.append(f"note: the steps' times differ by up to {d['max_time_diff_s']:.1f} s between A and B "
+                   "(time effects then show as differences)")
+    return out
+
+
+def verdict_lines(c: Comparison) -> list[str]:
+    """The verdict: agree at the noise level, or where they disagree and what structure the difference has."""
+    tail = f"false-alarm rate {c.false_alarm:g}: {c.false_alarm / 2:g} to the cells, {c.false_alarm / 2:g} to chi2"
+    if c.agree:
+        return [f"verdict: A and B agree at the noise level (largest |z| {abs(c.largest()['z']):.2f} <= "
+                f"{c.z_threshold:.2f}, chi2/dof {c.chi2 / c.dof:.2f}, p = {c.p_chi2:.2g}; {tail})"]
+    w, big = c.where(), c.largest()
+    if w["cells"]:
+        steps = ", ".join(f"{i + 1} {n}" for i, n in zip(w["indices"], w["steps"]))
+        head = (f"verdict: A and B disagree at steps {steps} ({len(w['steps'])} of {len(c.indices)}), axes "
+                f"{', '.join(w['axes'])}; largest z {big['z']:.1f} at step {big['index'] + 1} {big['step']} axis "
+                f"{big['axis']} ({tail})")
+    else:
+        head = (f"verdict: A and B disagree overall (chi2/dof {c.chi2 / c.dof:.2f}, p = {c.p_chi2:.2g}) though no "
+                f"single step stands out (largest z {big['z']:.1f} at step {big['index'] + 1} {big['step']} axis "
+                f"{big['axis']}; {tail})")
+    lines = [head]
+    if "temp_range_c" in w:
+        lines.append(f"  the disagreeing steps: {w['temp_range_c'][0]:.1f} .. {w['temp_range_c'][1]:.1f} C, "
+                     f"{w['time_span_s'][0]:.0f} .. {w['time_span_s'][1]:.0f} s")
+    if c.structure is not None:
+        lines += ["  " + s.replace("residual rms z", "difference rms z") for s in unexplained_lines(c.structure)]
+    return lines

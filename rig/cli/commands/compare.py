@@ -1,0 +1,36 @@
+"""``rig compare SESSION_A SESSION_B``: two sessions of the same procedure, step by step and axis by axis
+(measured vs re-simulated twin, before vs after, sensor A vs sensor B); docs/twin.md."""
+
+from __future__ import annotations
+
+import json
+
+from rig.analysis import compare as cmp
+from rig.cli.common import EXIT_OK, UsageError, json_default, report_warnings
+
+
+def add_parser(sub) -> None:
+    c = sub.add_parser("compare", help="compare two sessions of the same procedure step by step; say where they "
+                                       "disagree beyond the noise")
+    c.add_argument("session_a")
+    c.add_argument("session_b")
+    c.add_argument("--json", action="store_true", help="print the rig-compare/1 JSON instead of the report")
+    c.add_argument("--calibrated", action="store_true",
+                   help="compare specific force calibrated by each session's own calibration.yaml "
+                        "(default: raw counts, which needs the same sensor model and range)")
+    c.add_argument("--false-alarm", type=float, default=0.01,
+                   help="probability of calling two sessions of the same sensor different (default 0.01)")
+
+
+def run(args) -> int:
+    if not 0 < args.false_alarm < 0.5:
+        raise UsageError(f"--false-alarm: expected a probability in (0, 0.5), got {args.false_alarm:g}")
+    c = cmp.compare_sessions(args.session_a, args.session_b, false_alarm=args.false_alarm,
+                             calibrated=args.calibrated)
+    for s in (c.a.session, c.b.session):
+        report_warnings("compare", s)
+    if args.json:
+        print(json.dumps(c.to_json(), indent=2, default=json_default))
+    else:
+        print(cmp.format_report(c))
+    return EXIT_OK
