@@ -20,6 +20,10 @@ classified:
 - bad message: the right exit code, but not one line, or a line that does not name the input;
 - timeout: no answer within the timeout (a hang or a bomb).
 
+A torn last line of samples.csv (no newline) is what a crash leaves, and a crash tears only the step in
+progress: inside a *finished* step it means rows lost, and one line with exit 2 is the correct answer; in the
+step in progress (an aborted session) the line is dropped with a warning and the rest solves.
+
 Part 2, process faults. kill -9, SIGTERM and SIGINT at seeded random moments of
 `rig run procedures/six_position.yaml --time-scale 4`, then `rig run --resume DIR`: every step recorded
 exactly once (rows per step = the manifest's n_samples, t_s increasing within a step, each step's rows
@@ -93,7 +97,9 @@ def stderr_lines(err: str) -> list[str]:
 @dataclass
 class Case:
     """One adversarial input: ``args`` for rig; ``expect`` 'refuse' (exit 2), 'valid' (exit 0, then ``check``),
-    'refuse_or_warn' (exit 2 with one line, or exit 0 with a warning on stderr naming the problem)."""
+    'refuse_or_warn' (exit 2 with one line, or exit 0 with a warning on stderr naming the problem),
+    'warn' (exit 0 with a warning on stderr: valid input that lost something, e.g. a torn line of the step in
+    progress)."""
 
     family: str
     name: str
@@ -134,10 +140,12 @@ def classify(case: Case, code, out: str, err: str) -> str:
                 case.result["why"] = why
                 return "silent wrong result"
         return "correct"
-    if case.expect == "refuse_or_warn" and code == 0:
+    if case.expect in ("refuse_or_warn", "warn") and code == 0:
         if any("warning" in line.lower() for line in lines):
             return "correct"
         return "silent wrong result"
+    if case.expect == "warn":
+        return "wrong exit code"
     if code == 0:
         return "silent wrong result"
     if code != 2:
@@ -431,7 +439,13 @@ RIG_SPECIFIC = [
     ("sim.table_tilt_deg", [0]), ("sim.ringing", {"amplitude_g": -1, "freq_hz": 5, "tau_s": 1}),
     ("sim.field", {"magnitude_ut": -50, "inclination_deg": 65, "declination_deg": 0}),
     ("sim.errors", {"no_such_parameter": 1}), ("sim.errors", "big"), ("sim.effects", {"no_such_effect": 1}),
-    ("sim.serial_base", "x"), ("sim.unknown", 1),
+    ("sim.serial_base", "x"), ("sim.unknown", 1), ("name", "   "),
+    # error-model overrides and effects of the wrong shape (they reached the simulator: internal errors)
+    ("sim.errors.bias_g", [0.1, 0.2]), ("sim.errors.matrix", [1, 2, 3]), ("sim.errors.matrix", [[1, 0], [0, 1]]),
+    ("sim.errors.t_ref_c", [1, 2, 3]), ("sim.errors.noise_density_g_per_rthz", [-1, 0, 0]),
+    ("sim.effects.table_tilt", [1, 2, 3]), ("sim.effects.full_misalignment", [[1]]),
+    ("sim.effects.bias_tempco", [[1, 2], [3]]), ("sim.mag_errors.hard_iron_ut", [[1]]),
+    ("sim.gyro_errors.matrix", [1, 2]),
     ("faults.ximc.a1.crc_corrupt_rate", 1.5), ("faults.ximc.a1.drop_rate", -0.1), ("faults.ximc.a1.latency_s", -1),
     ("faults.ximc.a1.error_answer", "errz"), ("faults.ximc.a1.seed", "lucky"), ("faults.ximc.a1.bogus", 1),
     ("faults.ximc.a9.drop_rate", 0.1), ("faults.sensor.oserror_rate", 2), ("faults.sensor.oserror_window_s", [5, 1]),
@@ -465,6 +479,12 @@ def rig_cases(ws: Workspace) -> list[Case]:
         p = ws.path(f"rig-{path}", ".yaml")
         p.write_text(dump(doc))
         add(f"{path} = {json.dumps(value)[:40]}", p)
+    for path, vname, value in fault_type_values():
+        doc = base_rig()
+        set_path(doc, path, value)
+        p = ws.path(f"rig-{path}-{vname.replace(' ', '_')}", ".yaml")
+        p.write_text(dump(doc))
+        add(f"{path} = {vname}", p)
     base = (REPO / "rigs" / "sim.yaml").read_text()
     dup = ws.path("rig-duplicate", ".yaml")
     dup.write_text(base.replace("home: zero", "home: zero\nhome: none"))
@@ -472,6 +492,26 @@ def rig_cases(ws: Workspace) -> list[Case]:
     for name, p, post in hostile_files(ws, "rig", base):
         add(name, p, post=post, timeout=30)
     return cases
+
+
+#: values of the wrong type for a fault field (a rate, a time, a seed, a name, a flag or a [start, end] window)
+FAULT_WRONG_TYPES = {"a word": "often", "a numeric string": "0.5", "a list": [0.1], "a mapping": {"rate": 0.1},
+                     "a list of words": ["1", "2"], "a nested list": [[0.1, 0.2]]}
+
+
+def fault_type_values() -> list[tuple[str, str, object]]:
+    """(path, value name, value): two wrong-typed values (fixed seed) for every fault field a rig file may set,
+    ``faults.ximc.a1.*`` and ``faults.sensor.*`` (from the published JSON Schema, whose fields are the
+    simulators' fault dataclasses'): each must be refused when the rig file is loaded, never reach the
+    emulator's thread."""
+    defs = json.loads((REPO / "docs" / "schemas" / "rig-file.schema.json").read_text())["$defs"]
+    pick = random.Random(13)
+    out = []
+    for prefix, name in (("faults.ximc.a1", "XimcFaultsSection"), ("faults.sensor", "SensorFaultsSection")):
+        for field_name in defs[name]["properties"]:
+            for vname in pick.sample(sorted(FAULT_WRONG_TYPES), 2):
+                out.append((f"{prefix}.{field_name}", vname, FAULT_WRONG_TYPES[vname]))
+    return out
 
 
 # ----------------------------------------------------------------------------------------------- sessions
@@ -526,7 +566,8 @@ def samples_mutations(ws: Workspace) -> list[tuple[str, str, bytes]]:
     out.append(("empty samples.csv", "refuse", b""))
     out.append(("truncated at 50% on a row boundary", "refuse_or_warn", csv_bytes(header, rows[: n // 2])))
     body = csv_bytes(header, rows)
-    out.append(("torn last line (crash mid-write)", "warn_close", body[:-7]))
+    # a crash tears only the step in progress: a torn line inside a finished step is rows lost (refused)
+    out.append(("torn last line inside a finished step (rows lost)", "refuse", body[:-7]))
     out.append(("last step missing (rows of step 5 gone)", "refuse_or_warn",
                 csv_bytes(header, [r for r in rows if r[ci["step"]] != "5"])))
     out.append(("step 2 duplicated (rows appended twice)", "refuse_or_warn",
@@ -535,7 +576,12 @@ def samples_mutations(ws: Workspace) -> list[tuple[str, str, bytes]]:
                 csv_bytes(header, [[*r[:1], "1" if r[1] == "0" else r[1], *r[2:]] for r in rows])))
     # columns
     swapped = [[*r[:2], r[ci["ay"]], r[ci["ax"]], *r[4:]] for r in rows]
-    out.append(("ax and ay data swapped (header unchanged)", "refuse_or_warn", csv_bytes(header, swapped)))
+    out.append(("ax and ay data swapped (header unchanged)", "refuse", csv_bytes(header, swapped)))
+    swapped_xz = [[r[ci["az"]] if i == ci["ax"] else r[ci["ax"]] if i == ci["az"] else x for i, x in enumerate(r)]
+                  for r in rows]
+    out.append(("ax and az data swapped (header unchanged)", "refuse", csv_bytes(header, swapped_xz)))
+    flipped = [[str(-int(x)) if i == ci["az"] else x for i, x in enumerate(r)] for r in rows]
+    out.append(("az sign flipped (another sensor frame)", "refuse", csv_bytes(header, flipped)))
     perm = [cols.index(c) for c in ("az", "t_s", "ay", "step", "ax")] + [i for i, c in enumerate(cols)
                                                                         if c not in ("az", "t_s", "ay", "step", "ax")]
     out.append(("columns reordered consistently", "valid",
@@ -693,7 +739,36 @@ def session_cases(ws: Workspace, rng: random.Random, quick: bool) -> list[Case]:
     (d / "samples.csv").unlink()
     os.symlink(d / "samples.csv", d / "samples.csv")
     session_case("session dir", "samples.csv a symlink loop", d, "refuse", "solve")
+    loop = ws.path("session-loop")
+    os.symlink(loop, loop)
+    for cmd in cmds:
+        session_case("session dir", "session directory a symlink loop", loop, "refuse", cmd)
+    d = ws.session_copy("manifest-loop")
+    (d / "session.yaml").unlink()
+    os.symlink(d / "session.yaml", d / "session.yaml")
+    for cmd in ("solve", "replay"):
+        session_case("session dir", "session.yaml a symlink loop", d, "refuse", cmd)
+    d = torn_in_progress(ws)
+    for cmd in ("solve", "apply"):
+        session_case("samples.csv", "torn last line in the step in progress (aborted session)", d, "warn", cmd)
     return cases
+
+
+def torn_in_progress(ws: Workspace) -> Path:
+    """The session as a crash in its last step leaves it: status aborted, the last step pending (no stats),
+    samples_committed_bytes at the end of the step before, and the last row torn."""
+    doc = yaml.safe_load(ws.manifest_text)
+    last = doc["steps"][-1]
+    doc["status"] = "aborted"
+    last["status"] = "pending"
+    last.pop("stats", None)
+    offset = 0
+    for line in ws.samples.splitlines(keepends=True)[1:]:
+        if line.split(b",")[1].strip() == str(last["index"]).encode():
+            break
+        offset += len(line)
+    doc["samples_committed_bytes"] = len(ws.samples.splitlines(keepends=True)[0]) + offset
+    return ws.session_copy("torn-in-progress", manifest=dump(doc), samples=ws.samples[:-7])
 
 
 # ----------------------------------------------------------------------------------------------- calibration files
@@ -757,6 +832,12 @@ def calibration_cases(ws: Workspace, quick: bool) -> list[Case]:
             args = (["apply", p, ws.session, "-o", ws.root / "in" / f"{p.stem}-applied.csv"] if cmd == "apply"
                     else ["evaluate", p, ws.session])
             cases.append(Case("calibration", f"{name} [{cmd}]", args, expect, hint=(p.name,)))
+    loop = ws.path("cal-loop", ".yaml")
+    os.symlink(loop, loop)
+    for cmd in ("apply", "evaluate", "export"):
+        args = {"apply": ["apply", loop, ws.session, "-o", ws.root / "in" / "loop-applied.csv"],
+                "evaluate": ["evaluate", loop, ws.session], "export": ["export", loop, "--to", "px4"]}[cmd]
+        cases.append(Case("calibration", f"symlink loop [{cmd}]", args, hint=(loop.name,)))
     for cmd in ("apply", "evaluate", "export"):
         missing = ws.root / "in" / "no-such-calibration.yaml"
         args = {"apply": ["apply", missing, ws.session, "-o", ws.root / "x.csv"],
@@ -880,6 +961,11 @@ def import_cases(ws: Workspace) -> list[Case]:
     cases.append(Case("import", "missing file", ["import", "--from", "csv", ws.root / "in" / "nope.csv"],
                       hint=("nope.csv",)))
     cases.append(Case("import", "a directory", ["import", "--from", "csv", ws.root / "in"], hint=("in",)))
+    loop = ws.path("import-loop", ".csv")
+    os.symlink(loop, loop)
+    for src in ("csv", "imucal"):
+        cases.append(Case("import", f"{src}: a symlink loop", ["import", "--from", src, loop, "-o",
+                                                                ws.root / "imports" / "loop"], hint=(loop.name,)))
     return cases
 
 

@@ -24,6 +24,7 @@ from typing_extensions import Annotated, TypedDict
 
 from calib import yamlsafe
 from calib.accel.result import AccelCalibration
+from calib.accel.target_record import TargetRecord
 from calib.errors import CalibrationFileError
 from calib.gyro.result import GyroCalibration
 from calib.mag.result import MagCalibration
@@ -118,12 +119,14 @@ class CalibrationFile(CalibrationSection):
     magnetometer: Optional[MagCalibration] = None
     coverage: Optional[CoverageRecord] = Field(
         None, description="present only when the session was incomplete: steps planned, recorded, still pending")
+    target: Optional[TargetRecord] = Field(
+        None, description="the procedure's accuracy target, its prediction from the recorded steps and whether it is met")
     acceptance: Optional[AcceptanceRecord] = Field(
         None, description="the procedure's accept: limits, each check and the verdict (absent: no limits)")
     extra: SkipJsonSchema[dict] = Field(default_factory=dict, exclude=True)
 
     #: written only when present (files without them are the common case and stay as they were)
-    OMITTED_WHEN_NONE: ClassVar[tuple[str, ...]] = ("coverage", "acceptance")
+    OMITTED_WHEN_NONE: ClassVar[tuple[str, ...]] = ("coverage", "target", "acceptance")
 
     def to_dict(self) -> dict:
         d = super().to_dict()

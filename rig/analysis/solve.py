@@ -13,6 +13,8 @@ from calib.errors import CalibError, ObservabilityError
 from calib.gyro import solve_gyro
 from calib.magnetometer import solve_mag_ellipsoid, solve_mag_positions
 from rig import __version__
+from rig.analysis.coverage import session_coverage
+from rig.execution.executors.targeted import calibration_record
 from rig.session import Session, load_session, mag_step_means, rate_step_means, step_means
 
 SOFTWARE = {"name": "rig-calibration", "version": __version__}
@@ -37,11 +39,14 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
     spec = session.solve_spec or {}
     model = model or spec.get("model") or "triangular"
     method = method or spec.get("method") or "pinv"
+    option = "--thermal" if thermal is not None else "the procedure's solve: thermal:"
     thermal = thermal if thermal is not None else spec.get("thermal", "auto")
     if method == "magnitude":
         steps = step_means(session, session.static_step_indices(unknown_pose=True))
     else:
         steps = step_means(session)
+    if method in ("pinv", "combinations"):
+        check_temperature_levels(steps, thermal, f"{session.path}: {option} {thermal}")
     accel = calib.solve(steps, model=model, method=method, thermal=thermal)
     check_plausible(accel, steps.lsb_per_g)
     gyro, mag = solve_gyro_and_mag(session, spec, accel)
@@ -53,10 +58,39 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
         accelerometer=accel,
         gyroscope=gyro,
         magnetometer=mag,
+        coverage=session_coverage(session),
+        target=calibration_record(session, steps, model, method),
     )
     path = Path(out) if out is not None else Path(session_dir) / "calibration.yaml"
     calfile.write(path, cal)
     return cal, path
+
+
+#: a thermal model of order S needs steps at S + 1 or more temperatures at least this far apart (C)
+THERMAL_MIN_STEP_C = 1.0
+
+
+def temperature_levels(temp_c, min_step_c: float = THERMAL_MIN_STEP_C) -> int:
+    """How many of the steps' temperatures lie at least ``min_step_c`` above the previous level (sorted)."""
+    levels, last = 0, -np.inf
+    for t in np.sort(np.asarray(temp_c, float)):
+        if t - last >= min_step_c:
+            levels, last = levels + 1, t
+    return levels
+
+
+def check_temperature_levels(steps, thermal, what: str) -> None:
+    """Refuse an explicit thermal order the session's temperatures cannot determine: a tempco fitted across
+    a span of a few millikelvin is noise divided by nearly zero (a huge sigma, or a wrong number)."""
+    if isinstance(thermal, bool) or not isinstance(thermal, (int, np.integer)) or thermal < 1 or steps.temp_c is None:
+        return  # auto, off (auto turns itself off below its span), or no thermometer (calib says so)
+    temps = np.asarray(steps.temp_c, float)
+    if temperature_levels(temps) < thermal + 1:
+        raise ObservabilityError(
+            f"{what}: the session's temperature span is {np.ptp(temps):.1f} C ({temps.min():.2f} to "
+            f"{temps.max():.2f} C over {len(temps)} steps): a thermal model of order {thermal} needs steps at "
+            f"{thermal + 1} or more different temperatures at least {THERMAL_MIN_STEP_C:g} C apart (a temperature "
+            "procedure such as procedures/thermal.yaml); use --thermal off or auto")
 
 
 #: a fitted scale further than this factor from the sensor's nominal counts/g is not this sensor's data

@@ -29,13 +29,13 @@ def record_in_history(command: str, session_dir, calibration_path, verdict: str 
 
 def conclude(command: str, session_dir, calibration_path, *, quiet: bool = False) -> int:
     """After every solve: apply the procedure's ``accept:`` limits (the verdict goes into the
-    calibration file), print PASS or FAIL with one line per failed limit, record the calibration in
+    calibration file), print PASS or FAIL with one line per failed limit (on stderr when ``quiet``), record the calibration in
     the history with its verdict. Returns EXIT_OK, or EXIT_REJECTED when a limit failed."""
     acceptance = judge(session_dir, calibration_path)
     verdict = None if acceptance is None else acceptance.verdict
-    if acceptance is not None and not (quiet and acceptance.passed):
-        for line in as_lines(acceptance):
-            print(line)
+    if acceptance is not None:
+        for line in as_lines(acceptance):  # with --json the verdict is in the JSON; the lines go to stderr
+            print(line, file=sys.stderr if quiet else sys.stdout)
     record_in_history(command, session_dir, calibration_path, verdict=verdict)
     return EXIT_REJECTED if acceptance is not None and not acceptance.passed else EXIT_OK
 

@@ -135,16 +135,27 @@ def describe(p: StepProgress) -> str:
     """Short description of where the run is (fits 60 columns with the bar)."""
     temp = f" {p.temp_c:.1f}C" if p.temp_c is not None and p.temp_c == p.temp_c else ""
     noise = f" {p.noise_ug:.0f}ug" if p.noise_ug is not None and p.noise_ug == p.noise_ug else ""
-    return f"[{p.index + 1}/{p.total}] {p.name}: {p.phase}{temp}{noise}"
+    return f"[{p.index + 1}/{p.total}] {p.name}: {p.phase}{temp}{noise}{target_text(p, short=True)}"
+
+
+def target_text(p: StepProgress, short: bool = False) -> str:
+    """The predicted figure against the target (empty without a target): `` pred 0.041>0.030 deg``."""
+    if p.predicted is None or p.target is None:
+        return ""
+    sign = "<=" if p.predicted <= p.target else ">"
+    unit = (p.target_unit or "").split(" ")[0] if short else (p.target_unit or "")
+    label = " pred" if short else "  predicted"
+    return f"{label} {p.predicted:.3g}{sign}{p.target:.3g} {unit}".rstrip()
 
 
 def plain_progress_line(p: StepProgress) -> str:
-    """One line for logs: step, phase, temperature, noise, the step's and the run's remaining time."""
+    """One line for logs: step, phase, temperature, noise, the prediction against the target, the
+    step's and the run's remaining time."""
     eta = f"  ETA {_fmt_s(p.eta_s)}" if p.eta_s is not None else ""
     noise = f"  noise {p.noise_ug:.0f} ug" if p.noise_ug is not None and p.noise_ug == p.noise_ug else ""
     temp = f"  {p.temp_c:.2f} C" if p.temp_c is not None and p.temp_c == p.temp_c else ""
     run_eta = f"  run ETA {_fmt_s(p.run_eta_s)}" if p.run_eta_s is not None else ""
-    return f"[{p.index + 1}/{p.total}] {p.name}: {p.phase}{temp}{noise}{eta}{run_eta}"
+    return f"[{p.index + 1}/{p.total}] {p.name}: {p.phase}{temp}{noise}{target_text(p)}{eta}{run_eta}"
 
 
 def _fmt_s(s: float) -> str:

@@ -21,6 +21,7 @@ from drivers.ximc.stage import TurntableError
 from rig import __version__
 from rig.cli.commands import COMMANDS
 from rig.cli.common import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK, UsageError
+from rig.config.yamlload import SymlinkLoop
 from rig.errors import RigInputError, SessionFormatError
 from rig.execution.context import RunAborted, RunError
 from rig.execution.operator import OperatorAbsent
@@ -93,6 +94,7 @@ EXIT_CODES: list[tuple[tuple[type, ...], int, object]] = [
     ((RigInputError, SessionFormatError, CalibError, UsageError, OperatorAbsent), EXIT_BAD_INPUT, None),
     ((FileNotFoundError,), EXIT_BAD_INPUT, lambda exc, first: f"{exc.filename}: no such file or directory"),
     ((IsADirectoryError,), EXIT_BAD_INPUT, lambda exc, first: f"{exc.filename}: is a directory, expected a file"),
+    ((SymlinkLoop,), EXIT_BAD_INPUT, lambda exc, first: f"{exc.filename}: {SymlinkLoop.message}, expected a file"),
     ((yaml.YAMLError,), EXIT_BAD_INPUT, lambda exc, first: f"not valid YAML: {first}"),
     ((RunAborted,), EXIT_FAILURE, lambda exc, first: f"aborted: {first}"),
     ((TurntableError, SensorError, RunError, SessionLocked), EXIT_FAILURE, None),

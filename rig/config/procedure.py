@@ -14,21 +14,23 @@ import numpy as np
 
 from drivers.sensors.base import SensorSettings
 from drivers.sensors.chips import CHIPS
+from calib.accel.predict import Predictor
+from calib.errors import CalibError
 from rig.config.procedure_schema import (ACCEL_RANGES_G, ADXL345_RATES_HZ, FORMAT, GYRO_RANGES_DPS, METHODS,
                                          MIN_DWELL_SAMPLES, MODELS, RATE_MAX_DEG_S, AnglesStep, Dwell,
                                          ProcedureDoc, RateStep, RepeatStep, SensorSpec, Settle, SolveSpec,
-                                         TemperatureStep, TemperatureTarget, PromptStep)
+                                         TargetSpec, TemperatureStep, TemperatureTarget, PromptStep)
 from rig.config.schema import validate_document
 from rig.config.yamlload import read_source
 from rig.errors import RigInputError
 from rig.planning.kinematics import f_nominal, rot_x, rot_y
 from rig.planning.poses import pose_angles_deg
-from rig.planning.targets import reorder_for_travel
+from rig.planning.targets import reorder_fastest, reorder_for_travel
 
 MAX_STEPS = 10000
 MAX_REPEAT_DEPTH = 4
 __all__ = ["ACCEL_RANGES_G", "ADXL345_RATES_HZ", "FORMAT", "GYRO_RANGES_DPS", "METHODS", "MODELS", "RATE_MAX_DEG_S",
-           "Dwell", "PlannedStep", "Procedure", "SensorSpec", "Settle", "SolveSpec", "TemperatureTarget",
+           "Dwell", "PlannedStep", "Procedure", "SensorSpec", "Settle", "SolveSpec", "TargetSpec", "TemperatureTarget",
            "body_rate_dps", "load_procedure", "load_procedure_text"]
 
 
@@ -49,6 +51,15 @@ class PlannedStep:
     rate_axis: str | None = None  # rate steps: the stage axis that spins
     rate_deg_s: float | None = None  # its kinematic rate, deg/s
     rate_nominal_dps: tuple[float, float, float] | None = None  # body rate in the sensor frame, deg/s
+    #: static steps: "fixed" (the dwell: it states), or in a procedure with target: "target" (the target
+    #: decides the dwell) or "given" (the step states its own dwell)
+    dwell_rule: str = "fixed"
+
+    @property
+    def executor(self) -> str:
+        """The key of the executor that runs this step (``rig.execution.executors.EXECUTORS``): its
+        kind, or ``targeted`` for every pose of a procedure with an accuracy target."""
+        return "targeted" if self.dwell_rule in ("target", "given") else self.kind
 
     def to_manifest(self) -> dict:
         d = {"index": self.index, "name": self.name, "kind": self.kind,
@@ -77,6 +88,7 @@ class Procedure:
     steps: tuple[PlannedStep, ...]
     solve: SolveSpec | None
     text: str = field(repr=False, default="")
+    target: TargetSpec | None = None
 
     def expanded_steps(self) -> list[PlannedStep]:
         return list(self.steps)
@@ -118,17 +130,46 @@ class _Expander:
         self.check_settle(spec.settle, doc, "settle", "settle")
         self.steps(spec.steps, doc["steps"], "steps", prefix="", depth=0)
         steps = list(self.out)
-        if spec.order == "shortest":
-            steps = [replace(s, index=i) for i, s in enumerate(reorder_for_travel(steps))]
+        if spec.order in ("shortest", "fastest"):
+            reorder = reorder_for_travel if spec.order == "shortest" else reorder_fastest
+            steps = [replace(s, index=i) for i, s in enumerate(reorder(steps))]
         if any(s.kind == "thermal" for s in steps) and self.sensor.model is not None and \
                 not CHIPS[self.sensor.model].has_temperature:
             self.fail(doc, "sensor", "sensor",
                       f"temperature steps need the sensor's thermometer; the {self.sensor.model} has none")
         if not any(s.kind == "static" for s in steps):
             self.fail(doc, "steps", "steps", "no pose step: nothing to capture")
+        if spec.target is not None:
+            self.check_target(spec, doc, steps)
         return Procedure(name=spec.name, description=spec.description or "", path=self.path, sensor=self.sensor,
                          dwell=spec.dwell, settle=spec.settle, order=spec.order, steps=tuple(steps),
-                         solve=spec.solve, text=text)
+                         solve=spec.solve, text=text, target=spec.target)
+
+    def check_target(self, spec: ProcedureDoc, doc: dict, steps: list) -> None:
+        """A target needs pose steps only, a pinv solve of the static model, parameters that model
+        has, and poses that determine it (all refused here, before anything moves)."""
+        if "dwell" in doc:
+            self.fail(doc, "dwell", "dwell", "dwell: and target: exclude each other: the target decides how long to "
+                      "dwell at each pose (a step may still give its own dwell)")
+        other = [s for s in steps if s.kind != "static"]
+        if other:
+            raise RigInputError(self.path, other[0].source_line, f"steps: {other[0].name}",
+                                f"a procedure with target: has pose steps only (the dwell is planned across "
+                                f"them); this is a {other[0].kind} step")
+        solve = spec.solve
+        if solve is None or solve.method != "pinv" or solve.thermal not in ("auto", "off"):
+            got = "solve: null" if solve is None else f"method {solve.method}, thermal {solve.thermal}"
+            self.fail(doc, "target", "target", "the target is predicted for the pinv solve of the static model: "
+                      f"needs solve: {{method: pinv, thermal: auto or off}}, got {got}")
+        try:
+            goal = spec.target.goal(solve.model)
+        except CalibError as exc:
+            self.fail(doc["target"], "sigma", "target.sigma", str(exc))
+        f = np.array([s.f_nominal for s in steps], float)
+        try:
+            Predictor(goal, 1.0).covariances(f, np.ones_like(f))
+        except CalibError as exc:
+            self.fail(doc, "steps", "steps", f"{exc}: a target needs poses that determine every parameter")
 
     def check_dwell(self, dwell: Dwell, container, key, where) -> None:
         rate = self.sensor.sample_rate_hz
@@ -182,7 +223,11 @@ class _Expander:
             settle = settle.model_copy(update={k: getattr(model.settle, k) for k in item["settle"]})
             self.check_settle(settle, item, "settle", f"{w}.settle")
         f = tuple(float(x) for x in f_nominal(np.array(angles)))
-        self.add(f"{prefix}{nm}", "static", line, angles_deg=angles, f_nominal=f, dwell=dwell, settle=settle)
+        rule = "fixed" if self.spec.target is None else "given"
+        if self.spec.target is not None and model.dwell is None:  # the target decides, within its time cap
+            rule, dwell = "target", Dwell(seconds=self.spec.target.max_seconds)
+        self.add(f"{prefix}{nm}", "static", line, angles_deg=angles, f_nominal=f, dwell=dwell, settle=settle,
+                 dwell_rule=rule)
 
     def rate_step(self, model: RateStep, item: dict, w: str, line, prefix: str) -> None:
         """``{rate: {axis, rate_deg_s, seconds, spin_up_s}, pose | angles_deg (optional), name}``."""

@@ -8,14 +8,18 @@ describe the file and are expanded into ``PlannedStep`` by :mod:`rig.config.proc
 
 from __future__ import annotations
 
+import fnmatch
+import math
 from typing import Annotated, Any, ClassVar, Optional, Union
 
 from pydantic import BeforeValidator, Discriminator, Field, Tag, WithJsonSchema, model_validator
 
 from calib.acceptance import AcceptanceLimits, known_pattern
+from calib.accel.predict import Goal, parameter_names, seed_table_f
 from drivers.sensors.chips import CHIPS, SENSOR_MODELS
 from drivers.ximc.stages import MR191
 from rig.config.schema import Strict, choice, fail, flag, label, number, text
+from rig.planning.kinematics import f_nominal
 from rig.planning.poses import POSE_NAMES
 
 FORMAT = "rig-procedure/1"
@@ -201,6 +205,69 @@ class AcceptSpec(Strict):
                                 max_drift_sigma=self.max_drift_sigma)
 
 
+ACCEL_PARAMETERS = tuple(dict.fromkeys(parameter_names("triangular") + parameter_names("full")))
+
+
+def _accel_pattern(v):
+    if not isinstance(v, str) or not any(fnmatch.fnmatchcase(n, v) for n in ACCEL_PARAMETERS):
+        raise fail(f"unknown parameter {v!r} (accelerometer parameters: {', '.join(ACCEL_PARAMETERS)}; "
+                   "shell patterns such as accel.bias_* allowed)")
+    return v
+
+
+AccelPattern = Annotated[str, BeforeValidator(_accel_pattern), WithJsonSchema({
+    "type": "string", "description": "accelerometer parameter name or shell-style pattern (accel.bias_*)"})]
+
+
+def _verification_poses(v):
+    if v == "seed_table":
+        return v
+    if not (isinstance(v, list) and 1 <= len(v) <= 100):
+        raise fail("expected seed_table or a list of 1 to 100 poses [a1, a2, a3] in degrees")
+    for i, pose in enumerate(v):
+        if not (isinstance(pose, (list, tuple)) and len(pose) == 3 and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and abs(x) <= 3600
+                for x in pose)):
+            raise fail(f"expected [a1, a2, a3] in degrees (|angle| <= 3600), got {pose!r}", at=(i,))
+    return [tuple(float(x) for x in pose) for pose in v]
+
+
+VerificationPoses = Annotated[Any, BeforeValidator(_verification_poses), WithJsonSchema({"anyOf": [
+    {"const": "seed_table"}, {"type": "array", "minItems": 1, "maxItems": 100, "items": {
+        "type": "array", "minItems": 3, "maxItems": 3, "items": {"type": "number", "minimum": -3600, "maximum": 3600}}}],
+    "description": "the verification poses of attitude_error_deg: the seed's roll/pitch table or [a1, a2, a3] lists"})]
+
+
+class TargetSpec(Strict):
+    """``target:``: what the calibration must achieve; the dwell at every pose follows from it
+    (docs/procedures.md, "Accuracy targets")."""
+
+    mapping_hint: ClassVar[str] = "expected a mapping (attitude_error_deg, confidence, poses, sigma, max_seconds)"
+    attitude_error_deg: Optional[number(gt=0, le=90, description="largest |roll| or |pitch| error over the "
+                                        "verification poses, deg")] = None
+    confidence: number(gt=0, lt=1, description="probability of the attitude bound") = 0.95
+    poses: VerificationPoses = "seed_table"
+    sigma: dict[AccelPattern, number(gt=0, le=1e12)] = {}
+    max_seconds: number(gt=0, le=DAY_S, description="time cap of the whole run (session time), s")
+
+    @model_validator(mode="after")
+    def _something_to_reach(self):
+        if self.attitude_error_deg is None and not self.sigma:
+            raise fail("give attitude_error_deg or sigma (or both): a target without either would stop at once")
+        return self
+
+    def goal(self, model: str = "triangular") -> Goal:
+        """The target as :class:`calib.accel.predict.Goal` for a session solved with ``model``
+        (CalibError when a sigma pattern names no parameter of that model)."""
+        poses = seed_table_f() if self.poses == "seed_table" else f_nominal(list(self.poses))
+        return Goal(attitude_error_deg=self.attitude_error_deg, confidence=self.confidence,
+                    poses_f=poses, sigma=dict(self.sigma), model=model)
+
+    def poses_record(self):
+        """The verification poses as the calibration file records them."""
+        return self.poses if self.poses == "seed_table" else [list(p) for p in self.poses]
+
+
 # -- steps -------------------------------------------------------------------------------------------
 StepName = Optional[label(description="the step's name in the session (default: from the pose)")]
 
@@ -319,10 +386,12 @@ class ProcedureDoc(Strict):
     sensor: Optional[SensorSpec] = None
     dwell: Dwell = Dwell(seconds=10.0)
     settle: Settle = Settle()
-    order: choice(("as_written", "shortest"), "expected as_written or shortest, got {got}") = "as_written"
+    order: choice(("as_written", "shortest", "fastest"), "expected as_written, shortest or fastest, got {got}") = \
+        "as_written"
     steps: Steps
     solve: Optional[SolveSpec] = None
     accept: Optional[AcceptSpec] = None
+    target: Optional[TargetSpec] = None
     report: flag("write SESSION/report.html at the end of the run (rig report)") = False
 
     @model_validator(mode="after")

@@ -159,7 +159,7 @@ class RigFileDoc(Strict):
     model_config = Strict.model_config | {"title": FORMAT}
     mapping_hint: ClassVar[str] = "expected a mapping with format, name, turntable, sensor"
     format: choice((FORMAT,), f"expected {FORMAT!r}, got {{got}}")
-    name: Optional[label()] = None
+    name: Optional[label(blank=False)] = None
     description: Optional[label(2000)] = None
     kind: choice(("sim", "hardware"), "expected sim or hardware, got {got}") = "hardware"
     home: choice(("none", "zero", "home"), "expected none, zero or home, got {got}") = "zero"

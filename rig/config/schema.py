@@ -96,7 +96,7 @@ def number(*, gt=None, ge=None, lt=None, le=None, integer=False, too_big: str | 
             raise fail(f"expected a number in [{fmt(ge)}, {fmt(le)}], got {_got(v)}")
         if not ok_type:
             raise fail(f"expected a {kind}, got {_got(v)}")
-        if integer and float(v) != int(v):
+        if integer and isinstance(v, float) and not v.is_integer():  # (float(2**63 - 1) != 2**63 - 1)
             raise fail(f"expected a whole number, got {_got(v)}")
         if gt is not None and v <= gt:
             raise fail(f"expected a number > {fmt(gt)}, got {_got(v)}")
@@ -162,12 +162,14 @@ def text(max_length: int = 2000, description: str | None = None):
     return Annotated[str, BeforeValidator(check), WithJsonSchema(schema)]
 
 
-def label(max_length: int = 200, description: str | None = None):
-    """A name: a string, or a number taken as its text."""
+def label(max_length: int = 200, description: str | None = None, blank: bool = True):
+    """A name: a string, or a number taken as its text; ``blank=False`` refuses an empty or blank one."""
 
     def check(v):
         if isinstance(v, bool) or not isinstance(v, (str, int, float)):
             raise fail(f"expected a text, got {_got(v)}")
+        if not blank and not str(v).strip():
+            raise fail(f"expected a non-empty name, got {_got(v)}")
         if len(str(v)) > max_length:
             raise fail(f"expected at most {max_length} characters, got {len(str(v))}")
         return str(v)

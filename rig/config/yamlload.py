@@ -15,6 +15,7 @@ values ("billion laughs"), integers longer than ``MAX_INT_DIGITS`` digits, and
 
 from __future__ import annotations
 
+import errno
 from pathlib import Path
 
 import yaml
@@ -74,6 +75,21 @@ class _BoundedLoader(yaml.SafeLoader):
             self.depth -= 1
 
 
+class _ErrnoMatch(type):
+    """``isinstance(exc, cls)`` is true for any OSError whose errno is in ``cls.errnos``."""
+
+    def __instancecheck__(cls, exc) -> bool:
+        return isinstance(exc, OSError) and exc.errno in cls.errnos
+
+
+class SymlinkLoop(OSError, metaclass=_ErrnoMatch):
+    """Matches (``isinstance``, not ``except``) any OSError with errno ELOOP: a path that is a loop of
+    symbolic links. Whoever opened the file, this is bad input (the CLI's exit-code table says 2)."""
+
+    errnos = (errno.ELOOP,)
+    message = "a symbolic link loop (too many levels of symbolic links)"
+
+
 def read_source(path, what: str, missing: str) -> str:
     """The text of ``path``; a one-line RigInputError if it is missing, a directory, too large or not text."""
     p = Path(path)
@@ -87,7 +103,9 @@ def read_source(path, what: str, missing: str) -> str:
         raise RigInputError(str(p), None, None, f"is a directory, expected a {what} YAML file") from None
     except UnicodeDecodeError as exc:
         raise RigInputError(str(p), None, None, f"not a text file (byte {exc.start} is not UTF-8)") from None
-    except OSError as exc:
+    except OSError as exc:  # (``except SymlinkLoop`` would not match: except clauses ignore __instancecheck__)
+        if isinstance(exc, SymlinkLoop):
+            raise RigInputError(str(p), None, None, f"{SymlinkLoop.message}, expected a {what} YAML file") from None
         raise RigInputError(str(p), None, None, f"cannot read: {exc.strerror or exc}") from None
 
 

@@ -18,6 +18,40 @@ from rig.config.rigfile import AxisConfig
 from rig.planning.kinematics import AXES
 
 
+@dataclass(frozen=True)
+class LostSamples:
+    """Why a capture lost samples (its sensor's FIFO overflowed), in the words of the rig's clock.
+
+    ``reason`` is one phrase for the step's flag and the end of the run, ``advice`` what to do about
+    it (may be empty). ``stop_run``: the loss comes from the clock's own pace and would repeat at
+    every later step, so the run stops (motors stopped, session resumable) instead of recording steps
+    with holes; ``resume_options`` are the ``rig run --resume`` options that avoid it.
+    """
+
+    reason: str
+    advice: str = ""
+    stop_run: bool = False
+    resume_options: str = ""
+
+
+#: the explanation of a clock that keeps wall time (hardware): the computer read the FIFO too late
+HOST_LOST_SAMPLES = LostSamples("this computer did not read the sensor's FIFO before it filled (was it busy?)")
+
+
+class PacedClock(Protocol):
+    """What a rig's clock may add to ``now`` and ``sleep`` when it runs at a pace of its own against
+    wall time (a time-scaled simulated rig): the engine asks the clock, never the rig's kind.
+
+    ``explain_lost_samples()`` says why samples were lost (a clock without it keeps wall time:
+    :data:`HOST_LOST_SAMPLES`); ``check_keep_up(model, settings)`` refuses (RigInputError, one line)
+    a pace this machine cannot keep up with for that sensor at those settings.
+    """
+
+    def explain_lost_samples(self) -> LostSamples: ...
+
+    def check_keep_up(self, model: str, settings) -> None: ...
+
+
 class Chamber(Protocol):
     """A climate chamber the engine can set (simulated chamber, a driver of a real one)."""
 
@@ -93,6 +127,18 @@ class Rig:
         """Tell the devices that want to know that step ``index`` begins."""
         for listener in self.step_listeners:
             listener(index)
+
+    def explain_lost_samples(self) -> LostSamples:
+        """Why this rig's captures lose samples, as its clock explains it (:class:`PacedClock`)."""
+        explain = getattr(self.clock, "explain_lost_samples", None)
+        return explain() if explain is not None else HOST_LOST_SAMPLES
+
+    def check_keep_up(self, settings) -> None:
+        """Refuse (RigInputError) a clock pace this machine cannot keep up with for the sensor at
+        ``settings`` (a ``SensorSettings``); nothing to check for wall time or virtual time."""
+        check = getattr(self.clock, "check_keep_up", None)
+        if check is not None:
+            check(self.sensor.model, settings)
 
     def describe(self) -> dict:
         """Identity of every device, for the session manifest's ``rig`` section."""

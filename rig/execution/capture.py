@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rig.execution.context import RunContext
+from rig.execution.context import RunContext, RunError
 from rig.execution.settle import SettleDetector, SettleRule
 
 
@@ -41,6 +41,41 @@ class Capture:
     samples: Samples
     settle_s: float | None
     problems: list[str] = field(default_factory=list)
+
+
+class SamplesLost(RunError):
+    """Every attempt at a capture lost samples to the pace of the rig's clock (a time-scaled simulated
+    rig outran this machine): the run stops, resumable, rather than record a session with holes."""
+
+
+def loss_counters(sensor) -> tuple[int, int]:
+    """The sensor's (FIFO overflows, samples dropped) so far: what :func:`lost_samples` compares."""
+    return sensor.stats.overflows, sensor.stats.dropped
+
+
+def lost_samples(ctx: RunContext, step, since: tuple[int, int], *, last_attempt: bool = True) -> list[str] | None:
+    """The step's problem when the sensor's FIFO overflowed since ``since`` (:func:`loss_counters`), with
+    the reason the rig's clock gives (:meth:`rig.devices.rig.Rig.explain_lost_samples`).
+
+    When the clock says the loss comes from its pace (``stop_run``), the step gets no flag: None asks
+    for the capture again (a warning says why), and on the ``last_attempt`` :class:`SamplesLost` stops
+    the run, so no step is ever recorded with a hole.
+    """
+    overflows, dropped = (now - then for now, then in zip(loss_counters(ctx.rig.sensor), since))
+    if overflows <= 0:
+        return []
+    why = ctx.rig.explain_lost_samples()
+    what = f"sensor FIFO overflowed {overflows} time(s), {dropped} samples lost: {why.reason}"
+    if not why.stop_run:
+        return [what + (f"; {why.advice}" if why.advice else "")]
+    if not last_attempt:
+        ctx.event("warning", step=step.index, source="clock", message=f"measuring step {step.index + 1} again: {what}")
+        ctx.operator.warn(f"step {step.index + 1} ({step.name}): {what}; measuring again")
+        return None
+    where = getattr(ctx.recorder, "session_dir", None) or "<session dir>"
+    resume = f"rig run --resume {where}" + (f" {why.resume_options}" if why.resume_options else "")
+    raise SamplesLost(f"step {step.index + 1} ({step.name}): {what}; run stopped (motors stopped, session kept)"
+                      + (f"; {why.advice}" if why.advice else "") + f"; resume with: {resume}")
 
 
 def poll_interval_s(sensor) -> float:
@@ -109,18 +144,37 @@ SETTLERS = {"accelerometer": settle_with_accelerometer, "none": settle_not_neede
 
 
 def settle_and_capture(ctx: RunContext, step) -> Capture:
-    """Start the sensor, settle as the rig says, capture the dwell; FIFO overflows flag the step."""
+    """Start the sensor, settle as the rig says, capture the dwell; FIFO overflows flag the step, or, lost
+    to the pace of the rig's clock, have it settled and captured again and stop the run when every
+    attempt loses samples (:func:`lost_samples`)."""
     sensor = ctx.rig.sensor
-    overflows0 = sensor.stats.overflows
-    sensor.start()
-    keep, settle_s, problems = SETTLERS[ctx.rig.settle](ctx, step)
-    samples = capture(ctx, step, keep)
-    if sensor.stats.overflows > overflows0:
-        problems.append(f"sensor FIFO overflowed {sensor.stats.overflows - overflows0} time(s): samples lost")
-    return Capture(samples, settle_s, problems)
+    attempts = ctx.options.max_attempts
+    for attempt in range(1, attempts + 1):
+        since = loss_counters(sensor)
+        sensor.start()
+        keep, settle_s, problems = SETTLERS[ctx.rig.settle](ctx, step)
+        samples = capture_dwell(ctx, step, keep)
+        lost = lost_samples(ctx, step, since, last_attempt=attempt >= attempts)
+        if lost is not None:
+            return Capture(samples, settle_s, problems + lost)
+    raise AssertionError("unreachable: the last attempt returns or raises")
 
 
 def capture(ctx: RunContext, step, keep: Samples) -> Samples:
+    """:func:`capture_dwell` on a started sensor (a rate step's constant-rate part); samples lost to the
+    pace of the rig's clock have it captured again (the sensor restarted) and stop the run when every
+    attempt loses samples (:func:`lost_samples`)."""
+    attempts = ctx.options.max_attempts
+    for attempt in range(1, attempts + 1):
+        since = loss_counters(ctx.rig.sensor)
+        samples = capture_dwell(ctx, step, keep)
+        if lost_samples(ctx, step, since, last_attempt=attempt >= attempts) is not None:
+            return samples
+        ctx.rig.sensor.start()
+    raise AssertionError("unreachable: the last attempt returns or raises")
+
+
+def capture_dwell(ctx: RunContext, step, keep: Samples) -> Samples:
     """Read the sensor until the dwell is done (samples, seconds, or a standard-error target)."""
     sensor, clock = ctx.rig.sensor, ctx.rig.clock
     rate, lsb, dwell = sensor.sample_rate_hz, sensor.accel_lsb_per_g, step.dwell

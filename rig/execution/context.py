@@ -66,6 +66,8 @@ class RunContext:
     magnetometer_samples: int = 0
     io_retries_seen: int = 0
     outcomes: list[StepOutcome] = field(default_factory=list)
+    #: the run's accuracy-target policy (rig.execution.executors.target_policy), made by the first targeted pose
+    target: object | None = None
     wall0_s: float = field(default_factory=time.monotonic)
 
     def session_time(self) -> float:

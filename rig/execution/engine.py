@@ -12,7 +12,7 @@ from rig.devices.rig import Rig
 from rig.errors import RigInputError
 from rig.execution.context import EngineOptions, RunAborted, RunContext, StepOutcome
 from rig.execution.estimate import step_durations_s
-from rig.execution.executors import EXECUTORS, temperature
+from rig.execution.executors import executor_for, temperature
 from rig.execution.motion import check_reachable, stop_motors
 from rig.execution.operator import Operator, OperatorAbsent, SilentOperator
 from rig.planning.kinematics import AXES
@@ -22,7 +22,8 @@ def check_before_recording(procedure, rig: Rig, operator: Operator, *, first_ste
                            start_deg: dict[str, float] | None = None) -> None:
     """Everything that can be refused before a session directory exists or anything moves: the sensor
     the procedure names, every remaining pose and rate (soft limits, cable wrap, stage speed), a
-    thermometer for temperature steps, and someone to answer the prompts."""
+    thermometer for temperature steps, someone to answer the prompts, and a rig clock this machine can keep
+    up with (a time-scaled simulated rig: :meth:`Rig.check_keep_up`)."""
     wanted = procedure.sensor.model
     if wanted is not None and wanted != rig.sensor.model:
         raise RigInputError(procedure.path, None, "sensor.model", f"the procedure is for the {wanted}, but the "
@@ -30,7 +31,7 @@ def check_before_recording(procedure, rig: Rig, operator: Operator, *, first_ste
     steps = procedure.expanded_steps()[first_step:]
     check_reachable(procedure, steps, rig, start_deg)
     for step in steps:
-        check = getattr(EXECUTORS[step.kind], "preflight", None)
+        check = getattr(executor_for(step), "preflight", None)
         if check is not None:
             check(procedure, step, rig)
     asks = [s for s in steps if s.kind == "prompt" or (
@@ -38,6 +39,8 @@ def check_before_recording(procedure, rig: Rig, operator: Operator, *, first_ste
     if asks and not operator.can_confirm():
         raise OperatorAbsent(f"step {asks[0].index + 1} ({asks[0].name}) asks the operator to confirm, and nobody "
                              "can answer here (no terminal): run it from a terminal or with --yes")
+    if any(s.kind in ("static", "rate") for s in steps):
+        rig.check_keep_up(procedure.sensor_settings())  # a clock this machine cannot keep up with (time-scaled sim)
 
 
 class Engine:
@@ -123,7 +126,7 @@ class Engine:
         try:
             for step in self.steps[self.first_step:]:
                 self.ctx.rig.begin_step(step.index)
-                EXECUTORS[step.kind].execute(self.ctx, step)
+                executor_for(step).execute(self.ctx, step)
         except KeyboardInterrupt:
             stop_motors(self.ctx.rig, soft=True)
             raise RunAborted("interrupted by the operator") from None

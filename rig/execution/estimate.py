@@ -1,7 +1,9 @@
 """How long steps take: the one estimate used for the run's ETA and the planned duration.
 
 Moves at the axes' configured speed and acceleration (all axes at once: the slowest sets the
-time), 1 s to settle, then the dwell; a temperature step is guessed at 300 s, a prompt at 0 s.
+time), 1 s to settle, then the dwell; a temperature step is guessed at 300 s, a prompt at 0 s. A
+pose whose dwell an accuracy target decides is guessed at :data:`TARGET_DWELL_GUESS_S` (the run
+replaces the guess by its plan after the first capture block).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from rig.planning.targets import move_time_s
 
 SETTLE_GUESS_S = 1.0
 TEMPERATURE_GUESS_S = 300.0
+TARGET_DWELL_GUESS_S = 3.0
 
 
 def step_durations_s(steps, rig) -> list[float]:
@@ -27,6 +30,7 @@ def step_durations_s(steps, rig) -> list[float]:
         angles = np.asarray(step.angles_deg, float)
         move = max(move_time_s(abs(b - a), rig.axes[n].config.speed_deg_s, rig.axes[n].config.accel_deg_s2)
                    for n, a, b in zip(AXES, previous, angles))
-        out.append(move + SETTLE_GUESS_S + nominal_dwell_s(step, rate))
+        dwell = TARGET_DWELL_GUESS_S if step.dwell_rule == "target" else nominal_dwell_s(step, rate)
+        out.append(move + SETTLE_GUESS_S + dwell)
         previous = angles
     return out

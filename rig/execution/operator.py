@@ -21,7 +21,10 @@ class StepProgress:
 
     ``index`` is 0-based; ``phase`` is one of move, settle, capture, spin-up, temperature, prompt.
     Times are seconds of rig time; ``noise_ug`` is the largest per-axis sample standard deviation
-    so far (micro-g); ``run_eta_s`` the remaining time of the whole run.
+    so far (micro-g); ``run_eta_s`` the remaining time of the whole run. With an accuracy target,
+    ``predicted`` is the calibration's predicted figure (this pose stopping now, the poses to come
+    getting their planned dwell) against ``target``, both in ``target_unit`` (deg for the largest
+    roll/pitch error).
     """
 
     index: int
@@ -32,6 +35,9 @@ class StepProgress:
     noise_ug: float | None = None
     temp_c: float | None = None
     run_eta_s: float | None = None
+    predicted: float | None = None
+    target: float | None = None
+    target_unit: str | None = None
 
 
 class Operator(Protocol):

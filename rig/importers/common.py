@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from rig.errors import RigInputError
+from rig.session.reader import MAX_POSE_ANGLE_DEG
 
 G_MS2 = 9.80665
 COUNTS_PER_G_EQUIVALENT = 100000.0  # counts-equivalent of physical units: 10 ug per count
@@ -97,8 +98,9 @@ def table(path: Path, text: str, required: list[str], delimiter: str) -> tuple[l
 
 #: no accelerometer reads more than this many g: a larger imported value is not acceleration
 MAX_IMPORT_G = 64.0
-#: a labelled pose whose data point elsewhere (cosine of the angle below this) is mislabelled
-MIN_POSE_COSINE = 0.8
+#: a labelled pose whose data point elsewhere (cosine of the angle below this) is mislabelled: the rule a
+#: session's reader applies to every static step (the import would otherwise write a session it refuses)
+MIN_POSE_COSINE = float(np.cos(np.radians(MAX_POSE_ANGLE_DEG)))
 
 
 def check_recording(path: Path, rec: Recording) -> None:

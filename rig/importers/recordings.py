@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rig.config.yamlload import SymlinkLoop
 from rig.errors import RigInputError
 from rig.importers.common import COUNTS_PER_G_EQUIVALENT, G_MS2, ImportedStep, Recording, check_recording
 from rig.importers.generic_csv import read_csv
@@ -45,6 +46,11 @@ def import_recording(source: str, src, sessions_root, session_id: str | None = N
         raise RigInputError(None, None, "--from", f"unknown source {source!r} (allowed: {', '.join(SOURCES)})")
     path = Path(src)
     if not path.is_file():
+        try:
+            path.stat()
+        except OSError as exc:
+            if isinstance(exc, SymlinkLoop):
+                raise RigInputError(str(path), None, None, f"{SymlinkLoop.message}, expected a recording") from None
         raise RigInputError(str(path), None, None, "no such file" if not path.exists() else "not a file")
     if not 9.7 < g_ms2 < 9.9:
         raise RigInputError(None, None, "--g", f"expected the local gravity in m/s^2 (9.7..9.9), got {g_ms2:g}")

@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from drivers.sensors.chips import CHIPS
+from rig.config.yamlload import SymlinkLoop
 from rig.errors import SessionFormatError
 from rig.session import adapter
 from rig.session.manifest import BASE_COLUMNS, OPTIONAL_COLUMNS, SessionManifest, StepRecord
@@ -26,6 +28,7 @@ REQUIRED_COLUMNS = ("t_s", "step", "ax", "ay", "az")
 _BOM = b"\xef\xbb\xbf"
 _NA = ["", "nan", "NaN", "NAN", "-nan", "+nan"]
 _BLOCK_LINES = 16384
+_BLOCK_BYTES = 2 << 20  # samples.csv is parsed in blocks of about this many bytes (whole lines)
 
 
 @dataclass
@@ -85,7 +88,11 @@ class Session:
 def load_session(path) -> Session:
     """Load and validate a session directory (manifest, samples; events are not needed to solve)."""
     d = Path(path)
+    for p, expected in ((d, "a session directory"), (d / "session.yaml", "session.yaml"),
+                        (d / "samples.csv", "samples.csv")):
+        refuse_symlink_loop(p, expected)
     info, raw = SessionManifest.load(d)
+    check_sensor(d / "session.yaml", info)
     samples, warnings = read_samples(d / "samples.csv", n_steps=len(info.steps))
     check_against_manifest(d / "samples.csv", info, samples)
     if info.rig.sensor.has_temperature:
@@ -94,6 +101,15 @@ def load_session(path) -> Session:
             raise SessionFormatError(str(d / "samples.csv"), 1, "temp_c",
                                      "the manifest says the sensor has a thermometer, but there are no temperatures")
     return Session(d, info, samples, warnings, raw)
+
+
+def refuse_symlink_loop(path: Path, expected: str) -> None:
+    """A path that is a loop of symbolic links is refused as such (not as "missing"), naming it."""
+    try:
+        path.stat()
+    except OSError as exc:
+        if isinstance(exc, SymlinkLoop):
+            raise SessionFormatError(str(path), None, None, f"{SymlinkLoop.message}, expected {expected}") from None
 
 
 def check_against_manifest(path: Path, info: SessionManifest, samples: dict) -> None:
@@ -124,57 +140,182 @@ def check_against_manifest(path: Path, info: SessionManifest, samples: dict) -> 
             raise SessionFormatError(str(path), None, f"step {step.index + 1}",
                                      f"{int(counts[step.index])} rows, but the manifest recorded {int(n)} samples "
                                      "(rows duplicated or lost)")
+    check_poses(path, info, samples, counts)
+
+
+#: no sensor's output word is wider than 16 bits (a range's full scale in counts); nor any count than 2^31
+CHIP_FULL_SCALE_COUNTS = 32768.0
+MAX_FULL_SCALE_COUNTS = 2.0**31
+
+
+def check_sensor(path: Path, info: SessionManifest) -> None:
+    """The recorded accelerometer settings must be possible: a range the chip has, and a sensitivity
+    (counts/g) whose full scale fits the chip's 16-bit output (a sensor the registry does not know: 2^31)."""
+    s = info.rig.sensor
+    chip = CHIPS.get(s.model) if isinstance(s.model, str) else None
+    if chip is not None and s.accel_range_g is not None and s.accel_range_g not in chip.accel_ranges_g:
+        raise SessionFormatError(str(path), None, "rig.sensor.accel_range_g",
+                                 f"expected one of {', '.join(map(str, chip.accel_ranges_g))} (the {chip.model}'s "
+                                 f"ranges, g), got {s.accel_range_g!r}")
+    lsb, span = float(s.accel_lsb_per_g), float(s.accel_range_g or 1.0)
+    limit = CHIP_FULL_SCALE_COUNTS if chip is not None else MAX_FULL_SCALE_COUNTS
+    if not lsb * span <= limit:
+        raise SessionFormatError(str(path), None, "rig.sensor.accel_lsb_per_g",
+                                 f"{lsb:g} counts/g at {span:g} g is a full scale of {lsb * span:.3g} counts, beyond "
+                                 f"the {limit:.0f} counts {'of the ' + chip.model if chip else 'any sensor gives'}: "
+                                 "not this sensor's sensitivity")
+
+
+#: a static step's mean specific force points within this angle of its pose's f_nominal: a sensor's bias,
+#: scale and misalignment errors and a tilted mount stay far below it; ax/ay swapped or a sign flipped
+#: (another sensor frame), or a mislabelled pose, are 90 or 180 deg off
+MAX_POSE_ANGLE_DEG = 20.0
+#: f_nominal is the specific force at rest: a unit vector in g, within this
+F_NOMINAL_TOLERANCE_G = 0.2
+
+
+def check_poses(path: Path, info: SessionManifest, samples: dict, counts: np.ndarray) -> None:
+    """Refuse a session whose data contradict its poses: each complete static step with a known pose must
+    read gravity (the mean of its raw counts) along its f_nominal, within :data:`MAX_POSE_ANGLE_DEG`.
+    Otherwise the solver (and evaluate, discover) would fit the wrong axes and give a wrong number."""
+    steps = [s for s in info.steps if s.is_static and s.status == "complete" and s.f_nominal is not None
+             and counts[s.index] > 0]
+    for st in steps:
+        f = np.asarray(st.f_nominal, float)
+        if not abs(np.linalg.norm(f) - 1.0) <= F_NOMINAL_TOLERANCE_G:
+            raise SessionFormatError(str(path.parent / "session.yaml"), None, f"steps[{st.index}].f_nominal",
+                                     f"expected the specific force at rest, a unit vector in g, got {f.tolist()} "
+                                     f"(|f| = {np.linalg.norm(f):.3g} g)")
+    if not steps:
+        return
+    a, step = samples["accel_counts"], samples["step"]
+    sums = np.stack([np.bincount(step, weights=a[:, j].astype(float), minlength=len(counts)) for j in range(3)], 1)
+    for st in steps:
+        mean, f = sums[st.index] / counts[st.index], np.asarray(st.f_nominal, float)
+        norm = float(np.linalg.norm(mean))
+        cosine = float(mean @ f) / (norm * float(np.linalg.norm(f))) if norm > 0 else 0.0
+        angle = float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+        if angle > MAX_POSE_ANGLE_DEG:
+            along = np.round(mean / norm, 2).tolist() if norm > 0 else [0, 0, 0]
+            raise SessionFormatError(str(path), None, f"step {st.index + 1}",
+                                     f"the data of step {st.index + 1} ({st.label}) read gravity along {along}, "
+                                     f"{angle:.0f} deg from its pose's f_nominal {np.round(f, 3).tolist()} "
+                                     f"(session.yaml; at most {MAX_POSE_ANGLE_DEG:g} deg for a sensor at rest): "
+                                     "columns swapped or sign-flipped, or a mislabelled pose")
 
 
 def read_samples(path: Path, n_steps: int | None = None) -> tuple[dict, list[str]]:
-    """Read samples.csv: the columns as arrays, and the warnings (a dropped torn last line)."""
+    """Read samples.csv: the columns as arrays, and the warnings (a dropped torn last line).
+
+    The file is read in blocks of whole lines (``_BLOCK_BYTES``), each parsed, checked and copied into
+    arrays allocated once for every line the file has, so memory holds the result and one block, never
+    the file's text beside its parsed columns (a file with quotes is read as one block: a quoted field
+    may span lines). Every refusal names the file line, as for a file read at once.
+    """
     path = Path(path)
     if not path.is_file():
         raise SessionFormatError(str(path), None, None, "missing samples.csv")
-    header, body, warnings = _split(path, path.read_bytes())
-    text = _Body(path, body)
+    warnings: list[str] = []
+    with open(path, "rb") as fh:
+        header = _header(path, fh)
+        known = [c for c in header if c in BASE_COLUMNS + OPTIONAL_COLUMNS]
+        out = _Columns(known, _lines_after(fh))
+        for text in _bodies(path, fh, warnings):
+            out.add(_read_block(text, header, known, n_steps))
+    return out.arrays(), warnings
+
+
+def _read_block(text: "_Body", header: list[str], known: list[str], n_steps: int | None) -> dict:
+    """One block of data lines as the arrays of :class:`Session`, after every check."""
     ragged = text.first_ragged(len(header))
     if ragged is not None:
-        raise SessionFormatError(str(path), ragged, None, f"expected {len(header)} comma-separated fields "
-                                                           "as in the header")
-    known = [c for c in header if c in BASE_COLUMNS + OPTIONAL_COLUMNS]
+        raise SessionFormatError(str(text.path), ragged, None, f"expected {len(header)} comma-separated fields "
+                                                                "as in the header")
     col = _parse(text, header, known)
-    del body
     _check(text, col, n_steps)
-    return _arrays(col), warnings
+    return _arrays(col)
 
 
-def _split(path: Path, raw: bytes) -> tuple[list[str], bytes, list[str]]:
-    """The header's column names and the body (a torn last line dropped, with a warning)."""
-    if raw.startswith(_BOM):
-        raw = raw[len(_BOM):]
-    if not raw:
+class _Columns:
+    """The arrays of :class:`Session` for at most ``capacity`` rows, allocated at once and filled block by
+    block (a few large allocations: reading does not fragment the heap with block-sized arrays)."""
+
+    def __init__(self, known: list[str], capacity: int) -> None:
+        like = _arrays({c: np.empty(0) for c in known})
+        self._out = {k: np.empty((capacity,) + v.shape[1:], v.dtype) for k, v in like.items()}
+        self._n = 0
+
+    def add(self, block: dict) -> None:
+        m = len(block["step"])
+        for key, v in block.items():
+            if self._n + m > len(self._out[key]):  # the file grew since its lines were counted (still written)
+                self._out[key].resize((self._n + m,) + v.shape[1:], refcheck=False)
+            self._out[key][self._n:self._n + m] = v
+        self._n += m
+
+    def arrays(self) -> dict:
+        """The rows filled (the spare ones of blank lines released)."""
+        for v in self._out.values():
+            if len(v) != self._n:
+                v.resize((self._n,) + v.shape[1:], refcheck=False)
+        return self._out
+
+
+def _lines_after(fh) -> int:
+    """Newlines from the file position to the end (at least the data rows there); the position is kept."""
+    at, n = fh.tell(), 0
+    while chunk := fh.read(_BLOCK_BYTES):
+        n += chunk.count(b"\n")
+    fh.seek(at)
+    return n
+
+
+def _header(path: Path, fh) -> list[str]:
+    """The header's column names (the first line; a UTF-8 byte-order mark skipped)."""
+    line = fh.readline()
+    if line.startswith(_BOM):
+        line = line[len(_BOM):]
+    if not line:
         raise SessionFormatError(str(path), 1, None, "empty file: expected a header line")
-    nl = raw.find(b"\n")
-    if nl < 0:
+    if not line.endswith(b"\n"):
         raise SessionFormatError(str(path), 1, None, "no header line")
-    line = raw[:nl].decode("utf-8", "replace")
-    header = [c.strip() for c in next(csv.reader([line.rstrip("\r")]), [])]
+    text = line[:-1].decode("utf-8", "replace")
+    header = [c.strip() for c in next(csv.reader([text.rstrip("\r")]), [])]
     if not header or any(not c for c in header) or len(set(header)) != len(header):
         raise SessionFormatError(str(path), 1, None, f"header has empty or repeated column names: {','.join(header)}")
     for c in REQUIRED_COLUMNS:
         if c not in header:
             raise SessionFormatError(str(path), 1, c, f"missing column (header: {','.join(header)})")
-    body = raw[nl + 1:]
-    warnings = []
-    if body and not body.endswith(b"\n"):
-        cut = body.rfind(b"\n")
-        torn_line = body[:cut + 1].count(b"\n") + 2
-        body = body[:cut + 1] if cut >= 0 else b""
-        warnings.append(f"{path}:{torn_line}: dropped a torn last line (the run stopped while writing it)")
-    return header, body, warnings
+    return header
+
+
+def _bodies(path: Path, fh, warnings: list[str]):
+    """The data lines after the header as :class:`_Body` blocks of whole lines; a torn last line (no
+    newline: the run stopped while writing it) is dropped, with a warning."""
+    first_line, rest = 2, b""
+    while True:
+        chunk = fh.read(_BLOCK_BYTES)
+        data = rest + chunk if rest else chunk
+        if chunk and b'"' in data:  # quotes: one block to the end (a quoted field may hold a newline)
+            data += fh.read()
+            chunk = b""
+        cut = data.rfind(b"\n")
+        body, rest = data[:cut + 1], data[cut + 1:]
+        if body:
+            yield _Body(path, body, first_line)
+            first_line += body.count(b"\n")
+        if not chunk:
+            break
+    if rest:
+        warnings.append(f"{path}:{first_line}: dropped a torn last line (the run stopped while writing it)")
 
 
 class _Body:
-    """The data lines of samples.csv: field counts per line and the file line of a data row."""
+    """Data lines of samples.csv (all, or a block of whole lines whose first is file line
+    ``first_line``): field counts per line and the file line of a data row."""
 
-    def __init__(self, path: Path, body: bytes) -> None:
-        self.path, self.body = path, body
+    def __init__(self, path: Path, body: bytes, first_line: int = 2) -> None:
+        self.path, self.body, self.first_line = path, body, first_line
         self.quoted = b'"' in body
         self._blank: np.ndarray | None = None
 
@@ -194,9 +335,10 @@ class _Body:
         try:
             for row in reader:
                 if row:
-                    yield reader.line_num + 1, row
+                    yield reader.line_num + self.first_line - 1, row
         except csv.Error as exc:
-            raise SessionFormatError(str(self.path), reader.line_num + 1, None, f"cannot read it ({exc})") from None
+            raise SessionFormatError(str(self.path), reader.line_num + self.first_line - 1, None,
+                                     f"cannot read it ({exc})") from None
 
     def first_ragged(self, ncol: int) -> int | None:
         """The file line of the first row whose field count is not the header's, or None."""
@@ -212,7 +354,7 @@ class _Body:
             commas = np.add.reduceat(a[first:last] == 44, starts[k:k + _BLOCK_LINES] - first, dtype=np.int64)
             bad = np.flatnonzero((commas + 1 != ncol) & ~blank[k:k + _BLOCK_LINES])
             if len(bad):
-                return k + int(bad[0]) + 2
+                return k + int(bad[0]) + self.first_line
         return None
 
     def line_of(self, row: int) -> int | None:
@@ -220,7 +362,7 @@ class _Body:
         if self.quoted:
             return next((line for k, (line, _) in enumerate(self._records()) if k == row), None)
         _, blank = self._lines()
-        return int(np.flatnonzero(~blank)[row]) + 2
+        return int(np.flatnonzero(~blank)[row]) + self.first_line
 
     def first_non_number(self, header: list[str], known: list[str]) -> tuple[int | None, str | None, str]:
         """Where a cell of a known column is not a number (the slow path, after pandas refused)."""

@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass
 from typing import Annotated, Any, ClassVar, Optional
 
+import numpy as np
 from pydantic import BeforeValidator, WithJsonSchema, create_model
 
 from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, MagErrorModel
@@ -52,26 +53,94 @@ def _finite_tree(v, depth: int = 0):
 
 
 _NUMBER = {"type": "number", "minimum": -MAX_MAGNITUDE, "maximum": MAX_MAGNITUDE}
-Magnitude = Annotated[Any, BeforeValidator(_finite_tree), WithJsonSchema({"anyOf": [
+_MAGNITUDE_SCHEMA = WithJsonSchema({"anyOf": [
     _NUMBER, {"type": "array", "minItems": 1, "items": _NUMBER},
-    {"type": "array", "minItems": 1, "items": {"type": "array", "minItems": 1, "items": _NUMBER}}]})]
+    {"type": "array", "minItems": 1, "items": {"type": "array", "minItems": 1, "items": _NUMBER}}]})
+Magnitude = Annotated[Any, BeforeValidator(_finite_tree), _MAGNITUDE_SCHEMA]
 
 
-def _overrides(name: str, fields: list[str], doc: str):
-    """A mapping of the given keys, each a number or a list of numbers (None: not given)."""
-    model = create_model(name, __base__=Strict, __doc__=doc, **{f: (Magnitude, None) for f in fields})
+def _fits(shape: tuple, target: tuple, rule: str) -> bool:
+    """Whether a value of ``shape`` may stand for a field of shape ``target`` under ``rule``: "exact";
+    "scalar" (a number for any shape, else exact); "broadcast" (numpy broadcasting, as the simulator does)."""
+    if shape == target or (rule in ("scalar", "broadcast") and shape == ()):
+        return True
+    if rule != "broadcast":
+        return False
+    try:
+        return np.broadcast_shapes(shape, target) == target
+    except ValueError:
+        return False
+
+
+def _expected(target: tuple, rule: str) -> str:
+    exact = {(): "a number", (1,): "a list of one number", (3, 3): "a 3x3 list of numbers"}.get(
+        target, f"{target[0] if target else 1} numbers")
+    return exact if target == () or rule == "exact" else f"a number or {exact}"
+
+
+def shaped(target: tuple, rule: str = "broadcast", nonnegative: bool = False):
+    """A finite number or (nested) list of them that fits a simulator field of shape ``target`` (see
+    :func:`_fits`), kept as written; every other shape is refused here, on load, with the file's line,
+    never later in the simulator."""
+
+    def check(v):
+        v = _finite_tree(v)
+        try:
+            shape = np.shape(np.asarray(v, float))
+        except ValueError:  # a ragged list
+            shape = None
+        if shape is None or not _fits(shape, target, rule):
+            raise fail(f"expected {_expected(target, rule)}, got {v!r}")
+        if nonnegative and np.any(np.asarray(v, float) < 0):
+            raise fail(f"expected numbers >= 0, got {v!r}")
+        return v
+
+    return Annotated[Any, BeforeValidator(check), _MAGNITUDE_SCHEMA]
+
+
+def _default_shapes(cls) -> dict[str, tuple]:
+    """Each field of an error-model dataclass and the shape of its default (scalar, vector, 3x3)."""
+    return {f.name: np.shape(f.default if f.default is not dataclasses.MISSING else f.default_factory())
+            for f in dataclasses.fields(cls)}
+
+
+def _overrides(name: str, fields: dict[str, Any], doc: str):
+    """A mapping of the given keys, each of its field type (None: not given)."""
+    model = create_model(name, __base__=Strict, __doc__=doc, **{f: (t, None) for f, t in fields.items()})
     model.mapping_hint = "expected a mapping of error-model fields"
     return model
+
+
+def _error_fields(cls, vectors: str) -> dict[str, Any]:
+    """Field types of an error model's overrides: matrices exactly 3x3 or (``vectors`` "broadcast") as
+    numpy broadcasts them, vectors a number or 3 numbers, scalars a number; noise levels >= 0."""
+    def rule(shape: tuple) -> str:
+        if vectors == "broadcast":
+            return "broadcast"
+        return "scalar" if len(shape) == 1 else "exact"
+    return {name: shaped(shape, rule(shape), nonnegative=name.startswith("noise"))
+            for name, shape in _default_shapes(cls).items()}
 
 
 def _field_names(cls) -> list[str]:
     return [f.name for f in dataclasses.fields(cls)]
 
 
-AccelOverrides = _overrides("AccelOverrides", _field_names(AccelErrorModel), "Overrides of AccelErrorModel fields.")
-GyroOverrides = _overrides("GyroOverrides", _field_names(GyroErrorModel), "Overrides of GyroErrorModel fields.")
-MagOverrides = _overrides("MagOverrides", _field_names(MagErrorModel), "Overrides of MagErrorModel fields.")
-Effects = _overrides("Effects", [*EFFECT_FIELDS, *WORLD_EFFECTS, *EFFECT_PARAMS], "Hidden effects by canonical name, magnitudes.")
+_ACCEL_SHAPES = _default_shapes(AccelErrorModel)
+#: the effects' field types: as the simulator applies them (rig.simulation.simrig)
+EFFECT_TYPES: dict[str, Any] = {
+    **{name: shaped(_ACCEL_SHAPES[f], "broadcast") for name, f in EFFECT_FIELDS.items()},
+    "table_tilt": shaped((2,), "scalar"),  # [tilt_x_deg, tilt_y_deg], or one number: about x
+    "full_misalignment": shaped((1,), "scalar"),  # deg, a rotation about the sensor's x axis
+    **{name: shaped(_ACCEL_SHAPES[f], "exact") for name, f in EFFECT_PARAMS.items()},
+}
+AccelOverrides = _overrides("AccelOverrides", _error_fields(AccelErrorModel, "scalar"),
+                            "Overrides of AccelErrorModel fields.")
+GyroOverrides = _overrides("GyroOverrides", _error_fields(GyroErrorModel, "broadcast"),
+                           "Overrides of GyroErrorModel fields.")
+MagOverrides = _overrides("MagOverrides", _error_fields(MagErrorModel, "broadcast"), "Overrides of MagErrorModel fields.")
+Effects = _overrides("Effects", {name: EFFECT_TYPES[name] for name in [*EFFECT_FIELDS, *WORLD_EFFECTS, *EFFECT_PARAMS]},
+                     "Hidden effects by canonical name, magnitudes.")
 Effects.mapping_hint = "expected a mapping of effect name to magnitude"
 
 

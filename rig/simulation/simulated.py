@@ -3,16 +3,150 @@ in-process I2C bus, opened through the same stage and sensor drivers as hardware
 
 from __future__ import annotations
 
+import dataclasses
+import functools
+import math
+import time
+
 import yaml
 
+from drivers.clock import Clock, MonotonicClock
+from drivers.sensors import open_sensor
 from drivers.ximc.sim.protocol_ximcsim import attach, detach
 from rig.config.rigfile import AxisConfig
 from rig.devices.buses import register_bus, unregister_bus
 from rig.devices.hardware import attach_sensors, open_stages
 from rig.devices.registry import register_rig_kind
-from rig.devices.rig import Rig
+from rig.devices.rig import LostSamples, Rig
+from rig.errors import RigInputError
+from rig.execution.capture import poll_interval_s
 from rig.planning.kinematics import AXES
 from rig.simulation.simrig import SimSettings, SimulatedRig
+
+#: the share of this machine a capture's FIFO reads may take at a time scale it keeps up with; the other half
+#: is the run's own work around them (settle detection, progress, the session writer, the emulated
+#: controllers). A time scale at which the reads alone would take the whole machine (twice what it keeps
+#: up with) is refused before recording.
+KEEP_UP_SHARE = 0.5
+#: wall time of one probe of the keep-up check, s
+PROBE_WALL_S = 0.25
+
+
+def drain_share(settings: SimSettings, seed: int, address: int | None, model: str, sensor_settings,
+                time_scale: float, wall_s: float = PROBE_WALL_S) -> tuple[float, bool]:
+    """Read a fresh simulated sensor (its own world and bus, no faults) at ``time_scale`` for ``wall_s``
+    of wall time as a capture does; return the share of the wall time the reads took and whether its
+    FIFO overflowed."""
+    sim = SimulatedRig(dataclasses.replace(settings, time_scale=time_scale), seed=seed, sensor_model=model,
+                       sensor_address=address)
+    sensor = open_sensor(model, sim.bus, sim.sensor_address, clock=sim.clock)
+    sensor.configure(sensor_settings)
+    poll = poll_interval_s(sensor)
+    sensor.start()
+    busy, t0 = 0.0, time.perf_counter()
+    while time.perf_counter() - t0 < wall_s:
+        sim.clock.sleep(poll)
+        t = time.perf_counter()
+        sensor.read()
+        busy += time.perf_counter() - t
+    share = busy / (time.perf_counter() - t0)
+    sensor.stop()
+    return share, sensor.stats.overflows > 0
+
+
+def keeps_up_with(settings: SimSettings, seed: int, address: int | None, model: str, sensor_settings,
+                  time_scale: float) -> float:
+    """The time scale this machine keeps up with for ``model`` at ``sensor_settings``: probe at
+    ``time_scale``, then at ever slower ones while the FIFO overflows; at the first that does not, the
+    scale at which the reads would take :data:`KEEP_UP_SHARE` of the machine (their load grows with
+    the scale). 0 when not even 1/100 of real time keeps up."""
+    pace = float(time_scale)
+    while pace >= 0.01:
+        share, overflowed = drain_share(settings, seed, address, model, sensor_settings, pace)
+        if not overflowed and share < 1.0:
+            return pace * KEEP_UP_SHARE / max(share, 1e-6)
+        pace /= 8.0
+    return 0.0
+
+
+class ScaledClock:
+    """The clock of a simulated rig at time scale K > 0 (K simulated seconds per wall second), as the
+    rig's :class:`rig.devices.rig.PacedClock`: time is the shared ``MonotonicClock``'s, unchanged; what
+    it adds is what that pace means on this machine (the keep-up check before recording, and why
+    samples were lost).
+
+    ``where``: the rig file whose ``sim.time_scale`` set K (None: ``--time-scale``); ``probe(model,
+    settings, K)``: the time scale this machine keeps up with (:func:`keeps_up_with`).
+    """
+
+    def __init__(self, inner: MonotonicClock, where: str | None, probe) -> None:
+        self.inner = inner
+        self.where = where
+        self.probe = probe
+        self.keeps_up_x: float | None = None  # measured by check_keep_up
+        self.sensor = ""  # "1 kHz MPU-9150", named by check_keep_up
+
+    @property
+    def time_scale(self) -> float:
+        return self.inner.time_scale
+
+    def now(self) -> float:
+        return self.inner.now()
+
+    def sleep(self, dt_s: float) -> None:
+        self.inner.sleep(dt_s)
+
+    def _setting(self) -> str:
+        return f"{'--time-scale' if self.where is None else 'sim.time_scale'} {self.time_scale:g}"
+
+    def check_keep_up(self, model: str, settings) -> None:
+        """Refuse (RigInputError, one line) a time scale clearly beyond what this machine keeps up with:
+        one at which reading the sensor alone would take the whole machine."""
+        self.keeps_up_x = self.probe(model, settings, self.time_scale)
+        self.sensor = f"{_rate(settings.sample_rate_hz)} {model}"
+        if self.time_scale > self.keeps_up_x / KEEP_UP_SHARE:
+            raise RigInputError(self.where, None, None, f"{self._setting()}: this machine keeps up with about "
+                                f"{_about(self.keeps_up_x)}x for a {self.sensor}; use {_slower(self.keeps_up_x)}")
+
+    def explain_lost_samples(self) -> LostSamples:
+        """Samples lost at this pace are this machine's, not the sensor's: stop, resume slower."""
+        limit = min(self.time_scale, self.keeps_up_x or math.inf) / 2
+        slower = nice_below(limit)
+        measured = (f"this machine kept up with about {_about(self.keeps_up_x)}x for a {self.sensor} when the run "
+                    "started; " if self.keeps_up_x else "")
+        return LostSamples(f"the simulated clock ({self._setting()}) outran this machine, which did not read the "
+                           "sensor's FIFO before it filled (the simulated sensor itself lost nothing)",
+                           advice=measured + f"use {_slower(limit)}", stop_run=True,
+                           resume_options=f"--time-scale {slower:g}" if slower else "--time-scale 0")
+
+
+def nice_below(x: float) -> float | None:
+    """The largest of ..., 0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50, ... not above ``x`` (None below 0.1)."""
+    if not x >= 0.1:
+        return None
+    e = math.floor(math.log10(x))
+    return max(m * 10.0 ** e for m in (1, 2, 5) if m * 10.0 ** e <= x * (1 + 1e-9))
+
+
+def _slower(keeps_up_x: float) -> str:
+    k = nice_below(keeps_up_x)
+    return f"--time-scale {k:g} or 0 (virtual time)" if k else "--time-scale 0 (virtual time)"
+
+
+def _about(x: float) -> str:
+    """37, 120, 1.5: two significant digits."""
+    return f"{x:.1f}" if x < 10 else f"{float(f'{x:.2g}'):g}"
+
+
+def _rate(hz: float) -> str:
+    return f"{hz / 1000:g} kHz" if hz >= 1000 else f"{hz:g} Hz"
+
+
+def rig_clock(sim: SimulatedRig, where: str | None) -> Clock:
+    """The rig's clock: virtual time as it is, a time-scaled clock as a :class:`ScaledClock`."""
+    if sim.settings.time_scale == 0:
+        return sim.clock
+    return ScaledClock(sim.clock, where, functools.partial(keeps_up_with, sim.settings, sim.seed, sim.sensor_address))
 
 
 def start_simulated_rig(rig_file, *, seed: int, time_scale: float | None = None) -> SimulatedRig:
@@ -34,6 +168,7 @@ def open_simulated_rig(rig_file, *, seed: int | None = None, time_scale: float |
     """Open a ``kind: sim`` rig file: start the simulated world, then drive it like hardware."""
     seed = 0 if seed is None else int(seed)
     sim = start_simulated_rig(rig_file, seed=seed, time_scale=time_scale)
+    clock = rig_clock(sim, str(rig_file.path) if time_scale is None else None)
     try:
         axes_config = {n: rig_file.axes[n].with_port(sim.ports[n], sim.emulators[i].serial_number)
                        for i, n in enumerate(AXES)}
@@ -42,7 +177,7 @@ def open_simulated_rig(rig_file, *, seed: int | None = None, time_scale: float |
         sim.stop()
         raise
     field = sim.settings.magnetic_field
-    rig = Rig(kind="sim", clock=sim.clock, axes=axes, sensor=None, turntable="sim:8smc5-emulator",
+    rig = Rig(kind="sim", clock=clock, axes=axes, sensor=None, turntable="sim:8smc5-emulator",
               home_policy=rig_file.home_policy, chamber=sim.chamber, seed=seed, rig_file=str(rig_file.path),
               site_field={"field_ut": float(field.magnitude_ut), "inclination_deg": float(field.inclination_deg),
                           "declination_deg": float(field.declination_deg)},
@@ -77,7 +212,7 @@ def open_in_process_rig(sim: SimulatedRig, name: str = "mem") -> Rig:
     for i, n in enumerate(AXES):
         url = attach(f"{name}-{n}", sim.emulators[i].controller)
         axes_config[n] = AxisConfig(port=url, serial=sim.emulators[i].serial_number)
-    rig = Rig(kind="sim", clock=sim.clock, axes=open_stages(axes_config, sim.clock), sensor=None,
+    rig = Rig(kind="sim", clock=rig_clock(sim, None), axes=open_stages(axes_config, sim.clock), sensor=None,
               turntable="sim:8smc5-controller-in-memory", chamber=sim.chamber, seed=sim.seed)
     rig.closers.extend(lambda n=n: detach(f"{name}-{n}") for n in AXES)
     attach_sensors(rig, sim.sensor_model, sim.bus, sim.sensor_address)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from datetime import datetime, timezone
 from pathlib import Path
 
+from calib.errors import CalibError
 import rig.simulation  # noqa: F401 - provides the "replay" rig kind
 from rig.config.procedure import load_procedure_text
 from rig.devices import open_rig
@@ -21,7 +22,7 @@ def replay_session(session_dir, *, out_dir=None, ui: Operator | None = None) -> 
     if not recorded.text or original.info.rig.turntable is None:
         raise RigInputError(str(session_dir), None, "procedure", "the session has no recorded procedure to replay "
                             "(an imported recording: solve or discover it instead)")
-    procedure = load_procedure_text(recorded.text, recorded.file or "<session>")
+    procedure = recorded_procedure(Path(session_dir), recorded)
     rig = open_rig("replay", original)
     try:
         stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
@@ -34,4 +35,20 @@ def replay_session(session_dir, *, out_dir=None, ui: Operator | None = None) -> 
                            time_offset_s=rig.clock.now())
     finally:
         rig.close()
-    return finish(procedure, writer, outcomes)
+    try:
+        return finish(procedure, writer, outcomes)
+    except CalibError as exc:  # a solve refusal names no file: say which session's replay it was
+        raise CalibError(f"{session_dir}: the replay ({writer.session_dir}) cannot be solved: {exc}") from None
+
+
+def recorded_procedure(session_dir: Path, recorded):
+    """The procedure recorded in the session (``procedure.text`` of session.yaml); a refusal names
+    session.yaml, where the text is, not the file it was once read from (which may have changed)."""
+    try:
+        return load_procedure_text(recorded.text, recorded.file or "<session>")
+    except RigInputError as exc:
+        where = f"line {exc.line}: " if exc.line else ""
+        key = f"{exc.key}: " if exc.key else ""
+        raise RigInputError(str(session_dir / "session.yaml"), None, "procedure.text",
+                            f"the recorded procedure (from {recorded.file or 'an unnamed file'}) does not validate: "
+                            f"{where}{key}{exc.message}") from None

@@ -1,9 +1,10 @@
 """A fast subset of the adversarial campaign (`benchmarks/bench_adversarial.py`) as a regression test.
 
-Twenty representative bad (and valid-but-odd) inputs across procedures, rig files, sessions, calibration
+Thirty-five representative bad (and valid-but-odd) inputs across procedures, rig files, sessions, calibration
 files, imports and options, each run as `python -m rig.cli ...` and classified exactly as the campaign does
 (exit 2 with one stderr line naming the input, no traceback, no silent wrong number; exit 0 and the clean
-calibration for BOM/CRLF), plus one kill -9 then --resume trial and one concurrent-resume trial.
+calibration for BOM/CRLF; exit 0 with a warning for a torn line of the step in progress), one of each class
+fixed since, plus one kill -9 then --resume trial and one concurrent-resume trial.
 Only inputs the campaign handles correctly today are listed; the rest are in the campaign's report.
 """
 
@@ -47,6 +48,21 @@ SMOKE = [
     ("option", "sim --count 0"),
     ("option", "bare rig"),
     ("option", "solve --model full --method flip"),
+    # one per class fixed after the campaign's 534/553 run
+    ("rig file", 'name = ""'),
+    ("rig file", "faults.sensor.oserror_rate = a list of words"),
+    ("rig file", "sim.errors.bias_g = [0.1, 0.2]"),
+    ("option", "solve --thermal 1 on a 0.0 C span"),
+    ("samples.csv", "ax and ay data swapped (header unchanged) [evaluate]"),
+    ("session.yaml", "accel_range_g 3 [solve]"),
+    ("session.yaml", "f_nominal 5 g [apply]"),
+    ("session.yaml", "accel_lsb_per_g 1e300 [replay]"),
+    ("session.yaml", "procedure.text a bomb [replay]"),
+    ("session dir", "session directory a symlink loop [solve]"),
+    ("calibration", "symlink loop [apply]"),
+    ("import", "csv: a symlink loop"),
+    ("samples.csv", "torn last line inside a finished step (rows lost) [solve]"),
+    ("samples.csv", "torn last line in the step in progress (aborted session) [solve]"),
 ]
 
 

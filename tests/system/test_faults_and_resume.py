@@ -219,3 +219,24 @@ def test_a_second_ctrl_c_does_not_cut_the_cleanup_short(tmp_path):
     assert yaml.safe_load((d / "session.yaml").read_text())["status"] == "aborted"
     assert main(["run", "--resume", str(d), "--time-scale", "0", "--quiet"]) == 0
     assert yaml.safe_load((d / "session.yaml").read_text())["status"] == "complete"
+
+
+def test_solving_an_incomplete_session_says_so_and_the_calibration_file_records_it(tmp_path, capsys):
+    rig = _rig_file(tmp_path, "faults:\n  sensor: {dead_after_s: 130}\n")
+    assert main(["run", str(PROCEDURES / "twelve_position.yaml"), "--rig", str(rig), "--out", str(tmp_path / "s"),
+                 "--quiet"]) == 1
+    d = _only_session(tmp_path / "s")
+    pending = [s for s in yaml.safe_load((d / "session.yaml").read_text())["steps"] if s["status"] == "pending"]
+    assert pending
+    capsys.readouterr()
+    assert main(["solve", str(d)]) == 0
+    err = capsys.readouterr().err
+    assert "the session is incomplete (aborted)" in err and f"{pending[0]['index'] + 1} ({pending[0]['name']})" in err
+    cov = calfile.read(d / "calibration.yaml").coverage
+    assert cov["complete"] is False and cov["status"] == "aborted" and cov["steps_planned"] == 12
+    assert cov["pending_steps"][0] == f"{pending[0]['index'] + 1} ({pending[0]['name']})"
+    assert cov["steps_recorded"] == 12 - len(pending) - sum(
+        s["status"] == "failed" for s in yaml.safe_load((d / "session.yaml").read_text())["steps"])
+    # a complete session writes no coverage section
+    assert main(["run", SIX, "--out", str(tmp_path / "ok"), "--time-scale", "0", "--quiet"]) == 0
+    assert calfile.read(_only_session(tmp_path / "ok") / "calibration.yaml").coverage is None

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from rig.cli.common import EXIT_OK, format_calibration, record_in_history
+from rig.cli.common import EXIT_OK, conclude, format_calibration
 from rig.workflow.replay import replay_session
 
 
@@ -16,7 +16,7 @@ def run(args) -> int:
     result = replay_session(args.session, out_dir=args.out)
     print(f"replayed session: {result.session_dir}")
     if result.calibration is not None:
-        record_in_history("replay", result.session_dir, result.calibration_path)
         print(f"calibration: {result.calibration_path}")
         print(format_calibration(result.calibration))
+        return conclude("replay", result.session_dir, result.calibration_path)
     return EXIT_OK

@@ -6,10 +6,11 @@ import json
 import sys
 from pathlib import Path
 
+from calib import calfile
 from calib.errors import CalibError
 from calib.redundancy import pair_biases
 from rig.analysis.solve import solve_session
-from rig.cli.common import (EXIT_OK, UsageError, format_calibration, json_default, parse_thermal, record_in_history,
+from rig.cli.common import (EXIT_OK, UsageError, format_calibration, json_default, parse_thermal, conclude,
                             report_warnings)
 from rig.session import load_session
 
@@ -50,8 +51,9 @@ def run(args) -> int:
     out = args.output if args.output is not None else default_output(args)
     cal, path = solve_session(args.session, model=args.model, method=args.method, thermal=thermal, out=out,
                               session=session)
-    record_in_history("solve", args.session, path)
+    verdict_code = conclude("solve", args.session, path, quiet=args.json)
     if args.json:
+        cal = calfile.read(path)  # with the acceptance verdict, when the procedure has limits
         print(json.dumps({"calibration": str(path), **cal.to_dict()}, indent=2, default=json_default))
     else:
         print(f"calibration: {path}")
@@ -59,7 +61,7 @@ def run(args) -> int:
         warn_if_misfit(cal)
         if args.method != "magnitude":
             print_redundancy(args.session)
-    return EXIT_OK
+    return verdict_code
 
 
 #: a chi2/dof this large means the model does not describe the data (poses, sensor or effects)

@@ -7,6 +7,8 @@ solve).
 
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 
 from drivers.sensors.base import SensorError
@@ -17,26 +19,35 @@ from rig.execution.motion import angles_now_deg, move_to
 from rig.session import MAG_COUNTS_PER_UT
 
 
-
 def execute(ctx: RunContext, step) -> None:
+    run_pose(ctx, step, settle_and_capture)
+
+
+def run_pose(ctx: RunContext, step, capture_step: Callable[[RunContext, object], Capture],
+             extra_stats: Callable[[], dict] | None = None, expected: int | None = None) -> tuple[Capture, str]:
+    """Move, capture with ``capture_step`` (re-measured on bad data), record; return the capture and
+    the step's status. ``extra_stats`` adds keys to the step's recorded stats (a targeted pose's
+    decision); ``expected`` the samples the checks expect (default: what the step's dwell asks
+    for; 0: decided while capturing)."""
     move_to(ctx, step)
-    capture, attempts, problems = _measure(ctx, step)
+    capture, attempts, problems = _measure(ctx, step, capture_step, expected)
     _note_bus_retries(ctx, step)
     status = "complete" if not problems else "flagged"
     if problems:
         ctx.warn(step, f"step {step.index + 1} ({step.name}) flagged and left out of the solve: "
                        + "; ".join(problems))
-    _record(ctx, step, capture, attempts, problems, status)
+    _record(ctx, step, capture, attempts, problems, status, extra_stats() if extra_stats else None)
+    return capture, status
 
 
-def _measure(ctx: RunContext, step) -> tuple[Capture, int, list[str]]:
+def _measure(ctx: RunContext, step, capture_step, expected: int | None) -> tuple[Capture, int, list[str]]:
     """Capture until the data pass the checks or the attempts run out."""
     sensor = ctx.rig.sensor
     attempts = 0
     while True:
         attempts += 1
         try:
-            capture = settle_and_capture(ctx, step)
+            capture = capture_step(ctx, step)
         except SensorError as exc:
             if attempts >= ctx.options.max_attempts:
                 raise
@@ -46,8 +57,8 @@ def _measure(ctx: RunContext, step) -> tuple[Capture, int, list[str]]:
             ctx.rig.clock.sleep(1.0)
             continue
         s = capture.samples
-        check = check_step(s.accel_counts, s.temp_c, expected_samples(step, sensor.sample_rate_hz),
-                           sensor.has_temperature, ctx.options.limits)
+        n_expected = expected_samples(step, sensor.sample_rate_hz) if expected is None else expected
+        check = check_step(s.accel_counts, s.temp_c, n_expected, sensor.has_temperature, ctx.options.limits)
         problems = capture.problems + check.problems
         if not problems or attempts >= ctx.options.max_attempts:
             return capture, attempts, problems
@@ -64,7 +75,8 @@ def _note_bus_retries(ctx: RunContext, step) -> None:
     ctx.io_retries_seen = retries
 
 
-def _record(ctx: RunContext, step, capture: Capture, attempts: int, problems: list[str], status: str) -> None:
+def _record(ctx: RunContext, step, capture: Capture, attempts: int, problems: list[str], status: str,
+            extra: dict | None = None) -> None:
     sensor = ctx.rig.sensor
     s = capture.samples
     ts = s.t_s - ctx.t0_s
@@ -84,6 +96,7 @@ def _record(ctx: RunContext, step, capture: Capture, attempts: int, problems: li
         "attempts": attempts,
         "problems": problems,
         "angles_measured_deg": [float(x) for x in angles],
+        **(extra or {}),
     }
     ctx.finish(step, stats, status, int(len(ts)), problems)
 

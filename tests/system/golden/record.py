@@ -35,7 +35,7 @@ SOLVES = [("twelve_position_flip", "twelve_position", ["--method", "flip"]),
           ("thermal_off", "thermal", ["--thermal", "off"])]
 #: imported recordings: (golden name, source, file under shared/datasets, rig solve options)
 IMPORTS = [("import_imucal", "imucal", "imucal/annotated_session.csv", [], True),
-           ("import_imu_tk", "imu_tk", "imu_tk-xsens/xsens_acc.txt", ["--method", "magnitude"], False),
+           ("import_imu_tk", "imu_tk", "imu_tk-xsens/xsens_acc.txt", ["--method", "magnitude"], True),
            ("import_tofupilot", "tofupilot", "tofupilot-thermal/imu_raw_data.csv", None, True)]
 VOLATILE = {"created", "session", "calibration", "session_dir", "path"}
 
@@ -95,7 +95,7 @@ def record_imports(out: Path) -> dict[str, object]:
             target = out / f"{name}.yaml"
             rig("solve", str(out / name), "-o", str(target), *options)
             golden[name] = yaml.safe_load(target.read_text())
-        if discover:  # discover on an imu_tk import fails before the refactor (issue 13, item 15)
+        if discover:  # imu_tk: the magnitude baseline (poses unknown, never repeated)
             golden[f"discover_{name}"] = json.loads(rig("discover", str(out / name), "--json"))
     return golden
 
