@@ -59,7 +59,8 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
         gyroscope=gyro,
         magnetometer=mag,
         coverage=session_coverage(session),
-        target=calibration_record(session, steps, model, method),
+        target=(calibration_record(session, steps, model, method)
+                if session.info.procedure.value("target") is not None else None),
     )
     path = Path(out) if out is not None else Path(session_dir) / "calibration.yaml"
     calfile.write(path, cal)

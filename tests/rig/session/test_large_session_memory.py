@@ -23,9 +23,17 @@ STEPS = 36
 RATE_HZ = 100.0
 
 
+#: the recorded procedure: the 36 poses (the temperature steps live in the samples' temperatures)
+PROCEDURE = ("format: rig-procedure/1\nname: thermal\nsensor: {model: MPU-9150, accel_range_g: 4, sample_rate_hz: 100}\n"
+             "dwell: {seconds: 100}\nsteps:\n"
+             + "".join(f'  - pose: "{pose}"\n' for pose in ("+X up", "-X up", "+Y up", "-Y up", "+Z up", "-Z up")
+                       for _ in range(6))
+             + "solve: {model: triangular, thermal: auto}\n")
+
+
 def _manifest() -> dict:
     faces = _faces()
-    return {"procedure": {"name": "thermal", "text": "solve: {model: triangular, thermal: auto}\n"},
+    return {"procedure": {"name": "thermal", "text": PROCEDURE},
             "software": {"name": "rig", "version": "test"},
             "rig": {"sensor": {"model": "MPU-9150", "accel_lsb_per_g": 8192.0, "sample_rate_hz": RATE_HZ,
                                "has_temperature": True}},
