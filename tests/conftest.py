@@ -30,3 +30,21 @@ def datasets() -> Path:
     if not DATASETS.is_dir():
         pytest.skip(f"shared datasets not found at {DATASETS} (CI has ../shared beside the checkout)")
     return DATASETS
+
+
+@pytest.fixture(scope="session")
+def simulated_lab(tmp_path_factory) -> dict:
+    """Two calibrations of one simulated sensor (six-position, then twelve-position, seed 6) in a
+    history of their own: ``six`` and ``twelve`` (session directories), ``db``, ``root``. Shared by
+    the report tests; tests that change a session work on a copy."""
+    from rig.cli import main  # the CLI is what the fixture exercises; imported once it is needed
+
+    root = tmp_path_factory.mktemp("lab")
+    db = root / "history.sqlite"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("RIG_HISTORY", str(db))
+        for proc in ("six_position", "twelve_position"):
+            assert main(["run", str(PROCEDURES / f"{proc}.yaml"), "--seed", "6", "--time-scale", "0",
+                         "--out", str(root / proc), "--quiet"]) == 0
+    return {"six": next((root / "six_position").iterdir()), "twelve": next((root / "twelve_position").iterdir()),
+            "db": db, "root": root}

@@ -27,11 +27,12 @@ def record_in_history(command: str, session_dir, calibration_path, verdict: str 
         print(f"rig {command}: warning: {warning}", file=sys.stderr)
 
 
-def conclude(command: str, session_dir, calibration_path, *, quiet: bool = False) -> int:
+def conclude(command: str, session_dir, calibration_path, *, quiet: bool = False, session=None) -> int:
     """After every solve: apply the procedure's ``accept:`` limits (the verdict goes into the
     calibration file), print PASS or FAIL with one line per failed limit (on stderr when ``quiet``), record the calibration in
-    the history with its verdict. Returns EXIT_OK, or EXIT_REJECTED when a limit failed."""
-    acceptance = judge(session_dir, calibration_path)
+    the history with its verdict. Returns EXIT_OK, or EXIT_REJECTED when a limit failed. ``session``:
+    the session when the caller has it loaded already (it is then not read again)."""
+    acceptance = judge(session_dir, calibration_path, session=session)
     verdict = None if acceptance is None else acceptance.verdict
     if acceptance is not None:
         for line in as_lines(acceptance):  # with --json the verdict is in the JSON; the lines go to stderr

@@ -35,7 +35,7 @@ def recorded_limits(session_dir) -> AcceptSpec | None:
     return validate_plain(AcceptSpec, spec, "session.yaml: procedure.text: accept")
 
 
-def judge(session_dir, calibration_path, *, history=None) -> Acceptance | None:
+def judge(session_dir, calibration_path, *, history=None, session=None) -> Acceptance | None:
     """Apply the session's acceptance limits to its calibration file and record the verdict in it.
 
     Parameters
@@ -43,6 +43,7 @@ def judge(session_dir, calibration_path, *, history=None) -> Acceptance | None:
     session_dir : the solved session.
     calibration_path : its ``rig-calibration/1`` file (rewritten atomically with ``acceptance:``).
     history : history database for ``max_drift_sigma`` (default: ``$RIG_HISTORY`` or the user's).
+    session : the session already loaded by the caller (loaded here when None).
 
     Returns
     -------
@@ -53,16 +54,17 @@ def judge(session_dir, calibration_path, *, history=None) -> Acceptance | None:
         return None
     limits = spec.limits()
     cal = calfile.read(calibration_path)
-    attitude = largest_attitude_error_deg(session_dir, cal) if limits.max_attitude_error_deg is not None else None
+    attitude = (largest_attitude_error_deg(session_dir, cal, session=session)
+                if limits.max_attitude_error_deg is not None else None)
     previous = previous_calibration(session_dir, calibration_path, history) if limits.max_drift_sigma else None
     acceptance = evaluate(cal, limits, attitude_error_deg=attitude, drift=previous)
     calfile.write(calibration_path, cal.model_copy(update={"acceptance": acceptance.to_dict()}))
     return acceptance
 
 
-def largest_attitude_error_deg(session_dir, cal) -> float | None:
+def largest_attitude_error_deg(session_dir, cal, *, session=None) -> float | None:
     """The largest |roll| or |pitch| error (deg) of the calibration over the session's static poses."""
-    steps = load_session(session_dir).step_means()
+    steps = (session or load_session(session_dir)).step_means()
     if len(steps) == 0:
         return None
     ev = evaluate_poses(cal.accelerometer, steps)

@@ -63,28 +63,7 @@ def reorder_for_travel(steps):
 
     Steps that are not poses stay where they are and bound the segments.
     """
-    out = []
-    segment = []
-    pos = np.zeros(3)
-
-    def flush():
-        nonlocal pos
-        remaining = list(segment)
-        while remaining:
-            nxt = min(remaining, key=lambda s: _angular_distance(pos, s.angles_deg))
-            remaining.remove(nxt)
-            out.append(nxt)
-            pos = np.asarray(nxt.angles_deg)
-        segment.clear()
-
-    for s in steps:
-        if s.kind == "static":
-            segment.append(s)
-        else:
-            flush()
-            out.append(s)
-    flush()
-    return out
+    return _reorder_segments(steps, _greedy_order)
 
 
 #: segments up to this many poses are ordered exactly (Held-Karp); longer ones greedily
@@ -99,11 +78,19 @@ def reorder_fastest(steps):
     Unlike :func:`reorder_for_travel` (greedy), this finds e.g. the six faces' order that needs only
     90 deg moves (+Z, +Y, +X, -Z, -X, -Y: 450 deg in all, against 540 deg for the seed's order).
     """
+    def best(start, segment):
+        return (_exact_order if len(segment) <= EXACT_ORDER_MAX else _greedy_order)(start, segment)
+    return _reorder_segments(steps, best)
+
+
+def _reorder_segments(steps, order_segment):
+    """Apply ``order_segment(start_angles_deg, pose_steps) -> ordered`` to each run of pose steps;
+    every other step stays where it is, and the next segment starts where the last one ended."""
     out, segment, pos = [], [], np.zeros(3)
 
     def flush():
         nonlocal pos
-        order = _exact_order(pos, segment) if len(segment) <= EXACT_ORDER_MAX else _greedy_order(pos, segment)
+        order = order_segment(pos, segment)
         out.extend(order)
         if order:
             pos = np.asarray(order[-1].angles_deg)

@@ -19,10 +19,8 @@ import yaml
 
 from calib import calfile
 from calib.parameters import sensor_parameters
-from rig.cli import main
 from rig.lab.report import write_report
 
-from conftest import PROCEDURES
 
 WINDOW = (1280, 2400)
 #: colours drawn only when the page's style and pictures render (style.py, matplotlib's tab: colours)
@@ -115,13 +113,8 @@ def pixels(png: Path) -> dict:
 
 
 @pytest.fixture(scope="module")
-def session(tmp_path_factory):
-    root = tmp_path_factory.mktemp("browser")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("RIG_HISTORY", str(root / "history.sqlite"))
-        assert main(["run", str(PROCEDURES / "six_position.yaml"), "--seed", "7", "--time-scale", "0",
-                     "--out", str(root / "s"), "--quiet"]) == 0
-    return next((root / "s").iterdir()), root / "history.sqlite"
+def session(simulated_lab):
+    return simulated_lab["six"], simulated_lab["db"]
 
 
 def test_chromium_renders_the_verdict_and_the_parameter_table(chromium, session, tmp_path):
@@ -143,7 +136,7 @@ def test_chromium_renders_the_verdict_and_the_parameter_table(chromium, session,
     assert len(colours) > 200  # text, tables and plots, not a blank or error page
 
 
-def test_chromium_renders_a_failed_verdict_and_an_incomplete_session(chromium, session, tmp_path, monkeypatch):
+def test_chromium_renders_a_failed_verdict_and_an_incomplete_session(chromium, session, tmp_path):
     s, db = session
     copy = tmp_path / s.name
     shutil.copytree(s, copy, ignore=shutil.ignore_patterns("report.html"))
@@ -153,16 +146,8 @@ def test_chromium_renders_a_failed_verdict_and_an_incomplete_session(chromium, s
     line = "accel.scale_x = 8146 counts/g: outside [8180, 8200] counts/g"
     acceptance = {"passed": False, "limits": [{"name": "range accel.scale_x", "limit": "[8180, 8200]", "value": 8146.0,
                                                "passed": False, "line": line}]}
-
-    class WithAcceptance:
-        def __init__(self, cal):
-            self._cal, self.acceptance = cal, acceptance
-
-        def __getattr__(self, name):
-            return getattr(self._cal, name)
-
-    real = calfile.read
-    monkeypatch.setattr(calfile, "read", lambda p: WithAcceptance(real(p)))
+    cal = calfile.read(copy / "calibration.yaml")  # the verdict a failed limit writes into the file
+    calfile.write(copy / "calibration.yaml", cal.model_copy(update={"acceptance": acceptance}))
     page = write_report(copy, tmp_path / "report.html", history_db=db)
     dom = Dom(browse(chromium, page, tmp_path))
     verdict = dom.of("verdict")

@@ -51,7 +51,7 @@ def run(args) -> int:
     out = args.output if args.output is not None else default_output(args)
     cal, path = solve_session(args.session, model=args.model, method=args.method, thermal=thermal, out=out,
                               session=session)
-    verdict_code = conclude("solve", args.session, path, quiet=args.json)
+    verdict_code = conclude("solve", args.session, path, quiet=args.json, session=session)
     if args.json:
         cal = calfile.read(path)  # with the acceptance verdict, when the procedure has limits
         print(json.dumps({"calibration": str(path), **cal.to_dict()}, indent=2, default=json_default))
@@ -60,7 +60,7 @@ def run(args) -> int:
         print(format_calibration(cal))
         warn_if_misfit(cal)
         if args.method != "magnitude":
-            print_redundancy(args.session)
+            print_redundancy(session)
     return verdict_code
 
 
@@ -95,10 +95,10 @@ def default_output(args) -> Path:
     return beside
 
 
-def print_redundancy(session_dir) -> None:
-    """The six-pose redundancy check, when the session has two or more +/- pose pairs."""
+def print_redundancy(session) -> None:
+    """The six-pose redundancy check, when the session (loaded) has two or more +/- pose pairs."""
     try:
-        steps = load_session(session_dir).step_means()
+        steps = session.step_means()
         r = pair_biases(steps)
     except (CalibError, Exception):  # noqa: BLE001 - an optional extra; the calibration is already written
         return

@@ -83,17 +83,9 @@ class Page(HTMLParser):
 
 
 @pytest.fixture(scope="module")
-def lab(tmp_path_factory):
+def lab(simulated_lab):
     """Two calibrations of one simulated sensor (six-position, then twelve-position) in a history of their own."""
-    root = tmp_path_factory.mktemp("report")
-    db = root / "history.sqlite"
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("RIG_HISTORY", str(db))
-        for proc in ("six_position", "twelve_position"):
-            assert main(["run", str(PROCEDURES / f"{proc}.yaml"), "--seed", "6", "--time-scale", "0",
-                         "--out", str(root / proc), "--quiet"]) == 0
-    return {"six": next((root / "six_position").iterdir()), "twelve": next((root / "twelve_position").iterdir()),
-            "db": db, "root": root}
+    return simulated_lab
 
 
 def _copy(session: Path, tmp: Path) -> Path:
