@@ -10,7 +10,7 @@ from calib import calfile
 from calib.errors import CalibError
 from calib.redundancy import pair_biases
 from rig.analysis.solve import solve_session
-from rig.cli.common import (EXIT_OK, UsageError, format_calibration, json_default, parse_thermal, conclude,
+from rig.cli.common import (UsageError, format_calibration, json_default, parse_thermal, conclude,
                             report_warnings)
 from rig.session import load_session
 
