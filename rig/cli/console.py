@@ -9,6 +9,7 @@ it degrades to one plain line per phase change.
 from __future__ import annotations
 
 import sys
+from dataclasses import replace
 from datetime import datetime, timedelta
 from typing import TextIO
 
@@ -52,6 +53,7 @@ class ConsoleUI:
         self.interactive = sys.stdin.isatty() if interactive is None else interactive
         self.quiet = quiet
         self._last_phase: tuple[int, str] | None = None
+        self._capture: StepProgress | None = None
         self._live = _LiveBar(self.out) if self.out.isatty() and not quiet else None
 
     def info(self, message: str) -> None:
@@ -69,8 +71,17 @@ class ConsoleUI:
             return
         key = (p.index, p.phase)
         if key != self._last_phase:  # plain output: one line per phase change
+            self._flush_capture()
             self._last_phase = key
-            self._line(plain_progress_line(p))
+            self._line(plain_progress_line(replace(p, noise_ug=None) if p.phase == "capture" else p))
+        if p.phase == "capture":  # its noise is printed when the capture is over (a few samples say little)
+            self._capture = p
+
+    def _flush_capture(self) -> None:
+        """Plain output: the finished capture's line (``done``) with the noise of all its samples."""
+        if self._capture is not None:
+            self._line(plain_progress_line(replace(self._capture, phase="done", eta_s=None)))
+            self._capture = None
 
     def can_confirm(self) -> bool:
         return self.assume_yes or self.interactive
@@ -88,8 +99,13 @@ class ConsoleUI:
         answer = input(">>> press Enter to continue, or type 'abort': ").strip().lower()
         return answer not in ("abort", "a", "no", "n", "q")
 
-    def close(self) -> None:
-        """End the live display: the bar stays where it is and what follows prints below it."""
+    def close(self, *, finished: bool = False) -> None:
+        """End the live display: the bar stays where it is and what follows prints below it.
+        ``finished``: the run ended normally, so the last capture's line is printed (an aborted
+        capture's is not)."""
+        if finished:
+            self._flush_capture()
+        self._capture = None
         if self._live is not None:
             self._live.stop()
 

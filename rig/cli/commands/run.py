@@ -48,8 +48,10 @@ def run(args) -> int:
         resume = f"rig run --resume {where}" if where is not None else "rig run --resume <session dir>"
         print(f"rig run: aborted: {exc}; motors stopped. Resume with: {resume}", file=sys.stderr)
         return EXIT_FAILURE
-    finally:
+    except BaseException:
         ui.close()
+        raise
+    ui.close(finished=True)
     print(f"session: {result.session_dir}")
     recorded, _ = SessionManifest.load(result.session_dir)  # the whole session, across resumes
     flagged = [s for s in recorded.steps if s.status == "flagged"]
