@@ -64,3 +64,54 @@ def sensor_parameters(cal) -> list[tuple[str, float, float | None, str]]:
     if m is not None:
         _vector(out, "mag.hard_iron", m.hard_iron_ut, [m.sigma.get(f"hard_iron_{x}") for x in "xyz"], "uT")
     return out
+
+
+def reference_temp_c(params: dict, temp_mean_c: float | None) -> float | None:
+    """The temperature, C, at which ``params`` ({name: (value, sigma, unit)}) state the accelerometer
+    bias: ``accel.t0_c`` when the calibration has temperature terms, else the session's mean
+    temperature (None when unknown)."""
+    t0 = params.get("accel.t0_c")
+    return float(t0[0]) if t0 is not None else finite_or_none(temp_mean_c)
+
+
+def biases_at(params: dict, temp_c: float) -> dict:
+    """``params`` with the accelerometer biases moved from ``accel.t0_c`` to ``temp_c`` (C) by the
+    calibration's own bias polynomial, ``b(T) = b(t0) + sum_k c_k (T - t0)^k``; each bias sigma gains
+    ``|T - t0|^k sigma(c_k)`` in quadrature (the covariance of bias and coefficients is not stored,
+    so this is an approximation). Unchanged without temperature terms."""
+    if "accel.t0_c" not in params:
+        return params
+    dt = float(temp_c) - float(params["accel.t0_c"][0])
+    out = dict(params)
+    for axis in "xyz":
+        name = f"accel.bias_{axis}"
+        if name not in params:
+            continue
+        value, sigma, unit = params[name]
+        var = None if sigma is None else sigma**2
+        for k in (1, 2, 3):
+            c = params.get(f"accel.tempco{k}_{axis}")
+            if c is None:
+                continue
+            value += c[0] * dt**k
+            if var is not None:
+                var = None if c[1] is None else var + (c[1] * abs(dt) ** k) ** 2
+        out[name] = (value, None if var is None else math.sqrt(var), unit)
+    return out
+
+
+def at_common_temperature(previous: dict, prev_temp_c: float | None, current: dict,
+                          cur_temp_c: float | None) -> tuple[dict, dict, float | None]:
+    """Two calibrations' parameters with their accelerometer biases stated at one temperature, so a
+    change between them is the sensor's and not the temperature's.
+
+    The common temperature is the reference of the calibration *without* temperature terms (its
+    bias holds only there), else the current calibration's ``t0``. When neither has temperature
+    terms, or a needed temperature is unknown, both are returned unchanged (and None).
+    """
+    t_prev, t_cur = reference_temp_c(previous, prev_temp_c), reference_temp_c(current, cur_temp_c)
+    thermal_prev, thermal_cur = "accel.t0_c" in previous, "accel.t0_c" in current
+    if not (thermal_prev or thermal_cur) or t_prev is None or t_cur is None:
+        return previous, current, None
+    common = t_prev if not thermal_prev else t_cur
+    return biases_at(previous, common), biases_at(current, common), common

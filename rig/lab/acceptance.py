@@ -17,7 +17,7 @@ import numpy as np
 from calib import calfile
 from calib.acceptance import Acceptance, Drift, evaluate, largest_drift
 from calib.evaluation import evaluate as evaluate_poses
-from calib.parameters import sensor_parameters
+from calib.parameters import at_common_temperature
 from rig.config.procedure_schema import AcceptSpec
 from rig.config.schema import validate_plain
 from rig.lab.drift import sensor_history
@@ -75,16 +75,18 @@ def largest_attitude_error_deg(session_dir, cal, *, session=None) -> float | Non
 def previous_calibration(session_dir, calibration_path, history=None) -> Drift | None:
     """How far this calibration moved from the sensor's latest one in the history (None: unreadable)."""
     try:
-        key = calibration_row(session_dir, calibration_path)["sensor"]["key"]
+        row = calibration_row(session_dir, calibration_path)
         with open_history(history) as h:
-            records = sensor_history(h, key)
+            records = sensor_history(h, row["sensor"]["key"])
     except HistoryError:
         return None
     if not records:
         return Drift(None)
     last = records[-1]
-    current = sensor_parameters(calfile.read(calibration_path))
-    return largest_drift(current, last.parameters, str(last.info.get("calibrated_at")))
+    current = {name: (v, s, u) for name, v, s, u in row["parameters"]}
+    previous, current, _ = at_common_temperature(last.parameters, last.info.get("temp_mean_c"), current,
+                                                 row["calibration"]["temp_mean_c"])
+    return largest_drift([(n, *vsu) for n, vsu in current.items()], previous, str(last.info.get("calibrated_at")))
 
 
 def as_lines(acceptance: Acceptance) -> list[str]:

@@ -10,6 +10,7 @@ import json
 import math
 from dataclasses import dataclass, field
 
+from calib.parameters import at_common_temperature
 from rig.analysis import plots
 from rig.lab.history import History, HistoryCorrupt
 
@@ -60,20 +61,25 @@ def sensor_history(h: History, key: str) -> list[CalibrationRecord]:
 
 def drift(records: list[CalibrationRecord], limit: float = DRIFT_LIMIT_SIGMA) -> dict[str, list[dict | None]]:
     """Per parameter, per calibration: None for the first (or when the parameter is new), else
-    ``{delta, combined_sigma, z, flagged}``."""
+    ``{delta, combined_sigma, z, flagged}``; accelerometer biases of two calibrations of which one
+    or both have temperature terms are compared at one temperature (``at_temp_c``, see
+    :func:`calib.parameters.at_common_temperature`)."""
     names = list(dict.fromkeys(n for r in records for n in r.parameters))
+    pairs = [at_common_temperature(prev.parameters, prev.info.get("temp_mean_c"), cur.parameters,
+                                   cur.info.get("temp_mean_c")) for prev, cur in zip(records, records[1:])]
     out: dict[str, list[dict | None]] = {}
     for name in names:
         col: list[dict | None] = [None]
-        for prev, cur in zip(records, records[1:]):
-            if name not in prev.parameters or name not in cur.parameters:
+        for p0, p1, common_c in pairs:
+            if name not in p0 or name not in p1:
                 col.append(None)
                 continue
-            (v0, s0, _), (v1, s1, _) = prev.parameters[name], cur.parameters[name]
+            (v0, s0, _), (v1, s1, _) = p0[name], p1[name]
             comb = math.hypot(s0, s1) if s0 is not None and s1 is not None else float("nan")
             z = (v1 - v0) / comb if comb > 0 else float("nan")
             col.append({"delta": v1 - v0, "combined_sigma": comb, "z": z,
-                        "flagged": bool(math.isfinite(z) and abs(z) > limit)})
+                        "flagged": bool(math.isfinite(z) and abs(z) > limit),
+                        **({"at_temp_c": common_c} if common_c is not None and name.startswith("accel.bias") else {})})
         out[name] = col
     return out
 
@@ -124,6 +130,11 @@ def format_history(key: str, records: list[CalibrationRecord]) -> str:
     flagged = sorted({n for n, col in d.items() for c in col if c and c["flagged"]})
     foot = (f"drift beyond {DRIFT_LIMIT_SIGMA:g} combined sigma: " + ", ".join(flagged)) if flagged else \
         f"no drift beyond {DRIFT_LIMIT_SIGMA:g} combined sigma"
+    moved = [f"#{i + 1} compared with #{i} at {c['at_temp_c']:.1f} C"
+             for i, c in enumerate(d.get("accel.bias_x", [])) if c and "at_temp_c" in c]
+    if moved:
+        foot += ("\naccelerometer biases with temperature terms are carried to the other calibration's "
+                 "temperature before comparing: " + "; ".join(moved))
     return "\n".join(head + [""] + lines + ["", foot])
 
 

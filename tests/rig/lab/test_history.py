@@ -13,9 +13,12 @@ import numpy as np
 import pytest
 
 from calib import calfile
+from calib.acceptance import largest_drift
+from calib.parameters import at_common_temperature
 from rig.cli import main
 from rig.lab import (SCHEMA_VERSION, HistoryCorrupt, HistoryLocked, drift, format_history, list_sensors, open_history,
                      record_calibration, sensor_history, store_calibration)
+from rig.lab.drift import CalibrationRecord
 from rig.lab.history import MIGRATIONS
 
 from conftest import PROCEDURES, REPO
@@ -169,3 +172,40 @@ def test_lab_never_imports_a_simulator():
     graph = grimp.build_graph("rig", "drivers", "calib")
     for forbidden in ("rig.simulation", "drivers.ximc.sim", "drivers.sensors.sim"):
         assert not graph.chain_exists(importer="rig.lab", imported=forbidden, as_packages=True)
+
+
+def _thermal_pair():
+    """Six-position at 27.6 C (bias at the session's temperature) and a run with a linear bias
+    temperature coefficient reporting its bias at t0 = 25.0 C: the same sensor, no ageing."""
+    before = CalibrationRecord(1, {"temp_mean_c": 27.6, "calibrated_at": "2026-01-01"},
+                               {"accel.bias_x": (396.4, 0.35, "counts"), "accel.scale_x": (8146.3, 0.6, "counts/g")})
+    after = CalibrationRecord(2, {"temp_mean_c": 25.3, "calibrated_at": "2026-02-01"},
+                              {"accel.bias_x": (396.4 + 4.98 * 2.6, 0.14, "counts"), "accel.t0_c": (25.0, None, "C"),
+                               "accel.tempco1_x": (-4.98, 0.025, "counts/C^1"),
+                               "accel.scale_x": (8146.0, 0.3, "counts/g")})
+    return before, after
+
+
+def test_biases_are_compared_at_one_temperature_when_a_calibration_has_temperature_terms():
+    before, after = _thermal_pair()
+    change = drift([before, after])["accel.bias_x"][1]
+    assert change["at_temp_c"] == 27.6 and abs(change["delta"]) < 1e-9 and not change["flagged"]
+    # the stated bias sigma gains the coefficient's sigma times the 2.6 C it is carried over
+    assert change["combined_sigma"] == pytest.approx(np.sqrt(0.35**2 + 0.14**2 + (0.025 * 2.6) ** 2))
+    table = format_history("s", [before, after])
+    assert "no drift beyond 3 combined sigma" in table and "#2 compared with #1 at 27.6 C" in table
+
+
+def test_a_real_bias_change_is_still_flagged_across_temperatures():
+    before, after = _thermal_pair()
+    value, sigma, unit = after.parameters["accel.bias_x"]
+    after.parameters["accel.bias_x"] = (value + 5.0, sigma, unit)  # the sensor moved 5 counts
+    change = drift([before, after])["accel.bias_x"][1]
+    assert change["delta"] == pytest.approx(5.0) and change["flagged"]
+
+
+def test_acceptance_drift_compares_at_one_temperature_too():
+    before, after = _thermal_pair()
+    previous, current, common_c = at_common_temperature(before.parameters, 27.6, after.parameters, 25.3)
+    d = largest_drift([(n, *v) for n, v in current.items()], previous, "2026-01-01")
+    assert common_c == 27.6 and abs(d.z) < 1.0
