@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
-from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
@@ -20,6 +19,8 @@ import yaml
 from calib import calfile
 from calib.parameters import sensor_parameters
 from rig.lab.report import write_report
+
+from html_page import Page
 
 
 WINDOW = (1280, 2400)
@@ -51,58 +52,6 @@ def browse(exe: str, page: Path, tmp: Path, *, screenshot: Path | None = None) -
     return proc.stdout
 
 
-class Dom(HTMLParser):
-    """Text of the elements with an id, and the rows of every table with an id."""
-
-    def __init__(self, text: str) -> None:
-        super().__init__()
-        self.text: dict[str, list[str]] = {}
-        self.rows: dict[str, list[list[str]]] = {}
-        self.images = 0
-        self._ids: list[tuple[str, str | None]] = []
-        self._table = self._row = self._cell = None
-        self.feed(text)
-
-    def handle_starttag(self, tag, attrs):
-        a = dict(attrs)
-        if tag == "img":
-            self.images += (a.get("src") or "").startswith("data:image/png;base64,")
-            return
-        if tag in ("meta", "br"):
-            return
-        self._ids.append((tag, a.get("id")))
-        if a.get("id"):
-            self.text.setdefault(a["id"], [])
-        if tag == "table":
-            self._table = a.get("id")
-            self.rows.setdefault(self._table, [])
-        elif tag == "tr":
-            self._row = []
-        elif tag in ("td", "th") and self._row is not None:
-            self._cell = []
-
-    def handle_endtag(self, tag):
-        if tag in ("td", "th") and self._cell is not None:
-            self._row.append(" ".join("".join(self._cell).split()))
-            self._cell = None
-        elif tag == "tr" and self._row is not None:
-            self.rows[self._table].append(self._row)
-            self._row = None
-        while self._ids:
-            if self._ids.pop()[0] == tag:
-                break
-
-    def handle_data(self, data):
-        for _, ident in self._ids:
-            if ident:
-                self.text[ident].append(data)
-        if self._cell is not None:
-            self._cell.append(data)
-
-    def of(self, ident: str) -> str:
-        return " ".join(" ".join(self.text.get(ident, [])).split())
-
-
 def pixels(png: Path) -> dict:
     from PIL import Image  # matplotlib's own dependency
 
@@ -120,9 +69,9 @@ def session(simulated_lab):
 def test_chromium_renders_the_verdict_and_the_parameter_table(chromium, session, tmp_path):
     s, db = session
     page = write_report(s, tmp_path / "report.html", history_db=db)
-    dom = Dom(browse(chromium, page, tmp_path))
-    assert "NO LIMITS" in dom.of("verdict") and "no acceptance limits" in dom.of("verdict")
-    assert "6 steps used" in dom.of("verdict") and "incomplete" not in dom.text
+    dom = Page(browse(chromium, page, tmp_path))
+    assert "NO LIMITS" in dom.text("verdict") and "no acceptance limits" in dom.text("verdict")
+    assert "6 steps used" in dom.text("verdict") and "INCOMPLETE SESSION" not in dom.all_text
     rows = {r[0]: r for r in dom.rows["parameter-table"] if len(r) >= 4}
     cal = calfile.read(s / "calibration.yaml")
     for name, value, sigma, unit in sensor_parameters(cal):
@@ -149,8 +98,8 @@ def test_chromium_renders_a_failed_verdict_and_an_incomplete_session(chromium, s
     cal = calfile.read(copy / "calibration.yaml")  # the verdict a failed limit writes into the file
     calfile.write(copy / "calibration.yaml", cal.model_copy(update={"acceptance": acceptance}))
     page = write_report(copy, tmp_path / "report.html", history_db=db)
-    dom = Dom(browse(chromium, page, tmp_path))
-    verdict = dom.of("verdict")
+    dom = Page(browse(chromium, page, tmp_path))
+    verdict = dom.text("verdict")
     assert "FAIL" in verdict and line in verdict and "INCOMPLETE SESSION" in verdict and "+Y up (failed)" in verdict
     shot = tmp_path / "report.png"
     browse(chromium, page, tmp_path, screenshot=shot)

@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import re
 import shutil
-from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
@@ -21,65 +20,10 @@ from rig.cli import main
 from rig.lab.report import content, render, write_report
 
 from conftest import PROCEDURES
+from html_page import Page
 
 SECTIONS = ("verdict", "identity", "parameters", "residuals", "seed-table", "discover", "history")
 
-
-class Page(HTMLParser):
-    """Elements by id (their text), table rows by table id, and every attribute value."""
-
-    def __init__(self, text: str) -> None:
-        super().__init__()
-        self.text_by_id: dict[str, list[str]] = {}
-        self.rows: dict[str, list[list[str]]] = {}
-        self.attrs_seen: list[tuple[str, str, str]] = []
-        self.tags: list[str] = []
-        self._open: list[tuple[str, str | None]] = []
-        self._table: str | None = None
-        self._row: list[str] | None = None
-        self._cell: list[str] | None = None
-        self.feed(text)
-
-    def handle_starttag(self, tag, attrs):
-        a = dict(attrs)
-        self.tags.append(tag)
-        self.attrs_seen += [(tag, k, v or "") for k, v in attrs]
-        if tag in ("br", "img", "meta", "link", "input"):
-            return
-        self._open.append((tag, a.get("id")))
-        if a.get("id"):
-            self.text_by_id.setdefault(a["id"], [])
-        if tag == "table":
-            self._table = a.get("id")
-            self.rows.setdefault(self._table, [])
-        elif tag == "tr":
-            self._row = []
-        elif tag in ("td", "th") and self._row is not None:
-            self._cell = []
-
-    def handle_endtag(self, tag):
-        if tag in ("td", "th") and self._cell is not None:
-            self._row.append(" ".join("".join(self._cell).split()))
-            self._cell = None
-        elif tag == "tr" and self._row is not None:
-            self.rows[self._table].append(self._row)
-            self._row = None
-        elif tag == "table":
-            self._table = None
-        while self._open:
-            t, _ = self._open.pop()
-            if t == tag:
-                break
-
-    def handle_data(self, data):
-        for _, ident in self._open:
-            if ident:
-                self.text_by_id[ident].append(data)
-        if self._cell is not None:
-            self._cell.append(data)
-
-    def text(self, ident: str) -> str:
-        return " ".join(" ".join(self.text_by_id.get(ident, [])).split())
 
 
 @pytest.fixture(scope="module")
