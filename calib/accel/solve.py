@@ -7,24 +7,33 @@
 - ``method="combinations"``: the average of the exactly-determined solutions over all
   C(m, N) subsets of the m poses (the 12- and 6-position schemes of the paper's references).
 - ``thermal``: "auto" | "off" | S adds the bias polynomial of order S in (T - t0) (eq. 4/5),
-  solved jointly with the static model (the overdetermined least squares of eq. 7).
+  solved jointly with the static model (the overdetermined least squares of eq. 7). Steps captured
+  on a thermal ramp (``StepMeans.temp_rate_c_per_s``) add, with any thermal order, the thermal-gradient
+  term ``g_j dT/dt`` on every axis and the scale tempco ``s_j (T - t0) f_j`` on every axis whose poses
+  determine it; both come out as the calibration's ``thermal_gradient`` and ``scale_tempco`` effects.
+  Such a solve is generalised least squares with the chip's bias wander between the steps
+  (:func:`wander_covariance`): over a ramp the wander aliases into the thermal terms, and only this
+  covariance makes their sigmas honest.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
 import numpy as np
 
-from calib.accel.inputs import StepMeans
+from calib.accel.inputs import FLICKER_FLOOR, StepMeans
 from calib.accel.result import AccelCalibration, FitSummary, ThermalModel
-from calib.design import (AXES, AxisFit, Inputs, LinearModel, check_model, check_rank, const_term, force_term,
-                          solve_wls, temp_term)
+from calib.design import (AXES, AxisFit, Inputs, LinearModel, Term, check_model, check_rank, const_term, force_term,
+                          misfit, solve_wls, temp_term, undetermined)
 from calib.errors import CalibError, ObservabilityError
 from calib.magnitude import fit_magnitude
 
 THERMAL_AUTO_MIN_SPAN_C = 2.0
+#: the window ``apply`` takes a sample series' temperature rate over for the thermal-gradient term, s
+RAMP_RATE_WINDOW_S = 10.0
 
 TRIANGULAR_NAMES = {"x": ["b_x", "k_x", "kx_ayz", "kx_azy"], "y": ["b_y", "k_y", "ky_azx"], "z": ["b_z", "k_z"]}
 
@@ -92,17 +101,103 @@ def _model_with_thermal(steps, model, thermal, t0_c):
         for a in AXES:
             lm = lm.with_terms(a, [temp_term(a, s) for s in range(1, order + 1)])
     x = Inputs.from_steps(steps, t0_c)
+    if order and steps.temp_rate_c_per_s is not None:
+        lm = with_ramp_terms(lm, x, np.asarray(steps.temp_rate_c_per_s, float))
     return lm, x, order
+
+
+def gradient_term(axis: str, rate_c_per_s: np.ndarray) -> Term:
+    """The thermal-gradient term of ``axis``: bias proportional to the step's temperature rate, counts/(C/s)."""
+    return Term(f"g_{axis}", "counts/(C/s)", lambda x, r=rate_c_per_s: r, needs=("temp",),
+                hint="steps at different temperature rates (a ramp up and a ramp down)")
+
+
+def scale_tempco_term(axis: str) -> Term:
+    """The scale tempco of ``axis`` to first order: ``(T - t0) f_axis``, counts/(g C) (= k s, s in 1/C)."""
+    j = AXES.index(axis)
+    return Term(f"s_{axis}", "counts/(g C)", lambda x, c=j: (x.temp_c - x.t0_c) * x.f_g[:, c], needs=("temp",),
+                hint=f"poses with gravity along +{axis.upper()} and -{axis.upper()} at several temperatures")
+
+
+def with_ramp_terms(lm: LinearModel, x: Inputs, rate_c_per_s: np.ndarray) -> LinearModel:
+    """``lm`` with the thermal-gradient term on every axis and the scale tempco on the axes whose poses
+    determine it (their design stays of full rank with it)."""
+    for a in AXES:
+        lm = lm.with_terms(a, [gradient_term(a, rate_c_per_s)])
+        trial = lm.with_terms(a, [scale_tempco_term(a)])
+        if not undetermined(trial.design(a, x), trial.names(a)):
+            lm = trial
+    return lm
+
+
+def ramp_effects(fits: dict, lsb_per_g: float, t0_c: float) -> list[dict]:
+    """The fitted thermal-gradient and scale-tempco terms as calibration-file effects (docs/discrepancy.md):
+    ``thermal_gradient`` in g/(C/s), ``scale_tempco`` in 1/C (null on an axis whose poses left it out)."""
+    if "g_x" not in fits["x"].names:
+        return []
+    est = {"g": [None] * 3, "s": [None] * 3}
+    sig = {"g": [None] * 3, "s": [None] * 3}
+    for j, a in enumerate(AXES):
+        fit = fits[a]
+        p = dict(zip(fit.names, fit.params))
+        sd = dict(zip(fit.names, np.sqrt(np.diag(fit.cov))))
+        k = p[f"k_{a}"] if f"k_{a}" in p else p[f"m_{a}{a}"]
+        for kind, divisor in (("g", lsb_per_g), ("s", k)):
+            if f"{kind}_{a}" in p:
+                est[kind][j], sig[kind][j] = float(p[f"{kind}_{a}"] / divisor), float(sd[f"{kind}_{a}"] / abs(divisor))
+    out = [{"name": "thermal_gradient", "unit": "g/(C/s)", "axes": list(AXES), "estimate": est["g"],
+            "sigma": sig["g"], "rate_window_s": RAMP_RATE_WINDOW_S}]
+    if any(v is not None for v in est["s"]):
+        out.append({"name": "scale_tempco", "unit": "1/C", "axes": list(AXES), "estimate": est["s"],
+                    "sigma": sig["s"], "t0_c": float(t0_c)})
+    return out
 
 
 def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> AccelCalibration:
     lm, x, order = _model_with_thermal(steps, model, thermal, t0_c)
     designs = {a: lm.design(a, x) for a in AXES}
     check_model({a: (designs[a], lm.names(a), lm.terms[a]) for a in AXES})
+    wander = order and steps.temp_rate_c_per_s is not None and steps.bias_stability is not None
     fits = {}
     for j, a in enumerate(AXES):
-        fits[a] = solve_wls(designs[a], steps.mean_counts[:, j], steps.sem_counts[:, j], lm.names(a))
-    return assemble(steps, model, fits, order, x.t0_c, method)
+        y, sem = steps.mean_counts[:, j], steps.sem_counts[:, j]
+        fits[a] = (solve_gls(designs[a], y, wander_covariance(steps, sem), lm.names(a)) if wander
+                   else solve_wls(designs[a], y, sem, lm.names(a)))
+    if wander:  # the wander is in the fit's covariance already: not added to the bias sigma again
+        steps = dataclasses.replace(steps, bias_stability=None)
+    return assemble(steps, model, fits, order, x.t0_c, method, effects=ramp_effects(fits, steps.lsb_per_g, x.t0_c))
+
+
+def wander_covariance(steps: StepMeans, sem_counts: np.ndarray) -> np.ndarray:
+    """Covariance (K, K) of the step means of one axis, counts^2: each step's own standard error on the
+    diagonal plus the chip's bias wander between steps (:class:`calib.accel.inputs.BiasStability`): the
+    random walk, ``K^2 min(t_i, t_j)``, and the flicker, ``(B / 0.664)^2 / (2 pi) ln(T_c / max(|t_i - t_j|,
+    d))`` (0 beyond the flicker corner ``T_c``; ``d`` the median spacing of the steps, below which a step's
+    own standard error holds the wander), both times ``lsb_per_g^2``."""
+    bs, t = steps.bias_stability, np.asarray(steps.t_s, float)
+    spacing = float(np.median(np.diff(np.sort(t)))) if len(t) > 1 else 1.0
+    lag = np.maximum(np.abs(t[:, None] - t[None, :]), max(spacing, 1.0))
+    coeff = bs.bias_instability_g / FLICKER_FLOOR
+    flicker = coeff**2 / (2 * math.pi) * np.log(np.maximum(bs.flicker_corner_s / lag, 1.0))
+    walk = bs.random_walk_g_per_rts**2 * np.minimum.outer(t - t.min(), t - t.min())
+    return np.diag(np.asarray(sem_counts, float) ** 2) + float(steps.lsb_per_g) ** 2 * (flicker + walk)
+
+
+def solve_gls(g: np.ndarray, y: np.ndarray, cov_y: np.ndarray, names: list[str], misfit_p: float = 0.01) -> AxisFit:
+    """Generalised least squares with the step means' covariance ``cov_y``: whitened by its Cholesky
+    factor, then as :func:`calib.design.solve_wls` (rescaled by chi2/dof only when the misfit is
+    significant at ``misfit_p``). Residuals are in counts (not whitened)."""
+    chol = np.linalg.cholesky(cov_y)
+    gw, yw = np.linalg.solve(chol, g), np.linalg.solve(chol, y)
+    q, r = np.linalg.qr(gw)
+    params = np.linalg.solve(r, q.T @ yw)
+    rinv = np.linalg.inv(r)
+    cov0 = rinv @ rinv.T
+    white = yw - gw @ params
+    chi2, dof = float(white @ white), g.shape[0] - g.shape[1]
+    inflated, _ = misfit(chi2, dof, misfit_p)
+    return AxisFit(list(names), params, cov0 * (chi2 / dof) if inflated else cov0, cov0, y - g @ params, chi2, dof,
+                   inflated)
 
 
 def assemble(steps: StepMeans, model: str, fits: dict, order: int, t0_c: float, method: str,
@@ -264,7 +359,8 @@ def solve_combinations(steps: StepMeans, *, model: str = "triangular", thermal="
         res = y - designs[a] @ params
         chi2 = float(np.sum((res / steps.sem_counts[:, j]) ** 2))
         fits[a] = AxisFit(lm.names(a), params, cov, cov, res, chi2, k - len(params), False)
-    return assemble(steps, model, fits, order, x.t0_c, f"combinations({count} subsets of {n})")
+    return assemble(steps, model, fits, order, x.t0_c, f"combinations({count} subsets of {n})",
+                    effects=ramp_effects(fits, steps.lsb_per_g, x.t0_c))
 
 
 def solve_batch(mean_counts: np.ndarray, f_nominal_g: np.ndarray, model: str = "triangular") -> dict:

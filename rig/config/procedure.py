@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import math
+
 import numpy as np
 
 from drivers.sensors.base import SensorSettings
@@ -18,8 +20,8 @@ from calib.accel.predict import Predictor
 from calib.errors import CalibError
 from rig.config.procedure_schema import (ACCEL_RANGES_G, ADXL345_RATES_HZ, FORMAT, GYRO_RANGES_DPS, METHODS,
                                          MIN_DWELL_SAMPLES, MODELS, RATE_MAX_DEG_S, AnglesStep, Dwell,
-                                         ProcedureDoc, RateStep, RepeatStep, SensorSpec, Settle, SolveSpec,
-                                         TargetSpec, TemperatureStep, TemperatureTarget, PromptStep)
+                                         ProcedureDoc, PoseStep, RampStep, RateStep, RepeatStep, SensorSpec, Settle,
+                                         SolveSpec, TargetSpec, TemperatureStep, TemperatureTarget, PromptStep)
 from rig.config.schema import validate_document
 from rig.config.yamlload import read_source
 from rig.errors import RigInputError
@@ -32,6 +34,31 @@ MAX_REPEAT_DEPTH = 4
 __all__ = ["ACCEL_RANGES_G", "ADXL345_RATES_HZ", "FORMAT", "GYRO_RANGES_DPS", "METHODS", "MODELS", "RATE_MAX_DEG_S",
            "Dwell", "PlannedStep", "Procedure", "SensorSpec", "Settle", "SolveSpec", "TargetSpec", "TemperatureTarget",
            "body_rate_dps", "load_procedure", "load_procedure_text"]
+
+
+@dataclass(frozen=True)
+class RampPlan:
+    """A step's place in a thermal ramp: leg ``leg`` (1-based) ramps the chamber from ``from_c`` to
+    ``to_c`` (C) at ``rate_c_per_min``; ``capture`` is 0 for the step that starts the ramp and 1 ..
+    ``captures`` for the poses captured while it runs. ``from_given``: the procedure states ``from_c``
+    (the set-point starts there); otherwise the ramp starts wherever the previous step left the set-point."""
+
+    leg: int
+    from_c: float
+    to_c: float
+    rate_c_per_min: float
+    capture: int
+    captures: int
+    from_given: bool = False
+
+    @property
+    def duration_s(self) -> float:
+        """How long the chamber's set-point takes from ``from_c`` to ``to_c``, s."""
+        return abs(self.to_c - self.from_c) / self.rate_c_per_min * 60.0
+
+    def to_manifest(self) -> dict:
+        return {"leg": self.leg, "from_c": self.from_c, "to_c": self.to_c, "rate_c_per_min": self.rate_c_per_min,
+                "capture": self.capture, "captures": self.captures}
 
 
 @dataclass(frozen=True)
@@ -54,11 +81,16 @@ class PlannedStep:
     #: static steps: "fixed" (the dwell: it states), or in a procedure with target: "target" (the target
     #: decides the dwell) or "given" (the step states its own dwell)
     dwell_rule: str = "fixed"
+    #: steps of a thermal ramp (the step starting it, kind thermal, and its poses): where in the ramp
+    ramp: RampPlan | None = None
 
     @property
     def executor(self) -> str:
         """The key of the executor that runs this step (``rig.execution.executors.EXECUTORS``): its
-        kind, or ``targeted`` for every pose of a procedure with an accuracy target."""
+        kind, ``targeted`` for every pose of a procedure with an accuracy target, ``ramp`` for the steps
+        of a thermal ramp."""
+        if self.ramp is not None:
+            return "ramp"
         return "targeted" if self.dwell_rule in ("target", "given") else self.kind
 
     def to_manifest(self) -> dict:
@@ -73,6 +105,8 @@ class PlannedStep:
         if self.rate_axis is not None:
             d.update(axis=self.rate_axis, rate_deg_s=self.rate_deg_s,
                      rate_nominal_dps=[round(float(x), 12) for x in self.rate_nominal_dps])
+        if self.ramp is not None:
+            d["ramp"] = self.ramp.to_manifest()
         return d
 
 
@@ -120,6 +154,8 @@ class _Expander:
         self.path, self.loc, self.spec = path, loc, spec
         self.sensor = spec.sensor or SensorSpec()
         self.out: list[PlannedStep] = []
+        self.last_temp_c: float | None = None  # where the last temperature or ramp step left the chamber
+        self.ramps = 0
 
     def fail(self, container, key, where, message):
         raise RigInputError(self.path, self.loc.line_of(container, key), where, message)
@@ -130,6 +166,9 @@ class _Expander:
         self.check_settle(spec.settle, doc, "settle", "settle")
         self.steps(spec.steps, doc["steps"], "steps", prefix="", depth=0)
         steps = list(self.out)
+        if spec.order != "as_written" and self.ramps:
+            self.fail(doc, "order", "order", f"order: {spec.order} would regroup the poses a ramp cycles (temperature "
+                      "would follow the pose); list a ramp's poses in the order to cycle them and use as_written")
         if spec.order in ("shortest", "fastest"):
             reorder = reorder_for_travel if spec.order == "shortest" else reorder_fastest
             steps = [replace(s, index=i) for i, s in enumerate(reorder(steps))]
@@ -197,6 +236,9 @@ class _Expander:
             if isinstance(model, TemperatureStep):
                 t = model.temperature
                 self.add(model.name or f"{prefix}temperature {t.target_c:g} C", "thermal", line, temperature=t)
+                self.last_temp_c = float(t.target_c)
+            elif isinstance(model, RampStep):
+                self.ramp_step(model, item, w, line, prefix)
             elif isinstance(model, PromptStep):
                 self.add(model.name or f"{prefix}prompt", "prompt", line, prompt=model.prompt)
             elif isinstance(model, RateStep):
@@ -207,7 +249,41 @@ class _Expander:
     def add(self, name: str, kind: str, line, **fields) -> None:
         self.out.append(PlannedStep(len(self.out), str(name), kind, source_line=line, **fields))
 
-    def static_step(self, model, item: dict, w: str, line, prefix: str) -> None:
+    def ramp_step(self, model: RampStep, item: dict, w: str, line, prefix: str) -> None:
+        """``{ramp: {to_c, rate_c_per_min, from_c, cycles, move_settle_s}, steps: [poses], name}``: a step that
+        starts the chamber's ramp, then the poses cycled ``cycles`` times (default: as many cycles as the
+        ramp's duration fills, each pose taking its dwell plus ``move_settle_s``)."""
+        r, items = model.ramp, item["steps"]
+        from_c = r.from_c if r.from_c is not None else self.last_temp_c
+        if from_c is None:
+            self.fail(item, "ramp", f"{w}.ramp", "a ramp needs a temperature to start from: put a temperature step "
+                      "before it or give from_c")
+        if from_c == r.to_c:
+            self.fail(item["ramp"], "to_c", f"{w}.ramp.to_c", f"the ramp starts at {from_c:g} C (from_c or the "
+                      f"previous temperature step): to_c {r.to_c:g} C leaves nothing to ramp")
+        for i, sub in enumerate(model.steps):
+            if not isinstance(sub, (PoseStep, AnglesStep)):
+                self.fail(items, i, f"{w}.steps[{i}]", "a ramp cycles pose steps (pose or angles_deg) only")
+        rate = self.sensor.sample_rate_hz
+        cycle_s = sum((sub.dwell or self.spec.dwell).max_duration_s(rate) + r.move_settle_s for sub in model.steps)
+        duration_s = abs(r.to_c - from_c) / r.rate_c_per_min * 60.0
+        cycles = r.cycles if r.cycles is not None else max(1, math.ceil(duration_s / cycle_s))
+        if len(self.out) + 1 + cycles * len(model.steps) > MAX_STEPS:
+            self.fail(item, "ramp", f"{w}.ramp", f"more than {MAX_STEPS} steps after expanding the ramp's "
+                      f"{cycles} cycles")
+        self.ramps += 1
+        plan = RampPlan(self.ramps, float(from_c), float(r.to_c), float(r.rate_c_per_min), 0, cycles * len(model.steps),
+                        from_given=r.from_c is not None)
+        self.add(model.name or f"{prefix}ramp {from_c:g} -> {r.to_c:g} C at {r.rate_c_per_min:g} C/min", "thermal",
+                 line, temperature=TemperatureTarget(target_c=r.to_c), ramp=plan)
+        for c in range(cycles):
+            for i, (sub, sub_item) in enumerate(zip(model.steps, items)):
+                self.static_step(sub, sub_item, f"{w}.steps[{i}]", self.loc.line_of(items, i),
+                                 f"{prefix}ramp{self.ramps} c{c + 1}/",
+                                 ramp=replace(plan, capture=c * len(model.steps) + i + 1))
+        self.last_temp_c = float(r.to_c)
+
+    def static_step(self, model, item: dict, w: str, line, prefix: str, ramp: RampPlan | None = None) -> None:
         if isinstance(model, AnglesStep):
             angles = tuple(float(x) for x in model.angles_deg)
             nm = model.name or f"angles {angles[0]:g}/{angles[1]:g}/{angles[2]:g}"
@@ -227,7 +303,7 @@ class _Expander:
         if self.spec.target is not None and model.dwell is None:  # the target decides, within its time cap
             rule, dwell = "target", Dwell(seconds=self.spec.target.max_seconds)
         self.add(f"{prefix}{nm}", "static", line, angles_deg=angles, f_nominal=f, dwell=dwell, settle=settle,
-                 dwell_rule=rule)
+                 dwell_rule=rule, ramp=ramp)
 
     def rate_step(self, model: RateStep, item: dict, w: str, line, prefix: str) -> None:
         """``{rate: {axis, rate_deg_s, seconds, spin_up_s}, pose | angles_deg (optional), name}``."""

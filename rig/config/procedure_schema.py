@@ -269,7 +269,7 @@ class TargetSpec(Strict):
 
 
 # -- steps -------------------------------------------------------------------------------------------
-StepName = Optional[label(description="the step's name in the session (default: from the pose)")]
+StepName = Optional[label(description="the step's name in the session (default: from the pose)", blank=False)]
 
 
 class PoseStep(Strict):
@@ -321,9 +321,28 @@ class PromptStep(Strict):
     name: StepName = None
 
 
-STEP_KINDS = ("pose", "angles_deg", "repeat", "temperature", "prompt", "rate")
+RAMP_MAX_C_PER_MIN = 20.0  # climate chambers ramp at 1-15 C/min
+
+
+class RampSpec(Strict):
+    """``ramp:``: the chamber ramps from ``from_c`` (default: where the previous temperature or ramp step
+    left it) to ``to_c`` at ``rate_c_per_min`` while the ramp's poses are cycled and captured on the move
+    in temperature (docs/procedures.md, "Thermal ramps")."""
+
+    mapping_hint: ClassVar[str] = "expected a mapping with to_c and rate_c_per_min (from_c, cycles, move_settle_s)"
+    to_c: number(ge=-40, le=85, description="temperature the chamber ramps to, C")
+    rate_c_per_min: number(gt=0, le=RAMP_MAX_C_PER_MIN, description="ramp rate of the chamber, C/min")
+    from_c: Optional[number(ge=-40, le=85, description="temperature the ramp starts from, C (default: the "
+                                                       "previous temperature or ramp step's)")] = None
+    cycles: Optional[number(gt=0, le=1000, integer=True, description="cycles of the poses (default: as many "
+                                                                     "as fill the ramp)")] = None
+    move_settle_s: number(ge=0, le=600, description="time each pose takes beyond its dwell (move and settle), "
+                                                   "s, for planning the cycles") = 6.0
+
+
+STEP_KINDS = ("pose", "angles_deg", "repeat", "temperature", "prompt", "rate", "ramp")
 _TAGS = {"pose": "pose step", "angles_deg": "angles step", "repeat": "repeat step",
-         "temperature": "temperature step", "prompt": "prompt step", "rate": "rate step"}
+         "temperature": "temperature step", "prompt": "prompt step", "rate": "rate step", "ramp": "ramp step"}
 
 
 def step_kind(item) -> str | None:
@@ -338,10 +357,10 @@ def step_kind(item) -> str | None:
 
 def _one_kind(item):
     if not isinstance(item, dict):
-        raise fail("expected a mapping: a pose, angles_deg, repeat, temperature or prompt step")
+        raise fail("expected a mapping: a pose, angles_deg, repeat, temperature, prompt, rate or ramp step")
     if step_kind(item) is None:
         kinds = [k for k in STEP_KINDS if k in item]
-        raise fail("each step needs exactly one of pose, angles_deg, repeat, temperature, prompt, rate"
+        raise fail("each step needs exactly one of pose, angles_deg, repeat, temperature, prompt, rate, ramp"
                    + (f" (got {', '.join(kinds)})" if kinds else ""))
     return item
 
@@ -355,6 +374,7 @@ Step = Annotated[Union[
     Annotated[PoseStep, Tag(_TAGS["pose"])], Annotated[AnglesStep, Tag(_TAGS["angles_deg"])],
     Annotated["RepeatStep", Tag(_TAGS["repeat"])], Annotated[TemperatureStep, Tag(_TAGS["temperature"])],
     Annotated[PromptStep, Tag(_TAGS["prompt"])], Annotated[RateStep, Tag(_TAGS["rate"])],
+    Annotated["RampStep", Tag(_TAGS["ramp"])],
 ], Discriminator(_tag), BeforeValidator(_one_kind)]
 
 
@@ -372,7 +392,16 @@ class RepeatStep(Strict):
     steps: Steps
 
 
+class RampStep(Strict):
+    """``ramp:`` with the pose ``steps:`` cycled while the chamber ramps."""
+
+    ramp: RampSpec
+    steps: Steps
+    name: StepName = None
+
+
 RepeatStep.model_rebuild()
+RampStep.model_rebuild()
 
 
 class ProcedureDoc(Strict):

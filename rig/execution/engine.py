@@ -12,7 +12,7 @@ from rig.devices.rig import Rig
 from rig.errors import RigInputError
 from rig.execution.context import EngineOptions, RunAborted, RunContext, StepOutcome
 from rig.execution.estimate import step_durations_s
-from rig.execution.executors import executor_for, temperature
+from rig.execution.executors import executor_for
 from rig.execution.motion import check_reachable, stop_motors
 from rig.execution.operator import Operator, OperatorAbsent, SilentOperator
 from rig.planning.kinematics import AXES
@@ -116,10 +116,11 @@ class Engine:
             self._restore_temperature()
 
     def _restore_temperature(self) -> None:
-        """A resume continues at the temperature of the last temperature step before it."""
+        """A resume continues at the temperature of the last temperature step before it (a hold point, or
+        a ramp: its executor's ``restore``), unless it resumes at a hold point (which sets its own)."""
         before = [s for s in self.steps[:self.first_step] if s.kind == "thermal"]
-        if before and self.first_step < len(self.steps) and self.steps[self.first_step].kind != "thermal":
-            temperature.restore(self.ctx, before[-1])
+        if before and self.first_step < len(self.steps) and self.steps[self.first_step].executor != "thermal":
+            executor_for(before[-1]).restore(self.ctx, before[-1], self.steps[self.first_step])
 
     def run(self) -> list[StepOutcome]:
         """Execute the steps from ``first_step`` on; stop all motors on any error."""

@@ -92,7 +92,27 @@ def step_means(session: Session, include=None) -> StepMeans:
     return StepMeans(names=tuple(names), f_nominal_g=np.array(f_nom, float), mean_counts=np.array(means),
                      sem_counts=sems, n_samples=np.array(ns, int),
                      temp_c=np.array(temps) if session.has_temperature else None, t_s=np.array(ts),
-                     lsb_per_g=session.lsb_per_g, bias_stability=bias_stability(session))
+                     lsb_per_g=session.lsb_per_g, bias_stability=bias_stability(session),
+                     temp_rate_c_per_s=step_temperature_rates(session, idx, rows_of))
+
+
+def on_ramp(session: Session) -> bool:
+    """Whether the session captured steps while the chamber ramped (``ramp`` on its planned steps)."""
+    return any(getattr(st, "ramp", None) for st in session.info.steps)
+
+
+def step_temperature_rates(session: Session, idx, rows_of) -> np.ndarray | None:
+    """Each step's temperature rate (C/s): the least-squares slope of the sensor's thermometer against
+    time over the step's samples; None unless the session has a thermometer and ramped the chamber (the
+    solver fits a thermal-gradient term only then)."""
+    if not session.has_temperature or not on_ramp(session):
+        return None
+    out = []
+    for i in idx:
+        rows = rows_of(i)
+        t, y = session.samples["t_s"][rows], session.samples["temp_c"][rows]
+        out.append(float(np.polyfit(t - t[0], y, 1)[0]) if np.ptp(t) > 0 else 0.0)
+    return np.array(out)
 
 
 def _step_temperature(session: Session, rows: np.ndarray, i: int) -> float:

@@ -37,40 +37,78 @@ class ChamberConfig:
 
 
 class SimChamber:
-    """A climate chamber whose setpoint the runner can change.
+    """A climate chamber whose setpoint the runner can change or ramp.
 
-    The sensor temperature relaxes exponentially to the setpoint from
-    wherever it was when the setpoint changed; ``temp_at`` is exact and
-    vectorised.
+    The sensor temperature follows the setpoint as a first-order lag (time constant ``tau_s``):
+    ``dT/dt = (S(t) - T) / tau``. The setpoint is piecewise linear in time: constant after
+    :meth:`set_target_c`, moving at a stated rate after :meth:`ramp_to_c` until it reaches the
+    ramp's end, then constant again. On a ramp at rate r the sensor settles to lagging the setpoint
+    by ``r tau`` and changes at the rate r itself, so the rate a step sees is the chamber's. ``temp_at``
+    is exact (closed form per segment) and vectorised.
     """
 
     def __init__(self, clock, config: ChamberConfig = ChamberConfig()) -> None:
         self.clock = clock
         self.config = config
-        # segments: (start time s, temperature at start C, setpoint C)
-        self._segments: list[tuple[float, float, float]] = [
-            (-np.inf, config.initial_c, config.initial_c)]
-        self.setpoint_c = config.initial_c
+        # segments: (start time s, temperature at start C, setpoint at start C, setpoint rate C/s)
+        self._segments: list[tuple[float, float, float, float]] = [
+            (-np.inf, config.initial_c, config.initial_c, 0.0)]
+
+    @property
+    def setpoint_c(self) -> float:
+        """The setpoint now, C."""
+        return float(self.setpoint_at(np.array([self.clock.now()]))[0])
+
+    @property
+    def rate_c_per_s(self) -> float:
+        """The setpoint's rate now, C/s (0 when holding)."""
+        return float(self._segments[self._index(np.array([self.clock.now()]))[0]][3])
 
     def set_target_c(self, target_c: float) -> None:
-        """Change the chamber setpoint now."""
+        """Change the chamber setpoint now (a step: the sensor relaxes to it)."""
+        self._start(float(target_c), 0.0)
+
+    def ramp_to_c(self, to_c: float, rate_c_per_min: float, from_c: float | None = None) -> float:
+        """Move the setpoint from ``from_c`` (None: where it is now) towards ``to_c`` at
+        ``rate_c_per_min`` (the sign follows the direction), then hold it there; return the ramp's
+        duration, s."""
+        t = self.clock.now()
+        start_c = self.setpoint_c if from_c is None else float(from_c)
+        rate = abs(float(rate_c_per_min)) / 60.0 * (1.0 if to_c >= start_c else -1.0)
+        duration_s = abs(float(to_c) - start_c) / abs(rate) if rate else 0.0
+        self._start(start_c, rate)
+        end_t = t + duration_s
+        self._segments.append((end_t, float(self.temp_at(np.array([end_t]))[0]), float(to_c), 0.0))
+        return duration_s
+
+    def _start(self, setpoint_c: float, rate_c_per_s: float) -> None:
         t = self.clock.now()
         now_c = float(self.temp_at(np.array([t]))[0])
-        self._segments.append((t, now_c, float(target_c)))
-        self.setpoint_c = float(target_c)
+        self._segments = [s for s in self._segments if s[0] <= t]  # a new command replaces what was planned
+        self._segments.append((t, now_c, setpoint_c, rate_c_per_s))
+
+    def _index(self, t: np.ndarray) -> np.ndarray:
+        starts = np.array([s[0] for s in self._segments])
+        return np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self._segments) - 1)
+
+    def setpoint_at(self, t_s: np.ndarray) -> np.ndarray:
+        """The setpoint at clock times ``t_s``, C."""
+        t = np.atleast_1d(np.asarray(t_s, float))
+        seg = np.array([(s[0] if np.isfinite(s[0]) else 0.0, s[1], s[2], s[3]) for s in self._segments])
+        i = self._index(t)
+        return seg[i, 2] + seg[i, 3] * np.maximum(t - seg[i, 0], 0.0)
 
     def temp_at(self, t_s: np.ndarray) -> np.ndarray:
-        """Sensor temperature at clock times ``t_s``, C."""
+        """Sensor temperature at clock times ``t_s``, C: per segment, with setpoint ``S0 + r dt``,
+        ``T = S0 + r dt - r tau + (T0 - S0 + r tau) exp(-dt / tau)``."""
         t = np.atleast_1d(np.asarray(t_s, float))
-        starts = np.array([s[0] for s in self._segments])
-        idx = np.searchsorted(starts, t, side="right") - 1
-        idx = np.clip(idx, 0, len(self._segments) - 1)
-        seg = np.array([(s[0] if np.isfinite(s[0]) else 0.0, s[1], s[2]) for s in self._segments])
-        t0, c0, cset = seg[idx, 0], seg[idx, 1], seg[idx, 2]
+        seg = np.array([(s[0] if np.isfinite(s[0]) else 0.0, s[1], s[2], s[3]) for s in self._segments])
+        i = self._index(t)
+        t0, c0, s0, r = seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3]
+        tau = self.config.tau_s
         dt = np.maximum(t - t0, 0.0)
-        out = cset + (c0 - cset) * np.exp(-dt / self.config.tau_s)
-        first = ~np.isfinite(starts[idx])
-        out[first] = self._segments[0][1]
+        out = s0 + r * dt - r * tau + (c0 - s0 + r * tau) * np.exp(-dt / tau)
+        out[i == 0] = self._segments[0][1]
         return out
 
 

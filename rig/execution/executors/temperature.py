@@ -43,25 +43,25 @@ def execute(ctx: RunContext, step) -> None:
     apply_setpoint(ctx, step)
     clock = ctx.rig.clock
     t_start = clock.now()
-    mean_c, first_c = _wait_in_band(ctx, step, t_start)
+    mean_c, first_c = wait_in_band(ctx, step, t_start)
     waited_s = clock.now() - t_start
     ctx.event("temperature", step=step.index, temp_c=mean_c, start_c=first_c, waited_s=waited_s)
     ctx.recorder.complete_step(step.index, {"t_end_s": ctx.session_time(), "temp_c": mean_c, "waited_s": waited_s})
     ctx.outcomes.append(StepOutcome(step.index, "complete", 0))
 
 
-def restore(ctx: RunContext, step) -> None:
-    """On a resume after temperature step ``step``: set its set-point again and wait until the
-    sensor is back in band before the next capture (the chamber may have drifted while the run
-    was stopped); the step itself stays as recorded."""
+def restore(ctx: RunContext, step, next_step=None) -> None:
+    """On a resume after temperature step ``step`` (``next_step``: the step the run resumes at): set its
+    set-point again and wait until the sensor is back in band before the next capture (the chamber may
+    have drifted while the run was stopped); the step itself stays as recorded."""
     apply_setpoint(ctx, step)
     t_start = ctx.rig.clock.now()
-    mean_c, first_c = _wait_in_band(ctx, step, t_start)
+    mean_c, first_c = wait_in_band(ctx, step, t_start)
     ctx.event("temperature", step=step.index, temp_c=mean_c, start_c=first_c,
               waited_s=ctx.rig.clock.now() - t_start, restored=True)
 
 
-def _wait_in_band(ctx: RunContext, step, t_start: float) -> tuple[float, float]:
+def wait_in_band(ctx: RunContext, step, t_start: float) -> tuple[float, float]:
     """Read the thermometer every second until the mean over the last ``window`` seconds has
     stayed within tolerance for ``hold_s``; return (that mean, the first reading), C."""
     target = step.temperature
