@@ -58,6 +58,16 @@ class Chamber(Protocol):
     def set_target_c(self, target_c: float) -> None: ...
 
 
+class RampingChamber(Chamber, Protocol):
+    """A chamber that ramps its set-point by itself (the ``ramp:`` step, docs/procedures.md). A
+    chamber without ``ramp_to_c`` still runs ramp procedures: the operator starts each ramp."""
+
+    def ramp_to_c(self, to_c: float, rate_c_per_min: float, from_c: float | None = None) -> float:
+        """Ramp the set-point from ``from_c`` (None: where it is) to ``to_c`` (C) at ``rate_c_per_min``
+        and hold it there; return the ramp's duration, s."""
+        ...
+
+
 @dataclass
 class Axis:
     """One stage of the turntable: its rig-file configuration and its driver.
