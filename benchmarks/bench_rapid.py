@@ -1,9 +1,9 @@
 """Calibration time: the seed's six-position procedure against the accuracy-targeted one (issue 16).
 
 On the embedded simulated rig (virtual time), for hidden sensors drawn from seeds 1..N, on both
-noise models (``white``, the default, and ``dlpf``: the chip's low-pass filter with correlated
-noise, bias instability and random walk; a variant of rigs/sim.yaml written to a temporary
-directory), at the rig file's speed (20 deg/s) and at the 8MR191's top speed (48 deg/s):
+noise models (``dlpf``, the default: the chip's low-pass filter with correlated noise, bias
+instability and random walk; and ``white``, kinder than the chip; a variant of rigs/sim.yaml with
+``sim.noise`` set, written to a temporary directory), at the rig file's speed (20 deg/s) and at the 8MR191's top speed (48 deg/s):
 
 - rig time: the session clock at the end of the last pose;
 - true error: the largest |roll| or |pitch| error of the calibration at the seed's seven

@@ -6,12 +6,15 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import expn
 
 from calib.errors import CalibError
 
 
 #: Allan deviation floor of flicker noise = sqrt(2 ln 2 / pi) * flicker coefficient (IEEE Std 952, annex C)
 FLICKER_FLOOR = math.sqrt(2 * math.log(2) / math.pi)
+#: the Euler-Mascheroni constant
+EULER_GAMMA = 0.5772156649015329
 
 
 @dataclass(frozen=True)
@@ -33,13 +36,29 @@ class BiasStability:
     flicker_corner_s: float
 
     def sigma_g(self, duration_s: float) -> float:
-        """1-sigma of a session's mean bias about the long-run bias, g: the flicker power between
-        the session length and the flicker corner, ``(B / 0.664)^2 ln(T_c / T) / (2 pi)``, plus the
-        random walk's mean over the session, ``K^2 T / 3``."""
+        """1-sigma of a session's mean bias about the long-run bias, g: the variance of a T-second
+        mean of the flicker, ``(B / 0.664)^2 F(T / T_c) / (2 pi)`` (:func:`flicker_mean_factor`;
+        ``ln(T_c / T) + 3/2 - gamma`` for T << T_c: the power below 1/T plus what the components of
+        correlation time near T leave in the mean), plus the random walk's mean over the session,
+        ``K^2 T / 3``."""
         t = max(float(duration_s), 1.0)
         coeff = self.bias_instability_g / FLICKER_FLOOR
-        flicker = coeff**2 * max(math.log(self.flicker_corner_s / t), 0.0) / (2 * math.pi)
+        flicker = coeff**2 * flicker_mean_factor(t / self.flicker_corner_s) / (2 * math.pi) if coeff > 0 else 0.0
         return math.sqrt(flicker + self.random_walk_g_per_rts**2 * t / 3.0)
+
+
+def flicker_mean_factor(a: float) -> float:
+    """``F(a) = integral from a to infinity of 2 (x - 1 + exp(-x)) / x^3 dx``: the variance of a mean over
+    T of flicker whose correlation times reach up to T_c (a = T / T_c), per unit ``c^2 / (2 pi)``.
+
+    Each first-order component of correlation time tau leaves ``2 (x - 1 + exp(-x)) / x^2`` (x = T / tau)
+    of its variance in the mean; flicker spreads ``c^2 / (2 pi)`` of variance evenly over ln(tau).
+    Closed form ``2 / a - 1 / a^2 + 2 E_3(a) / a^2``; ``-ln(a) + 3/2 - gamma`` for small a.
+    """
+    a = float(a)
+    if a < 1e-4:
+        return -math.log(max(a, 1e-300)) + 1.5 - EULER_GAMMA
+    return 2.0 / a - 1.0 / a**2 + 2.0 * float(expn(3, a)) / a**2
 
 
 @dataclass(frozen=True)
@@ -58,6 +77,11 @@ class StepMeans:
     lsb_per_g : nominal sensitivity at the recorded range, counts per g.
     bias_stability : the sensor's :class:`BiasStability`, or None (unknown: bias sigmas are then the
         fit's alone).
+    temp_rate_c_per_s : (K,) rate of the sensor's temperature over each step (the least-squares slope of
+        its thermometer over the step's samples), C/s, or None (steps not captured on a thermal ramp:
+        the solvers then fit no thermal-gradient term).
+    duration_s : (K,) how long each step's capture lasted, s, or None (unknown: the means are then
+        taken as point values in time by the wander covariance, :mod:`calib.wander`).
     """
 
     names: tuple
@@ -69,6 +93,8 @@ class StepMeans:
     t_s: np.ndarray
     lsb_per_g: float
     bias_stability: BiasStability | None = None
+    temp_rate_c_per_s: np.ndarray | None = None
+    duration_s: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         k = len(self.names)
@@ -86,6 +112,14 @@ class StepMeans:
             t = np.asarray(self.temp_c)
             if t.shape != (k,) or not np.all(np.isfinite(t)):
                 raise CalibError("StepMeans.temp_c: expected K finite temperatures, or None")
+        if self.temp_rate_c_per_s is not None:
+            r = np.asarray(self.temp_rate_c_per_s)
+            if r.shape != (k,) or not np.all(np.isfinite(r)):
+                raise CalibError("StepMeans.temp_rate_c_per_s: expected K finite temperature rates, or None")
+        if self.duration_s is not None:
+            d = np.asarray(self.duration_s)
+            if d.shape != (k,) or not np.all(np.isfinite(d) & (d >= 0)):
+                raise CalibError("StepMeans.duration_s: expected K finite durations >= 0 s, or None")
         if not np.all(np.asarray(self.sem_counts) > 0):
             raise CalibError("StepMeans.sem_counts: every standard error must be > 0")
         if not self.lsb_per_g > 0:
@@ -105,7 +139,9 @@ class StepMeans:
                          f_nominal_g=self.f_nominal_g[idx], mean_counts=self.mean_counts[idx],
                          sem_counts=self.sem_counts[idx], n_samples=self.n_samples[idx],
                          temp_c=None if self.temp_c is None else self.temp_c[idx], t_s=self.t_s[idx],
-                         lsb_per_g=self.lsb_per_g, bias_stability=self.bias_stability)
+                         lsb_per_g=self.lsb_per_g, bias_stability=self.bias_stability,
+                         temp_rate_c_per_s=None if self.temp_rate_c_per_s is None else self.temp_rate_c_per_s[idx],
+                         duration_s=None if self.duration_s is None else self.duration_s[idx])
 
     def bias_stability_counts(self) -> float:
         """1-sigma (counts) by which the session's bias stands off the sensor's long-run bias

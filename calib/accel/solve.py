@@ -11,9 +11,10 @@
   on a thermal ramp (``StepMeans.temp_rate_c_per_s``) add, with any thermal order, the thermal-gradient
   term ``g_j dT/dt`` on every axis and the scale tempco ``s_j (T - t0) f_j`` on every axis whose poses
   determine it; both come out as the calibration's ``thermal_gradient`` and ``scale_tempco`` effects.
-  Such a solve is generalised least squares with the chip's bias wander between the steps
-  (:func:`wander_covariance`): over a ramp the wander aliases into the thermal terms, and only this
-  covariance makes their sigmas honest.
+- Whenever the sensor's bias stability is known (``StepMeans.bias_stability``), the pinv solve is
+  generalised least squares with the chip's bias wander between the steps (:func:`wander_covariance`):
+  the wander is common to near steps and aliases into the biases and, over a thermal run or a ramp,
+  into the thermal terms; only this covariance makes their sigmas honest.
 """
 
 from __future__ import annotations
@@ -24,12 +25,13 @@ import math
 
 import numpy as np
 
-from calib.accel.inputs import FLICKER_FLOOR, StepMeans
+from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration, FitSummary, ThermalModel
 from calib.design import (AXES, AxisFit, Inputs, LinearModel, Term, check_model, check_rank, const_term, force_term,
                           misfit, solve_wls, temp_term, undetermined)
 from calib.errors import CalibError, ObservabilityError
 from calib.magnitude import fit_magnitude
+from calib.wander import wander_cov_g2
 
 THERMAL_AUTO_MIN_SPAN_C = 2.0
 #: the window ``apply`` takes a sample series' temperature rate over for the thermal-gradient term, s
@@ -157,7 +159,7 @@ def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> A
     lm, x, order = _model_with_thermal(steps, model, thermal, t0_c)
     designs = {a: lm.design(a, x) for a in AXES}
     check_model({a: (designs[a], lm.names(a), lm.terms[a]) for a in AXES})
-    wander = order and steps.temp_rate_c_per_s is not None and steps.bias_stability is not None
+    wander = steps.bias_stability is not None
     fits = {}
     for j, a in enumerate(AXES):
         y, sem = steps.mean_counts[:, j], steps.sem_counts[:, j]
@@ -170,17 +172,16 @@ def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> A
 
 def wander_covariance(steps: StepMeans, sem_counts: np.ndarray) -> np.ndarray:
     """Covariance (K, K) of the step means of one axis, counts^2: each step's own standard error on the
-    diagonal plus the chip's bias wander between steps (:class:`calib.accel.inputs.BiasStability`): the
-    random walk, ``K^2 min(t_i, t_j)``, and the flicker, ``(B / 0.664)^2 / (2 pi) ln(T_c / max(|t_i - t_j|,
-    d))`` (0 beyond the flicker corner ``T_c``; ``d`` the median spacing of the steps, below which a step's
-    own standard error holds the wander), both times ``lsb_per_g^2``."""
-    bs, t = steps.bias_stability, np.asarray(steps.t_s, float)
-    spacing = float(np.median(np.diff(np.sort(t)))) if len(t) > 1 else 1.0
-    lag = np.maximum(np.abs(t[:, None] - t[None, :]), max(spacing, 1.0))
-    coeff = bs.bias_instability_g / FLICKER_FLOOR
-    flicker = coeff**2 / (2 * math.pi) * np.log(np.maximum(bs.flicker_corner_s / lag, 1.0))
-    walk = bs.random_walk_g_per_rts**2 * np.minimum.outer(t - t.min(), t - t.min())
-    return np.diag(np.asarray(sem_counts, float) ** 2) + float(steps.lsb_per_g) ** 2 * (flicker + walk)
+    diagonal plus the chip's bias wander between the steps' capture windows
+    (:func:`calib.wander.wander_cov_g2`: flicker and random walk of
+    :class:`calib.accel.inputs.BiasStability`, exact for window means), times ``lsb_per_g^2``.
+
+    Over a session the wander is common to steps close in time and differs between distant ones: a
+    six-position run sees it mostly as one offset of all its biases (what the bias-stability term
+    used to add), a thermal run also as slopes that alias into the temperature coefficients. Weighing
+    the steps with this covariance makes both sigmas honest (docs/methods.md, "Step uncertainty")."""
+    w = wander_cov_g2(np.asarray(steps.t_s, float), steps.duration_s, steps.bias_stability)
+    return np.diag(np.asarray(sem_counts, float) ** 2) + float(steps.lsb_per_g) ** 2 * w
 
 
 def solve_gls(g: np.ndarray, y: np.ndarray, cov_y: np.ndarray, names: list[str], misfit_p: float = 0.01) -> AxisFit:

@@ -42,6 +42,10 @@ class ChipSpec:
         Thermometer, gyroscope, magnetometer (the MPU-9150's AK8975) on board.
     driver : callable
         ``driver(bus, address, clock=clock) -> AccelSensor``.
+    accel_noise_density_g_rthz : tuple of float
+        The datasheet's white-noise density of the accelerometer per axis (x, y, z), g/sqrt(Hz): the
+        simulator's noise (``drivers.sensors.sim.error_model``) and the optimistic noise of a target's
+        preflight (``rig.execution.executors.targeted``).
     accel_bias_instability_g, accel_random_walk_g_per_rts, accel_flicker_corner_s : float
         The accelerometer bias's Allan-variance characterisation (datasheet class; the datasheets
         give only the noise density, so these are typical figures of consumer MEMS parts of the
@@ -61,6 +65,7 @@ class ChipSpec:
     has_gyro: bool
     has_magnetometer: bool
     driver: Callable[..., AccelSensor]
+    accel_noise_density_g_rthz: tuple[float, float, float] = (400e-6, 400e-6, 400e-6)
     accel_bias_instability_g: float = 40e-6
     accel_random_walk_g_per_rts: float = 4e-6
     accel_flicker_corner_s: float = 5000.0
@@ -76,12 +81,14 @@ CHIPS: dict[str, ChipSpec] = {
         identity_register=mpu9150_regs.WHO_AM_I, identity_value=mpu9150_regs.WHO_AM_I_VALUE,
         accel_ranges_g=tuple(mpu9150_regs.ACCEL_RANGES), sample_rates_hz=mpu9150_regs.SAMPLE_RATES_HZ,
         has_temperature=True, has_gyro=True, has_magnetometer=True, driver=Mpu9150,
+        accel_noise_density_g_rthz=(400e-6, 400e-6, 400e-6),  # product spec PS-MPU-9150A: 400 ug/rtHz
         accel_bias_instability_g=40e-6, accel_random_walk_g_per_rts=4e-6, accel_flicker_corner_s=5000.0),
     "ADXL345": ChipSpec(
         model="ADXL345", default_address=adxl345_regs.DEFAULT_ADDRESS, addresses=adxl345_regs.ADDRESSES,
         identity_register=adxl345_regs.DEVID, identity_value=adxl345_regs.DEVID_VALUE,
         accel_ranges_g=tuple(adxl345_regs.RANGE_BITS), sample_rates_hz=adxl345_regs.SAMPLE_RATES_HZ,
         has_temperature=False, has_gyro=False, has_magnetometer=False, driver=Adxl345,
+        accel_noise_density_g_rthz=(550e-6, 550e-6, 750e-6),  # data sheet rev. E: ~1 LSB rms at 100 Hz, z noisier
         accel_bias_instability_g=100e-6, accel_random_walk_g_per_rts=10e-6, accel_flicker_corner_s=5000.0),
 }
 

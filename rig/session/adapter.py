@@ -72,7 +72,7 @@ def step_means(session: Session, include=None) -> StepMeans:
                                  " (steps with unknown poses: use --method magnitude)")
     rows_of = _rows_by_step(session.samples["step"])
     csv_path = str(session.path / "samples.csv")
-    names, f_nom, means, blocks, ns, temps, ts = [], [], [], [], [], [], []
+    names, f_nom, means, blocks, ns, temps, ts, durations = [], [], [], [], [], [], [], []
     for i in idx:
         rows = rows_of(i)
         n = len(rows)
@@ -88,12 +88,13 @@ def step_means(session: Session, include=None) -> StepMeans:
         temps.append(_step_temperature(session, rows, i) if session.has_temperature else np.nan)
         tt = session.samples["t_s"][rows]
         ts.append(0.5 * (tt.min() + tt.max()))
+        durations.append(float(tt.max() - tt.min()) * n / (n - 1))  # n samples span n sample periods
     sems, _ = step_standard_errors(blocks, _QUANTUM_SIGMA)  # correlated samples: pooled VIF per axis
     return StepMeans(names=tuple(names), f_nominal_g=np.array(f_nom, float), mean_counts=np.array(means),
                      sem_counts=sems, n_samples=np.array(ns, int),
                      temp_c=np.array(temps) if session.has_temperature else None, t_s=np.array(ts),
                      lsb_per_g=session.lsb_per_g, bias_stability=bias_stability(session),
-                     temp_rate_c_per_s=step_temperature_rates(session, idx, rows_of))
+                     temp_rate_c_per_s=step_temperature_rates(session, idx, rows_of), duration_s=np.array(durations))
 
 
 def on_ramp(session: Session) -> bool:

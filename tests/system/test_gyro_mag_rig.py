@@ -17,8 +17,11 @@ import pytest
 import yaml
 
 from calib import calfile
+from calib.accel import BiasStability
+from calib.accel.inputs import FLICKER_FLOOR, flicker_mean_factor
 from calib.gyro import GyroCalibration
 from calib.magnetometer import MagCalibration
+from drivers.sensors.sim.noise import NoiseConfig
 
 from conftest import PROCEDURES, REPO, RIGS
 
@@ -130,17 +133,49 @@ def test_the_rate_steps_capture_only_the_constant_rate_part(runs):
             assert st["stats"]["n_samples"] == 10000  # 100 s at 100 Hz, nothing from the spin-up
 
 
+def _mag_wander_ut(session_dir: Path) -> float:
+    """1-sigma (uT) by which a session's mean magnetometer offset stands off the chip's long-run hard
+    iron: the simulator's dlpf noise (the default) gives the AK8975 a wandering bias (0.1 uT flicker,
+    0.01 uT/sqrt(s) walk, NoiseConfig.for_chip), common to the whole session, which no averaging in it
+    reveals (the accelerometer's BiasStability, with the magnetometer's figures). The magnetometer
+    solver does not add it to the hard-iron sigma yet, so the comparison with the truth does."""
+    from rig.session import load_session
+    cfg = NoiseConfig.for_chip("MPU-9150")
+    span_s = float(np.ptp(load_session(session_dir).samples["t_s"]))
+    return BiasStability(cfg.mag_bias_instability_ut[0], cfg.mag_random_walk_ut_per_rts[0],
+                         cfg.flicker_band_s[1]).sigma_g(span_s)
+
+
+def _mag_between_steps_ut(session_dir: Path) -> float:
+    """RMS (uT) of the magnetometer's bias wander of one step's mean about the session's mean in the
+    dlpf noise model: the flicker between a step's length d and the session's T,
+    ``c^2 (F(d / T_c) - F(T / T_c)) / (2 pi)`` (:func:`calib.accel.inputs.flicker_mean_factor`), plus a
+    random walk's spread about its session mean, ``K^2 T / 6``. The positions fit and the field
+    magnitude of the calibrated steps see it as step-to-step scatter (the white model had none)."""
+    from rig.session import load_session
+    cfg = NoiseConfig.for_chip("MPU-9150")
+    session = load_session(session_dir)
+    t, step = session.samples["t_s"], session.samples["step"]
+    dwell_s = float(np.median([np.ptp(t[step == i]) for i in np.unique(step)]))
+    span_s, corner_s = float(np.ptp(t)), cfg.flicker_band_s[1]
+    coeff = cfg.mag_bias_instability_ut[0] / FLICKER_FLOOR
+    flicker = coeff**2 * (flicker_mean_factor(dwell_s / corner_s) - flicker_mean_factor(span_s / corner_s)) / (2 * np.pi)
+    return float(np.sqrt(flicker + cfg.mag_random_walk_ut_per_rts[0] ** 2 * span_s / 6))
+
+
 def test_eight_positions_recover_soft_and_hard_iron_within_their_sigmas(runs):
     s = runs["mag8"]
     m = MagCalibration.from_dict(calfile.read(s / "calibration.yaml").magnetometer)
     truth = _truth(s)["magnetometer"]
     assert m.method == "positions"
     b = np.asarray(m.hard_iron_ut)
+    wander = _mag_wander_ut(s)
     for j, a in enumerate("xyz"):
-        assert abs(b[j] - truth["hard_iron_ut"][j]) < 4 * m.sigma[f"hard_iron_{a}"], a
+        assert abs(b[j] - truth["hard_iron_ut"][j]) < 4 * np.hypot(m.sigma[f"hard_iron_{a}"], wander), a
         for k, c in enumerate("xyz"):
             assert abs(np.asarray(m.matrix)[j, k] - truth["soft_iron"][j][k]) < 4 * m.sigma[f"a_{a}{c}"], (a, c)
-    assert m.residual_rms_ut < 0.1
+    # 0.1 uT: white measurement noise averaged over a step; the wander adds its step-to-step scatter
+    assert m.residual_rms_ut < np.hypot(0.1, 2 * _mag_between_steps_ut(s))
 
 
 def test_the_ellipsoid_from_a_tumble_recovers_the_hard_iron_and_the_field_magnitude(runs):
@@ -148,13 +183,15 @@ def test_the_ellipsoid_from_a_tumble_recovers_the_hard_iron_and_the_field_magnit
     m = MagCalibration.from_dict(calfile.read(s / "calibration.yaml").magnetometer)
     truth = _truth(s)["magnetometer"]
     assert m.method == "ellipsoid" and m.field_ut == pytest.approx(50.0)
+    wander = _mag_wander_ut(s)
     for j, a in enumerate("xyz"):
-        assert abs(m.hard_iron_ut[j] - truth["hard_iron_ut"][j]) < 4 * m.sigma[f"hard_iron_{a}"], a
+        assert abs(m.hard_iron_ut[j] - truth["hard_iron_ut"][j]) < 4 * np.hypot(m.sigma[f"hard_iron_{a}"], wander), a
     from rig.session import load_session, mag_step_means
     ms = mag_step_means(load_session(s))
     h = m.apply(ms.mean_ut)
-    assert np.allclose(np.linalg.norm(h, axis=1), 50.0, atol=0.1)
-    assert m.fit_quality < 0.1
+    between = _mag_between_steps_ut(s)  # each step's wander about the session's, 1-sigma
+    assert np.allclose(np.linalg.norm(h, axis=1), 50.0, atol=np.hypot(0.1, 4 * between))
+    assert m.fit_quality < np.hypot(0.1, 2 * between)
 
 
 def test_rate_and_magnetometer_sessions_replay_to_identical_sections(runs, tmp_path):

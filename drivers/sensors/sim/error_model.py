@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from drivers.sensors.chips import CHIPS
+
 
 def matrix_from_triangular(scale, alpha_yz: float, alpha_zy: float, alpha_zx: float) -> np.ndarray:
     """diag(k) @ T^-1 with T = [[1, -a_yz, a_zy], [0, 1, -a_zx], [0, 0, 1]] (the seed paper's model)."""
@@ -63,16 +65,15 @@ class AccelErrorModel:
             bias = rng.normal(0, [0.02, 0.02, 0.03])
             scale = 1 + rng.normal(0, 0.02, 3)
             tempco = rng.normal(0, [0.4e-3, 0.4e-3, 0.6e-3])
-            noise = [550e-6, 550e-6, 750e-6]
         else:
             bias = np.clip(rng.normal(0, [0.025, 0.025, 0.04]), [-0.05, -0.05, -0.08], [0.05, 0.05, 0.08])
             scale = 1 + np.clip(rng.normal(0, 0.01, 3), -0.03, 0.03)
             tempco = rng.normal(0, [0.3e-3, 0.3e-3, 0.5e-3])
-            noise = [400e-6] * 3
         angles = rng.normal(0, 0.005, 3)  # rad, 0.5 % cross-axis class
         m = matrix_from_triangular(scale, *angles)
+        density = CHIPS[chip if chip in CHIPS else "MPU-9150"].accel_noise_density_g_rthz  # the datasheet's
         return cls(matrix=m.tolist(), bias_g=bias.tolist(), bias_tempco_g_per_c=tempco.tolist(),
-                   noise_density_g_per_rthz=list(noise))
+                   noise_density_g_per_rthz=list(density))
 
     def to_dict(self) -> dict:
         d = dataclasses.asdict(self)

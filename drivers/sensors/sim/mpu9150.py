@@ -11,7 +11,7 @@ Self-test: SELF_TEST_X/Y/Z/A 0x0D..0x10 hold per-chip factory-trim codes, ACCEL_
 bits 7:5 add the self-test response (:mod:`drivers.sensors.sim.mpu_selftest`). Auxiliary I2C master:
 USER_CTRL.I2C_MST_EN (bit 5), I2C_SLV0..3, I2C_MST_DELAY_CTRL, EXT_SENS_DATA_00..23
 (:mod:`drivers.sensors.sim.i2c_master`); while it is on, the bypass no longer shows the AK8975.
-Noise: white (default) or the DLPF model (``noise="dlpf"``, :mod:`drivers.sensors.sim.noise`) with the
+Noise: the DLPF model (the default, ``noise="dlpf"``, :mod:`drivers.sensors.sim.noise`) with the
 bandwidths and delays of CONFIG.DLPF_CFG.
 """
 

@@ -18,7 +18,7 @@ ACCEL_NOISE_STREAM, GYRO_NOISE_STREAM = 0xD1F0, 0xD1F1
 
 
 class LazySampler:
-    """Samples of one chip on its output grid, with the noise model ``noise`` (default: white)."""
+    """Samples of one chip on its output grid, with the noise model ``noise`` (default: the MPU-9150's figures with :data:`~drivers.sensors.sim.noise.DEFAULT_NOISE_MODEL`)."""
 
     def __init__(self, physics, accel_errors: AccelErrorModel, clock, seed: int, gyro_errors=None,
                  noise: NoiseConfig | None = None) -> None:

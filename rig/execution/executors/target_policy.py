@@ -170,7 +170,12 @@ class TargetPolicy:
         min_s = np.where(layout.free, MIN_DWELL_S, 0.0)
         min_s[layout.current] = tau
         reserved_min = MIN_DWELL_S * (int(layout.free.sum()) - 1)  # the least dwell of the poses to come
-        self.plan = plan_dwell(self.predictor, layout.f, layout.sem, layout.unit, layout.free, min_s,
+        # a pose that stops at its share is final, but the noise it was planned with is re-estimated as
+        # later poses join (the pooled VIF of correlated samples moves by a few per cent): plan with the
+        # noise one standard error of its estimate higher, so a parameter only earlier poses determine
+        # still meets its target with the final estimate (the last pose stops on the target itself)
+        worse = 1.0 if self._last_free(step) else 1.0 + 1.0 / np.sqrt(2.0 * layout.n_eff)
+        self.plan = plan_dwell(self.predictor, layout.f, layout.sem * worse, layout.unit * worse, layout.free, min_s,
                                max(budget_s + tau + reserved_min, tau + reserved_min))
         for row, index in enumerate(layout.indices):
             if layout.free[row]:
@@ -271,6 +276,7 @@ class _Layout:
     unit: np.ndarray
     free: np.ndarray
     current: int
+    n_eff: float  # independent samples' worth behind the noise estimate: samples / VIF (the largest axis')
 
     @classmethod
     def build(cls, policy: TargetPolicy, step, accel: np.ndarray, tau: float) -> "_Layout":
@@ -289,7 +295,9 @@ class _Layout:
         unit = np.tile(pooled, (len(rows), 1))
         unit[len(done)] = sems[-1] * np.sqrt(tau)  # this pose goes on with its own scatter
         free = np.array([False] * len(done) + [True] + [s.dwell_rule == "target" for s in rest])
-        return cls([s.index for s in rows], np.array([s.f_nominal for s in rows], float), sem, unit, free, len(done))
+        n_eff = sum(len(b) for b in blocks) / float(np.max(vif))
+        return cls([s.index for s in rows], np.array([s.f_nominal for s in rows], float), sem, unit, free, len(done),
+                   n_eff)
 
     def dwell_now(self, tau: float, policy: TargetPolicy) -> np.ndarray:
         """Dwell of the free steps if this pose stopped now and the others got their planned share."""

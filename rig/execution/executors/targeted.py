@@ -18,6 +18,7 @@ import numpy as np
 
 from calib.accel.predict import Predictor, plan_dwell, target_record
 from calib.errors import CalibError
+from drivers.sensors.chips import CHIPS
 from rig.config.procedure import load_procedure_text
 from rig.errors import RigInputError
 from rig.execution.capture import (SETTLERS, Capture, Samples, loss_counters, lost_samples, nominal_dwell_s,
@@ -29,8 +30,6 @@ from rig.execution.executors.target_policy import MIN_DWELL_S, TargetPolicy, Tar
 
 #: a capture that receives nothing for this long ends (a replayed recording ran out), s
 IDLE_TIMEOUT_S = 1.0
-#: datasheet white-noise density of each chip's accelerometer (g/sqrt(Hz)): the preflight's optimistic noise
-DATASHEET_DENSITY_G_RTHZ = {"MPU-9150": 400e-6, "ADXL345": 550e-6}
 #: the preflight takes a mean over T seconds to scatter like density * sqrt(OPTIMISM / T) (physics: 0.5;
 #: the white-noise simulator at 1 kHz reaches 0.29): a target refused with it is out of reach on any setting
 OPTIMISM = 0.25
@@ -55,7 +54,8 @@ def preflight(procedure, step, rig) -> None:
         raise RigInputError(procedure.path, None, "target.max_seconds",
                             f"{cap:g} s is less than the moves, settling and least dwell alone (about {least:.0f} s "
                             f"on this rig): raise it")
-    density = DATASHEET_DENSITY_G_RTHZ.get(rig.sensor.model)
+    chip = CHIPS.get(rig.sensor.model)
+    density = min(chip.accel_noise_density_g_rthz) if chip is not None else None  # the quietest axis: optimistic
     if density is None or procedure.target.attitude_error_deg is None:
         return  # sigma targets are in counts, whose scale the sensor knows only once configured
     attitude_only = Predictor(replace(policy.goal, sigma={}), rig.sensor.accel_lsb_per_g, policy.predictor.bias_floor)

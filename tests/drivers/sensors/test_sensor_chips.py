@@ -5,6 +5,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from drivers.clock import VirtualClock
@@ -49,6 +50,15 @@ def test_chip_facts():
     assert adxl.sample_rates_hz == (6.25, 12.5, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0, 3200.0)
     assert mpu.accepts_rate(100.0) and mpu.accepts_rate(1000.0 / 3) and not mpu.accepts_rate(300.0)
     assert adxl.accepts_rate(6.25) and not adxl.accepts_rate(1000.0)
+
+
+@pytest.mark.parametrize("model", SENSOR_MODELS)
+def test_the_simulated_chip_draws_its_noise_density_from_the_registry(model):
+    # one source for the simulator's white noise and the targeted preflight's datasheet noise
+    drawn = AccelErrorModel.draw(np.random.default_rng(3), model).noise_density_g_per_rthz
+    assert tuple(drawn) == CHIPS[model].accel_noise_density_g_rthz
+    assert CHIPS["MPU-9150"].accel_noise_density_g_rthz == (400e-6,) * 3  # product spec
+    assert CHIPS["ADXL345"].accel_noise_density_g_rthz == (550e-6, 550e-6, 750e-6)  # data sheet: z noisier
 
 
 def test_unknown_model_is_one_line_naming_the_known_ones():

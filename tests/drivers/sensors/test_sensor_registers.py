@@ -134,7 +134,10 @@ def _master_setup(bus, delay_samples=0):
 @pytest.mark.parametrize("rate,delay", [(100, 0), (1000, 9)])
 def test_ak8975_read_through_the_i2c_master_equals_the_bypass_read(rate, delay):
     mag = MagErrorModel(hard_iron_ut=[5.0, -3.0, 12.0], noise_ut=0.0)
-    bus, clock, chip = _mpu(mag=mag, physics=StaticPhysics(F, magnetic_field_ut=(22.0, -7.5, -41.0)))
+    # a magnetometer without noise: no white part and, in the (default) dlpf model, no bias wander either
+    # (its 0.1 uT flicker moves the field by an LSB between the two measurements 0.1 s apart)
+    still = NoiseConfig(model="dlpf", mag_bias_instability_ut=[0.0] * 3, mag_random_walk_ut_per_rts=[0.0] * 3)
+    bus, clock, chip = _mpu(mag=mag, physics=StaticPhysics(F, magnetic_field_ut=(22.0, -7.5, -41.0)), noise=still)
     s = open_sensor("MPU-9150", bus, clock=clock)
     s.configure(SensorSettings(sample_rate_hz=rate))
     bus.write_byte_data(0x0C, 0x0A, 0x01)  # bypass read of the same field
@@ -192,9 +195,11 @@ def test_dlpf_noise_at_1khz_44hz_is_correlated_like_a_first_order_filter():
     np.testing.assert_allclose(_lag1(a), expected, atol=0.03)
     np.testing.assert_allclose(_lag1(g), np.exp(-2 * np.pi * 42 / 1000), atol=0.03)  # gyro DLPF: 42 Hz
     np.testing.assert_allclose(a.std(axis=0), 400e-6 * np.sqrt(np.pi * 44 / 2), rtol=0.1)  # 3.3 mg
-    # the default (white) model keeps today's independent samples
-    a, _ = _mpu_1khz_44hz(None, 3.0)
+    # the white model (sim: {noise: white}) keeps independent samples; the default is the dlpf model
+    a, _ = _mpu_1khz_44hz("white", 3.0)
     assert np.all(np.abs(_lag1(a)) < 0.06)
+    a, _ = _mpu_1khz_44hz(None, 3.0)
+    np.testing.assert_allclose(_lag1(a), expected, atol=0.03)
 
 
 def test_dlpf_noise_1s_means_scatter_like_white_noise_of_the_density():

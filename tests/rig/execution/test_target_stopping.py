@@ -137,7 +137,7 @@ def test_a_per_parameter_sigma_target_is_met(make_rig, tmp_path):
     eng.prepare(resuming=False)
     eng.run()
     record = targeted.calibration_record(load_session(writer.session_dir), load_session(writer.session_dir).step_means())
-    assert record["met"] and len(record["sigma"]) == 6
+    assert record["met"] and len(record["sigma"]) == 6, record["summary"]
     assert all(s["predicted"] <= s["target"] for s in record["sigma"])
     assert max(s["predicted"] / s["target"] for s in record["sigma"]) > 0.85  # stopped when met, not later
 
