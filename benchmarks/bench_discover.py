@@ -2,20 +2,34 @@
 
 Usage::
 
-    .venv/bin/python benchmarks/bench_discover.py [--seeds 20] [--clean 100] [--full 20]
+    .venv/bin/python benchmarks/bench_discover.py [--seeds 20] [--clean 100] [--full 0] [--sessions 'GLOB']
 
-Step-level simulation (the default, fast): one tumble26 session is recorded on the simulated rig
-(virtual time) as the template of poses, temperatures, times, heating legs and per-step noise;
-each trial draws a new datasheet-class sensor (``AccelErrorModel.draw``), hides one effect at the
-stated magnitude, evaluates the simulator's own error equation at the template's steps and adds
-Gaussian noise with the template's standard errors (scaled by sqrt(5 s / dwell)). ``--full N``
-also runs N complete clean tumble26 sessions through the emulated turntable and sensor (about
-20 s each) and counts their false alarms, to check the step-level shortcut.
+**Sample-level simulation** (the default, fast): a template session fixes the design (poses, step
+times and durations, temperatures, legs, rates, outer-axis angles, samples per step). Each trial
+draws a datasheet-class sensor (``AccelErrorModel.draw``), hides an effect at the stated magnitude,
+evaluates the simulator's own error equation at every step, and adds the simulator's own ``dlpf``
+noise (``drivers.sensors.sim.noise.NoiseProcess``: white noise through the 44 Hz DLPF, flicker and
+random walk of the MPU-9150 accelerometer, one continuous process over the whole session) to every
+sample; the samples are quantised to counts and reduced to step means and standard errors exactly as
+``rig.session.step_means`` does (pooled VIF). Only the turntable and the chamber are not simulated.
+
+Designs: ``tumble26`` and ``thermal`` (templates recorded on the simulated rig, dlpf noise),
+``tumble26_1khz`` (the tumble26 template at 1 kHz: ten times the samples per step), ``legs`` (the
+issue's design: heating steps at 15, 27.6 and 40 C, cooling steps at 33 and 21 C, six faces each,
+the first leg unknown) and ``ramps`` (faces repeated while the chamber heats and cools at up to
+0.02 C/s, for ``thermal_gradient``).
+
+**Full simulated rig**: ``--full N`` runs N clean sessions per recorded design through the emulated
+turntable and sensor with ``noise: dlpf``; ``--sessions GLOB`` evaluates already-recorded session
+directories instead (each glob match is a session's parent directory, as written by ``rig run --out``).
+A false alarm is any effect named other than ``bias_tempco`` (which every drawn sensor has); the
+verdict's false alarms (``gap_closed: false`` on a clean session) are counted separately.
 """
 
 from __future__ import annotations
 
 import argparse
+import glob
 import subprocess
 import sys
 import tempfile
@@ -28,162 +42,255 @@ import yaml
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from calib.data import StepMeans  # noqa: E402
-from calib.discovery import discover  # noqa: E402
+from calib.accel.inputs import BiasStability, StepMeans  # noqa: E402
+from calib.discovery import StepContext, discover  # noqa: E402
+from calib.effects import heating_state  # noqa: E402
+from calib.uncertainty import step_standard_errors  # noqa: E402
+from drivers.sensors.chips import CHIPS  # noqa: E402
 from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
-from rig.analysis.discover import step_context  # noqa: E402
-from rig.planning.kinematics import rot_x, rot_y  # noqa: E402
-from rig.session import load_session  # noqa: E402
+from drivers.sensors.sim.noise import NoiseProcess  # noqa: E402
+from rig.analysis.discover import discover_session, step_context  # noqa: E402
+from rig.session import load_session, step_means  # noqa: E402
 
-#: effect -> (pattern, stated magnitude); the hidden value is pattern * magnitude
-EFFECTS = {
-    "bias_tempco_quadratic": (np.ones(3), 3e-5),
-    "scale_tempco": (np.ones(3), 2e-4),
-    "scale_nonlinearity": (np.ones(3), 3e-3),
-    "cross_axis_nonlinearity": (np.array([[0, 1, 0], [0, 0, -1], [1, 0, 0]], float), 3e-3),
-    "full_misalignment": (np.array([1.0]), 0.3),  # deg, mounting rotation about sensor x
-    "table_tilt": (np.array([1.0, -0.5]), 0.1),  # deg
-    "bias_drift": (np.ones(3), 5e-7),
-    "thermal_hysteresis": (np.ones(3), 1.5e-3),
+BANDWIDTH_HZ = 44.0
+LSB = 8192.0
+CHIP = CHIPS["MPU-9150"]
+STABILITY = BiasStability(CHIP.accel_bias_instability_g, CHIP.accel_random_walk_g_per_rts, CHIP.accel_flicker_corner_s)
+
+#: (effect, design) -> (error-model field, pattern, stated magnitude); hidden value = pattern * magnitude
+CELLS = {
+    ("bias_tempco_cubic", "thermal"): ("bias_tempco3_g_per_c3", [1, -1, 1], 2e-7),
+    ("bias_tempco_cubic", "legs"): ("bias_tempco3_g_per_c3", [1, -1, 1], 2e-6),
+    ("thermal_gradient", "ramps"): ("thermal_gradient_g_per_c_per_s", [1, -1, 1], 0.05),
+    ("bias_jump", "tumble26"): ("bias_jump_g", [1, -1, 1], 1e-3),
+    ("bias_jump", "thermal"): ("bias_jump_g", [1, -1, 1], 1e-3),
+    ("thermal_hysteresis", "legs"): ("thermal_hysteresis_g", [1, 1, -1], 1.5e-3),
+    ("thermal_hysteresis", "tumble26"): ("thermal_hysteresis_g", [1, 1, -1], 1.5e-3),
+    ("bias_drift", "tumble26"): ("bias_drift_g_per_s", [1, 1, 1], 5e-7),
+    ("scale_tempco", "tumble26"): ("scale_tempco_per_c", [1, 1, 1], 2e-4),
+    ("scale_nonlinearity", "tumble26"): ("scale_nonlinearity", [1, 1, 1], 3e-3),
 }
-FIELD = {"bias_tempco_quadratic": "bias_tempco2_g_per_c2", "scale_tempco": "scale_tempco_per_c",
-         "scale_nonlinearity": "scale_nonlinearity", "cross_axis_nonlinearity": "cross_axis_nonlinearity",
-         "bias_drift": "bias_drift_g_per_s", "thermal_hysteresis": "thermal_hysteresis_g"}
+FACTORS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0)
 
 
-def record_template(tmp: Path, seed: int = 0) -> Path:
+class Design:
+    """What a trial needs of a session: poses, times, durations, temperatures, legs, rates, angles."""
+
+    def __init__(self, f, temp, t_mid, dur, n, heating, rate, angles, names=None) -> None:
+        self.f, self.temp, self.t_mid, self.dur, self.n = f, temp, t_mid, dur, np.asarray(n, int)
+        self.heating, self.rate, self.angles = heating, rate, angles
+        self.names = names if names is not None else tuple(f"s{i}" for i in range(len(f)))
+
+    @classmethod
+    def from_session(cls, path, rate_factor: int = 1) -> "Design":
+        s = load_session(path)
+        idx = s.static_step_indices()
+        st, ctx = step_means(s, idx), step_context(s, idx)
+        k = len(st)
+        return cls(np.asarray(st.f_nominal_g, float), np.asarray(st.temp_c, float), np.asarray(st.t_s, float),
+                   ctx.duration_s, np.asarray(st.n_samples) * rate_factor, ctx.heating,
+                   ctx.temp_rate if ctx.temp_rate is not None else np.zeros(k), ctx.angles_deg, st.names)
+
+    def trial(self, rng, field=None, value=None, jump_t_s=None):
+        """Discover on one simulated session of this design with ``field`` = ``value`` hidden."""
+        m = AccelErrorModel.draw(rng)
+        m.t_ref_c = float(np.mean(self.temp))
+        if field:
+            setattr(m, field, list(value))
+        if jump_t_s is not None:
+            m.bias_jump_t_s = jump_t_s
+        out = m.output_g(self.f, self.temp, self.t_mid, self.heating, self.rate)
+        proc = NoiseProcess([STABILITY.bias_instability_g] * 3, [STABILITY.random_walk_g_per_rts] * 3,
+                            np.random.default_rng(rng.integers(2**62)), flicker_band_s=(0.02, CHIP.accel_flicker_corner_s))
+        times = [np.linspace(t - d / 2, t + d / 2, n) for t, d, n in zip(self.t_mid, self.dur, self.n)]
+        noise = proc.sample(np.concatenate(times), np.asarray(m.noise_density_g_per_rthz, float), BANDWIDTH_HZ)
+        blocks = np.split(np.round((np.repeat(out, self.n, axis=0) + noise) * LSB), np.cumsum(self.n)[:-1])
+        sems, _ = step_standard_errors(blocks, 1 / np.sqrt(12.0))
+        steps = StepMeans(names=self.names, f_nominal_g=self.f, mean_counts=np.array([b.mean(axis=0) for b in blocks]),
+                          sem_counts=sems, n_samples=self.n, temp_c=self.temp, t_s=self.t_mid, lsb_per_g=LSB,
+                          bias_stability=STABILITY)
+        ctx = StepContext(heating=self.heating, temp_rate=self.rate, duration_s=self.dur, angles_deg=self.angles)
+        return discover(steps, ctx), m
+
+
+def legs_design() -> Design:
+    faces = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
+    levels = (15.0, 27.6, 40.0, 33.0, 21.0)
+    f = np.tile(faces, (len(levels), 1))
+    k = len(f)
+    temp = np.repeat(levels, 6) + 0.02 * np.random.default_rng(0).standard_normal(k)
+    t = 300.0 + np.arange(k) * 30.0 + np.repeat(np.arange(len(levels)) * 900.0, 6)
+    return Design(f, temp, t, np.full(k, 5.0), np.full(k, 500), heating_state(temp, 0.5), np.zeros(k),
+                  np.zeros((k, 3)))
+
+
+def ramps_design(reps: int = 10) -> Design:
+    faces = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
+    f = np.tile(faces, (reps, 1))
+    k = len(f)
+    t = 60.0 + np.arange(k) * 20.0
+    rate = 0.02 * np.sin(2 * np.pi * t / (k * 20.0 / 2.3))
+    temp = 25.0 + np.cumsum(rate) * 20.0
+    return Design(f, temp, t, np.full(k, 5.0), np.full(k, 500), heating_state(temp, 0.5), rate, np.zeros((k, 3)))
+
+
+def record(tmp: Path, procedure: str, seed: int, noise: str = "dlpf") -> Path:
     doc = yaml.safe_load((REPO / "rigs" / "sim.yaml").read_text())
     doc["sim"]["time_scale"] = 0
+    doc["sim"]["noise"] = noise
     rig = tmp / "rig.yaml"
     rig.write_text(yaml.safe_dump(doc))
-    out = tmp / f"template-{seed}"
-    subprocess.run([sys.executable, "-m", "rig.cli", "run", str(REPO / "procedures" / "tumble26.yaml"), "--rig",
-                    str(rig), "--out", str(out), "--seed", str(seed), "--quiet"], cwd=REPO, check=True,
-                   capture_output=True)
-    return next(out.iterdir())
+    out = tmp / f"{Path(procedure).stem}-{seed}"
+    subprocess.run([sys.executable, "-m", "rig.cli", "run", str(REPO / "procedures" / procedure), "--rig", str(rig),
+                    "--out", str(out), "--seed", str(seed), "--quiet"], cwd=REPO, check=True, capture_output=True)
+    return next(p for p in out.iterdir() if p.is_dir())
 
 
-class Template:
-    def __init__(self, session_dir: Path) -> None:
-        s = load_session(session_dir)
-        idx = s.static_step_indices()
-        self.steps = s.step_means(idx)
-        self.ctx = step_context(s, idx)
-        self.sem_g = self.steps.sem_counts / self.steps.lsb_per_g
-
-    def trial(self, rng, effect: str | None, magnitude: float, dwell_s: float = 5.0):
-        m = AccelErrorModel.draw(rng)
-        f = np.asarray(self.steps.f_nominal_g, float)
-        if effect in FIELD:
-            pattern = EFFECTS[effect][0]
-            setattr(m, FIELD[effect], (pattern * magnitude).tolist())
-        elif effect == "full_misalignment":
-            a = np.radians(magnitude)
-            rot = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
-            m.matrix = (np.asarray(m.matrix) @ rot).tolist()
-        elif effect == "table_tilt":
-            tx, ty = np.radians(EFFECTS[effect][0] * magnitude)
-            g_base = (rot_x(np.array([tx]))[0] @ rot_y(np.array([ty]))[0]).T @ np.array([0, 0, 1.0])
-            f = self.ctx.base_to_sensor @ g_base
-        heating = self.ctx.heating if self.ctx.heating is not None else np.zeros(len(f))
-        out = m.output_g(f, self.steps.temp_c, self.steps.t_s, heating)
-        sem = self.sem_g * np.sqrt(5.0 / dwell_s)
-        lsb = self.steps.lsb_per_g
-        counts = (out + rng.normal(size=out.shape) * sem) * lsb
-        steps = StepMeans(names=self.steps.names, f_nominal_g=self.steps.f_nominal_g, mean_counts=counts,
-                          sem_counts=sem * lsb, n_samples=self.steps.n_samples, temp_c=self.steps.temp_c,
-                          t_s=self.steps.t_s, lsb_per_g=lsb)
-        return discover(steps, self.ctx)
-
-
-def named(d, effect) -> bool:
-    return effect in [e.name for e in d.effects]
-
-
-def false_alarm(d) -> bool:
+def spurious(d) -> bool:
     return any(e.name != "bias_tempco" for e in d.effects)
+
+
+def detection(design: Design, cell, factor: float, seeds: int, base_seed: int = 1000) -> tuple[int, int, int]:
+    """(named, named alone (+ bias_tempco), within 3 sigma) over ``seeds`` trials at ``factor`` x the magnitude."""
+    effect, _ = cell
+    field, pattern, mag = CELLS[cell]
+    value = np.asarray(pattern, float) * mag * factor
+    jump_t = float(np.median(design.t_mid)) + 7.0 if effect == "bias_jump" else None
+    det = alone = within = 0
+    for s in range(seeds):
+        d, _ = design.trial(np.random.default_rng(base_seed + s), field, value, jump_t)
+        names = [e.name for e in d.effects]
+        if effect in names:
+            det += 1
+            alone += set(names) <= {effect, "bias_tempco"}
+            e = d.effects[names.index(effect)]
+            within += bool(np.all(np.abs(np.array(e.estimate) - value) < 3 * np.array(e.sigma)))
+    return det, alone, within
+
+
+def smallest_detected(design: Design, cell, seeds: int) -> float | None:
+    """Smallest magnitude on the FACTORS grid named in >= 95 % of ``seeds`` (bisection; monotone assumed)."""
+    lo, hi = 0, len(FACTORS) - 1
+    if detection(design, cell, FACTORS[hi], seeds, 2000)[0] < 0.95 * seeds:
+        return None
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if detection(design, cell, FACTORS[mid], seeds, 2000)[0] >= 0.95 * seeds:
+            hi = mid
+        else:
+            lo = mid + 1
+    return FACTORS[lo] * CELLS[cell][2]
+
+
+def clean_rates(design: Design, n: int) -> tuple[int, int, float]:
+    """(spurious names, verdict false alarms, mean chi2/dof after) over ``n`` clean trials."""
+    fa = gap = 0
+    chi = []
+    for s in range(n):
+        d, _ = design.trial(np.random.default_rng(5000 + s))
+        fa += spurious(d)
+        gap += not d.gap_closed
+        chi.append(d.chi2_per_dof_after)
+    return fa, gap, float(np.mean(chi))
+
+
+def full_rig(paths) -> tuple[int, int, int, list]:
+    """(sessions, spurious names, verdict false alarms, names) over recorded clean sessions."""
+    fa = gap = 0
+    names = []
+    for p in paths:
+        _, d = discover_session(p)
+        fa += spurious(d)
+        gap += not d.gap_closed
+        if spurious(d):
+            names.append([e.name for e in d.effects])
+    return len(paths), fa, gap, names
+
+
+def run_time(session: Path) -> tuple[float, float, int]:
+    """(CLI seconds, search seconds, steps) of one discovery on ``session`` twice over (156 steps)."""
+    s = load_session(session)
+    idx = s.static_step_indices()
+    st, ctx = step_means(s, idx), step_context(s, idx)
+    span = float(np.ptp(st.t_s)) + 60.0
+    both = StepMeans(names=st.names * 2, f_nominal_g=np.vstack([st.f_nominal_g] * 2),
+                     mean_counts=np.vstack([st.mean_counts] * 2), sem_counts=np.vstack([st.sem_counts] * 2),
+                     n_samples=np.concatenate([st.n_samples] * 2), temp_c=np.concatenate([st.temp_c] * 2),
+                     t_s=np.concatenate([st.t_s, st.t_s + span]), lsb_per_g=st.lsb_per_g,
+                     bias_stability=st.bias_stability)
+    ctx2 = StepContext(heating=np.concatenate([ctx.heating] * 2), base_to_sensor=np.concatenate([ctx.base_to_sensor] * 2),
+                       temp_rate=np.concatenate([ctx.temp_rate] * 2), duration_s=np.concatenate([ctx.duration_s] * 2),
+                       angles_deg=np.concatenate([ctx.angles_deg] * 2))
+    t0 = time.perf_counter()
+    discover(both, ctx2)
+    search = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "rig.cli", "discover", str(session), "--json"], cwd=REPO, check=True,
+                   capture_output=True)
+    return time.perf_counter() - t0, search, len(both)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--seeds", type=int, default=20)
     ap.add_argument("--clean", type=int, default=100)
-    ap.add_argument("--full", type=int, default=0, help="also run N full clean sessions on the simulated rig")
+    ap.add_argument("--full", type=int, default=0, help="run N full clean dlpf sessions per recorded design")
+    ap.add_argument("--sessions", action="append", default=[], help="glob of recorded clean session dirs")
+    ap.add_argument("--no-mdm", action="store_true", help="skip the smallest-detected-magnitude search")
+    ap.add_argument("--designs", default=None, help="comma-separated designs for the clean runs (default: all)")
+    ap.add_argument("--effects", default=None, help="comma-separated effects for the detection runs (default: all)")
+    ap.add_argument("--templates", nargs=2, default=None, metavar=("TUMBLE26", "THERMAL"),
+                    help="recorded dlpf sessions to use as templates instead of recording them")
     args = ap.parse_args()
     tmp = Path(tempfile.mkdtemp(prefix="bench-discover-"))
-    print("recording the template tumble26 session on the simulated rig ...", flush=True)
-    t0 = time.perf_counter()
-    session = record_template(tmp)
-    print(f"  {time.perf_counter() - t0:.1f} s wall (virtual time)")
-    tpl = Template(session)
+    if args.templates:
+        templates = dict(zip(("tumble26", "thermal"), map(Path, args.templates)))
+    else:
+        print("recording the templates (tumble26, thermal) on the simulated rig, dlpf noise ...", flush=True)
+        templates = {p: record(tmp, f"{p}.yaml", 1) for p in ("tumble26", "thermal")}
+    designs = {"tumble26": Design.from_session(templates["tumble26"]),
+               "tumble26_1khz": Design.from_session(templates["tumble26"], rate_factor=10),
+               "thermal": Design.from_session(templates["thermal"]), "legs": legs_design(), "ramps": ramps_design()}
 
-    # run time of one discovery, end to end through the CLI (load + search + report)
-    times = []
-    for _ in range(5):
-        t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "rig.cli", "discover", str(session), "--json"], cwd=REPO,
-                       check=True, capture_output=True)
-        times.append(time.perf_counter() - t0)
-    t0 = time.perf_counter()
-    for _ in range(20):
-        discover(tpl.steps, tpl.ctx)
-    search_ms = (time.perf_counter() - t0) / 20 * 1e3
-    print(f"\none discovery on a tumble26 session ({len(tpl.steps)} steps): `rig discover --json` "
-          f"{np.median(times):.2f} s median of 5 (target < 10 s); the search alone {search_ms:.0f} ms")
+    cli_s, search_s, k = run_time(templates["tumble26"])
+    print(f"\nrun time: the search on a {k}-step session (tumble26 twice over) {search_s:.2f} s; "
+          f"`rig discover --json` on the 78-step session end to end {cli_s:.2f} s (target < 10 s)")
 
-    print(f"\ndetection over {args.seeds} seeds at the stated magnitude (dwell 5 s):")
-    print(f"| effect | magnitude | detected | named alone (+ bias_tempco) | within 3 sigma |")
-    print("|---|---|---|---|---|")
-    for effect, (pattern, mag) in EFFECTS.items():
-        det = alone = within = 0
-        for seed in range(args.seeds):
-            d = tpl.trial(np.random.default_rng(1000 + seed), effect, mag)
-            if named(d, effect):
-                det += 1
-                alone += set(e.name for e in d.effects) <= {effect, "bias_tempco"}
-                e = next(e for e in d.effects if e.name == effect)
-                truth = _truth(effect, pattern, mag)
-                within += bool(np.all(np.abs(np.array(e.estimate) - truth) < 3 * np.array(e.sigma)))
-        unit = {"full_misalignment": " deg", "table_tilt": " deg"}.get(effect, "")
-        print(f"| {effect} | {mag:g}{unit} | {det}/{args.seeds} | {alone}/{args.seeds} | {within}/{det or 1} |")
+    print(f"\nclean sessions, sample-level dlpf simulation ({args.clean} per design):")
+    print("| design | steps | spurious names | gap_closed false | mean chi2/dof after |\n|---|---|---|---|---|")
+    for name, des in designs.items():
+        if args.designs and name not in args.designs.split(","):
+            continue
+        fa, gap, chi = clean_rates(des, args.clean)
+        print(f"| {name} | {len(des.f)} | {fa}/{args.clean} | {gap}/{args.clean} | {chi:.3f} |", flush=True)
 
-    fa = sum(false_alarm(tpl.trial(np.random.default_rng(5000 + s), None, 0.0)) for s in range(args.clean))
-    print(f"\nfalse alarms on {args.clean} clean step-level sessions: {fa}/{args.clean} "
-          f"({100 * fa / args.clean:.1f} %, target <= 1 %)")
+    print(f"\ndetection over {args.seeds} seeds at the stated magnitude (pattern x magnitude per axis):")
+    print("| effect | design | magnitude | named | named alone (+ bias_tempco) | within 3 sigma | "
+          "smallest named in >= 95 % |\n|---|---|---|---|---|---|---|")
+    for cell, (field, pattern, mag) in CELLS.items():
+        if args.effects and cell[0] not in args.effects.split(","):
+            continue
+        det, alone, within = detection(designs[cell[1]], cell, 1.0, args.seeds)
+        mdm = "-" if args.no_mdm else smallest_detected(designs[cell[1]], cell, args.seeds)
+        mdm = mdm if isinstance(mdm, str) else (f"{mdm:.3g}" if mdm is not None else f"> {FACTORS[-1] * mag:.3g}")
+        print(f"| {cell[0]} | {cell[1]} | {mag:g} | {det}/{args.seeds} | {alone}/{args.seeds} | {within}/{det or 1} | "
+              f"{mdm} |", flush=True)
 
-    print("\nsmallest magnitude detected in >= 95 % of seeds, against dwell time per step:")
-    dwells = (2.0, 5.0, 20.0)
-    print("| effect | " + " | ".join(f"dwell {d:g} s" for d in dwells) + " |")
-    print("|---|" + "---|" * len(dwells))
-    for effect, (pattern, mag) in EFFECTS.items():
-        cells = []
-        for dwell in dwells:
-            found = None
-            for factor in (0.01, 0.02, 0.03, 0.05, 0.07, 0.1, 0.15, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0):
-                m = mag * factor
-                hits = sum(named(tpl.trial(np.random.default_rng(2000 + s), effect, m, dwell), effect)
-                           for s in range(args.seeds))
-                if hits >= 0.95 * args.seeds:
-                    found = m
-                    break
-            cells.append(f"{found:.3g}" if found is not None else f"> {2 * mag:.3g}")
-        print(f"| {effect} | " + " | ".join(cells) + " |")
-
-    if args.full:
-        print(f"\nfull simulated-rig check: {args.full} clean tumble26 sessions ...", flush=True)
-        fa_full = 0
-        for seed in range(args.full):
-            s = record_template(tmp, seed=100 + seed)
-            from rig.analysis.discover import discover_session
-            _, d = discover_session(s)
-            fa_full += false_alarm(d)
-        print(f"false alarms on {args.full} full clean sessions: {fa_full}/{args.full}")
-
-
-def _truth(effect, pattern, mag):
-    if effect == "full_misalignment":
-        return np.array([0.0, 0.0, np.tan(np.radians(mag))])
-    return (np.asarray(pattern, float) * mag).ravel()
+    paths = {}
+    for pattern in args.sessions:
+        for p in sorted(glob.glob(pattern)):
+            inner = [q for q in Path(p).iterdir() if q.is_dir() and (q / "session.yaml").exists()]
+            if inner:
+                paths.setdefault(Path(p).parent.name, []).append(inner[0])
+    for seed in range(args.full):
+        for proc in ("tumble26", "thermal", "six_position"):
+            paths.setdefault(proc, []).append(record(tmp, f"{proc}.yaml", 100 + seed))
+    if paths:
+        print("\nclean full simulated-rig sessions (dlpf noise):")
+        print("| design | sessions | spurious names | gap_closed false | spurious |\n|---|---|---|---|---|")
+        for name, ps in paths.items():
+            n, fa, gap, names = full_rig(ps)
+            print(f"| {name} | {n} | {fa}/{n} | {gap}/{n} | {names} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -1,13 +1,18 @@
 """``rig compare SESSION_A SESSION_B``: two sessions of the same procedure, step by step and axis by
-axis, each difference judged against the two step means' own standard errors (docs/twin.md).
+axis, each difference judged against the two step means' own standard errors and the two sensors' bias
+wander between steps (docs/twin.md).
 
 Measured against re-simulated (the twin of ``rig discover --twin``), before against after, sensor A
 against sensor B. For every static step complete in both sessions and every axis::
 
-    z = (mean_A - mean_B) / sqrt(se_A^2 + se_B^2)
+    d = mean_A - mean_B,   cov(d) = diag(se_A^2 + se_B^2) + W_A + W_B,   z = L^-1 d   (L L^T = cov(d))
 
-with the step means and their correlation-aware standard errors of the session adapter
-(:func:`rig.session.step_means`, :mod:`calib.uncertainty`). The sessions agree at the noise level
+per axis, with the step means and their correlation-aware standard errors of the session adapter
+(:func:`rig.session.step_means`, :mod:`calib.uncertainty`) and the covariance W of each session's bias
+wander between its step means that the chip's stated bias stability implies (:mod:`calib.wander`; the
+two sessions' wanders are independent). ``z`` is the whitened difference (each step's innovation given
+the steps before it), ~N(0, 1) per cell when the sessions agree; without a stated stability it is
+``(mean_A - mean_B) / sqrt(se_A^2 + se_B^2)``. The sessions agree at the noise level
 unless some |z| is beyond the Bonferroni threshold or the chi-square sum of z^2 is beyond its upper
 quantile; the false-alarm rate P of that verdict is split evenly between the two tests (P/2 each).
 Where they disagree, the normalised differences are summarised by axis, temperature, leg, time and
@@ -19,18 +24,19 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
+from scipy import linalg, stats
 
 from calib import calfile
 from calib.data import StepMeans
 from calib.design import misfit
 from calib.discovery import unexplained, unexplained_lines
 from calib.frames import AXES
-from rig.analysis.discover import step_context
+from calib.wander import wander_cov_g2
+from rig.analysis.discover import step_context, step_durations
 from rig.errors import RigInputError
 from rig.session import Session, load_session, step_means
 
-FORMAT = "rig-compare/1"
+FORMAT = "rig-compare/2"  # /2: z whitened with the bias wander (the keys are those of /1)
 TEMP_NOTE_C = 0.2  # step temperatures further apart than this are pointed out
 TIME_NOTE_S = 30.0  # and step times (a thermometer-timed wait varies by a few seconds)
 LOADED_G = 0.5  # an axis carrying at least this much of gravity in a step is "loaded"
@@ -50,7 +56,7 @@ class Side:
 
 @dataclass
 class Comparison:
-    """The outcome of :func:`compare_sessions`; ``to_json`` is the ``rig-compare/1`` contract."""
+    """The outcome of :func:`compare_sessions`; ``to_json`` is the ``rig-compare/2`` contract."""
 
     a: Side
     b: Side
@@ -218,6 +224,20 @@ def judge(z: np.ndarray, false_alarm: float) -> tuple[float, float, float]:
     return zc, chi2, misfit(chi2, z.size, false_alarm / 2)[1]
 
 
+def whitened_difference(sa: Side, sb: Side, wanders) -> np.ndarray:
+    """(K, 3) the difference A - B whitened per axis by its covariance: both standard errors and both
+    sessions' bias wander (``wanders``: their (K, K) covariances, g^2)."""
+    d = sa.value_g - sb.value_g
+    w = sum(wanders)
+    if not np.any(w):
+        return d / np.hypot(sa.se_g, sb.se_g)
+    out = np.empty_like(d)
+    for j in range(3):
+        chol = np.linalg.cholesky(np.diag(sa.se_g[:, j] ** 2 + sb.se_g[:, j] ** 2) + w)
+        out[:, j] = linalg.solve_triangular(chol, d[:, j], lower=True)
+    return out
+
+
 def compare_sessions(path_a, path_b, *, false_alarm: float = 0.01, calibrated: bool = False) -> Comparison:
     """Compare two sessions of the same procedure (see the module docstring)."""
     a, b = load_session(path_a), load_session(path_b)
@@ -225,14 +245,18 @@ def compare_sessions(path_a, path_b, *, false_alarm: float = 0.01, calibrated: b
     idx, skipped = common_steps(a, b)
     note = ("specific force calibrated by each session's own calibration.yaml, g" if calibrated
             else _raw_unit(a, b))
-    (sa, means_a), (sb, _) = side(a, idx, calibrated), side(b, idx, calibrated)
-    z = (sa.value_g - sb.value_g) / np.hypot(sa.se_g, sb.se_g)
+    (sa, means_a), (sb, means_b) = side(a, idx, calibrated), side(b, idx, calibrated)
+    wanders = [wander_cov_g2(s.t_s, step_durations(s.session, idx), m.bias_stability)
+               for s, m in ((sa, means_a), (sb, means_b))]
+    z = whitened_difference(sa, sb, wanders)
     zc, chi2, p = judge(z, false_alarm)
     c = Comparison(a=sa, b=sb, indices=idx, names=[a.info.steps[i].name for i in idx],
                    quantity="calibrated" if calibrated else "raw", quantity_note=note, false_alarm=false_alarm,
                    z=z, z_threshold=zc, chi2=chi2, p_chi2=p, skipped=skipped)
     if not c.agree and len(idx) >= 2:
-        c.structure = unexplained(means_a, step_context(a, idx), z, false_alarm)
+        # where: each difference in its own marginal standard deviations (a jump stays a step in time)
+        marginal = (sa.value_g - sb.value_g) / np.sqrt(sa.se_g ** 2 + sb.se_g ** 2 + np.diag(sum(wanders))[:, None])
+        c.structure = unexplained(means_a, step_context(a, idx), marginal, false_alarm)
     return c
 
 
@@ -240,8 +264,8 @@ def format_report(c: Comparison) -> str:
     """The plain-text report: what was compared, the per-step table, the verdict and where."""
     lines = [f"A: {c.a.session.id} ({c.a.session.path})", f"B: {c.b.session.id} ({c.b.session.path})",
              f"compared: {c.quantity_note}",
-             f"{len(c.indices)} static steps x 3 axes; z = (A - B) / sqrt(se_A^2 + se_B^2) with each step's own "
-             f"standard errors; |z| threshold {c.z_threshold:.2f} (Bonferroni over {c.dof} cells)",
+             f"{len(c.indices)} static steps x 3 axes; z = (A - B) whitened by each step's own standard errors "
+             f"and both sensors' bias wander between steps; |z| threshold {c.z_threshold:.2f} (Bonferroni over {c.dof} cells)",
              f"chi2 {c.chi2:.1f} on {c.dof} dof (chi2/dof {c.chi2 / c.dof:.2f}, p = {c.p_chi2:.2g})",
              "by axis: " + ", ".join(f"{a} rms z {v['rms_z']:.2f} ({v['disagreeing']} beyond)"
                                      for a, v in c.by_axis().items())]

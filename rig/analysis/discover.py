@@ -78,7 +78,7 @@ def step_context(session: Session, step_indices: list[int]) -> StepContext:
                            for i in step_indices])
     rates, window = step_rates(session, step_indices)
     return StepContext(heating=heating, base_to_sensor=b2s, pose_group=groups, band_c=BAND_C, temp_rate=rates,
-                       rate_window_s=window,
+                       rate_window_s=window, duration_s=step_durations(session, step_indices),
                        angles_deg=np.asarray(angles, float) if all(a is not None for a in angles) else None)
 
 
@@ -96,6 +96,16 @@ def step_rates(session: Session, step_indices: list[int]) -> tuple[np.ndarray | 
             rates[pos] = np.polyfit(t[ok] - t[ok].mean(), tc[ok], 1)[0]
             spans.append(float(np.ptp(t[ok])))
     return (rates if np.all(np.isfinite(rates)) else None), (float(np.median(spans)) if spans else 5.0)
+
+
+def step_durations(session: Session, step_indices: list[int]) -> np.ndarray:
+    """Duration of each step's capture (s): the span of its samples' times (for the wander covariance)."""
+    out = np.zeros(len(step_indices))
+    for pos, i in enumerate(step_indices):
+        t = np.asarray(session.step_samples(i)["t_s"], float)
+        t = t[np.isfinite(t)]
+        out[pos] = float(np.ptp(t)) if len(t) >= 2 else 0.0
+    return out
 
 
 def discover_session(session_dir, *, false_alarm: float = 0.01) -> tuple[Session, Discovery]:
@@ -118,7 +128,8 @@ BASELINE_LABELS = {"seed": "baseline (bias, scale, triangular misalignment)",
 def format_report(session: Session, d: Discovery) -> str:
     """The plain-text report: localisation, effects named, gap before and after, per-step table."""
     lines = [f"session {session.id}: {len(d.steps)} static steps, noise level {d.noise_rms_g * 1e6:.1f} ug rms "
-             f"(from each step's own scatter)"]
+             f"(from each step's own scatter)" + (f", bias wander {d.wander_rms_g * 1e6:.1f} ug rms between steps "
+                                                  "(the sensor's stated bias stability)" if d.wander_rms_g else "")]
     label = BASELINE_LABELS[d.baseline]
     lines.append(f"{label}: residual {d.rms_before_g * 1e6:.1f} ug rms, chi2/dof {d.chi2_per_dof_before:.2f}")
     lines.append("where the model and the data disagree:")
@@ -137,6 +148,13 @@ def format_report(session: Session, d: Discovery) -> str:
                      + ", ".join(f"{n} {p:.2g} vs {t:.2g}" for n, (p, t) in near))
     for group in d.aliases:
         lines.append(f"aliases (the data cannot tell these apart; the first was used): {', '.join(group)}")
+    if d.dropped:
+        lines.append(f"named on the way, then dropped: {', '.join(d.dropped)} (what remains is better described by a "
+                     f"generic factor, {d.unexplained['factor']['name'].replace('_', ' ')}, that makes them unnecessary)")
+    if d.observability:
+        lines.append(f"smallest detectable magnitude per candidate (false-alarm rate {d.false_alarm:g}, power "
+                     f"{next(iter(d.observability.values()))['power']:.0%}, given the final model):")
+        lines += ["  " + mdm_line(n, o) for n, o in d.observability.items()]
     if d.unobservable:
         lines.append("unobservable in this session (never named):")
         for n in d.unobservable:
@@ -155,6 +173,13 @@ def format_report(session: Session, d: Discovery) -> str:
     return "\n".join(lines)
 
 
+def mdm_line(name: str, o: dict) -> str:
+    """One candidate's minimum detectable magnitude per parameter and its worst variance inflation."""
+    mdm = ", ".join(_fmt(x) for x in o["mdm"])
+    vif = f", variance inflation {o['max_vif']:.3g}" if o.get("max_vif") else ""
+    return f"{name:<24} [{o['unit']}] {mdm}{vif}"
+
+
 def verdict_lines(d: Discovery) -> list[str]:
     """The verdict in plain words: is the gap closed to the noise level, and if not, what remains."""
     head = f"chi2/dof {d.chi2_per_dof_after:.2f} on {d.dof_after} dof, p = {d.p_fit:.2g}"
@@ -164,6 +189,11 @@ def verdict_lines(d: Discovery) -> list[str]:
              "no effect in the library describes it:"]
     if d.unexplained:
         lines += ["  " + s for s in unexplained_lines(d.unexplained)]
+        f = d.unexplained.get("factor")
+        if f:
+            at = f" at {f['t_s']:.0f} s" if f.get("t_s") is not None else ""
+            lines.append(f"  best generic description of what remains: an offset per {f['name'].replace('_', ' ')}{at} "
+                         f"(p = {f['p_value']:.2g}; with it the residual would be {f['rms_with_factor_g'] * 1e6:.0f} ug rms)")
     return lines
 
 

@@ -1,7 +1,8 @@
 """The discrepancy workflow (`rig discover`), tested on simulated sessions in which an effect is hidden.
 
 Each hidden effect is switched on in a rig file's ``sim.effects`` (the workflow is never told
-which); the shipped ``tumble26.yaml`` procedure runs on the simulated rig in virtual time.
+which); the shipped ``tumble26.yaml`` procedure runs on the simulated rig in virtual time, with the
+realistic ``dlpf`` noise (DLPF-filtered white noise, flicker and random walk of the bias).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import pytest
 import yaml
 
 from calib import calfile
+from calib.effects import LIBRARY
 from rig.analysis.discover import discover_session
 
 from conftest import PROCEDURES, REPO, RIGS
@@ -40,6 +42,7 @@ HIDDEN = {
 def _rig_file(tmp: Path, name: str, effects: dict | None) -> Path:
     doc = yaml.safe_load((RIGS / "sim.yaml").read_text())
     doc["sim"]["time_scale"] = 0
+    doc["sim"]["noise"] = "dlpf"
     if effects:
         doc["sim"]["effects"] = effects
     path = tmp / f"{name}.yaml"
@@ -83,10 +86,10 @@ def test_a_hidden_effect_is_named_estimated_within_3_sigma_and_the_gap_closes(se
     est, sig = np.array(found.estimate, float), np.array(found.sigma, float)
     truth = np.array(HIDDEN[effect][1], float)
     assert np.all(np.abs(est - truth) < 3 * sig), (est, truth, sig)
-    # the gap shrinks to the noise level of the step means
-    assert d.rms_before_g > 3 * d.noise_rms_g
-    assert d.rms_after_g < 1.2 * d.noise_rms_g
-    assert d.chi2_per_dof_after < 1.3
+    # the gap closes: the final chi-square is that of the noise (each step's scatter and the bias wander)
+    floor = float(np.hypot(d.noise_rms_g, d.wander_rms_g))
+    assert d.rms_before_g > 3 * floor
+    assert d.gap_closed and d.chi2_per_dof_after < 1.3
     # and the residual RMS falls with each effect added
     rms = [h[1] for h in d.history]
     assert all(b < a for a, b in zip(rms, rms[1:]))
@@ -98,9 +101,11 @@ def test_a_clean_session_names_only_the_bias_tempco_the_sensor_really_has(sessio
     truth = np.array(_truth(sessions["clean"])["accelerometer"]["bias_tempco_g_per_c"])
     e = d.effects[0]
     assert np.all(np.abs(np.array(e.estimate) - truth) < 3 * np.array(e.sigma))
-    assert d.unobservable == ["bias_tempco_cubic"]  # tumble26 visits 3 temperatures; a cubic needs 4
+    # observability decided by the data: every candidate gets its minimum detectable magnitude
+    assert set(d.observability) | set(d.unobservable) == set(LIBRARY)
+    mdm = d.to_json()["observability"]["bias_drift"]["mdm"]
+    assert all(0 < x < 5e-7 for x in mdm), mdm  # the drift hidden above (5e-7 g/s) is detectable
     assert d.gap_closed and d.to_json()["gap_closed"] is True
-    assert d.rms_after_g < 1.2 * d.noise_rms_g
 
 
 def test_bias_tempco_estimates_match_the_simulator_in_every_session(sessions):
@@ -115,12 +120,17 @@ def test_bias_tempco_estimates_match_the_simulator_in_every_session(sessions):
 
 def test_a_six_position_session_reports_what_it_cannot_observe_and_names_nothing(sessions):
     _, d = discover_session(sessions["six_clean"])
+    _, tumble = discover_session(sessions["clean"])
     assert d.effects == []
-    for name in ("bias_tempco", "bias_tempco_quadratic", "scale_tempco", "thermal_hysteresis",
-                 "cross_axis_nonlinearity"):
+    for name in ("thermal_hysteresis", "cross_axis_nonlinearity"):  # no rank beyond the model
         assert name in d.unobservable, (name, d.unobservable)
-    assert "temperature span" in d.unobservable_why["bias_tempco"]
     assert "zero" in d.unobservable_why["cross_axis_nonlinearity"]
+    # at one chamber temperature the temperature terms have columns, but tiny ones: their minimum
+    # detectable magnitudes are hundreds of times those of tumble26
+    for name in ("bias_tempco", "scale_tempco"):
+        six, t26 = (np.array([np.inf if m is None else m for m in x.to_json()["observability"][name]["mdm"]])
+                    for x in (d, tumble))
+        assert np.all(six > 100 * t26), (name, six, t26)
 
 
 def test_the_localisation_reports_heating_and_cooling_legs_separately(sessions):

@@ -35,6 +35,7 @@ T0_5T = 26.27  # mean step temperature of tumble26 with cooling legs at 31 and 2
 def _run(tmp: Path, name: str, procedure: Path, effects: dict | None, errors: dict | None = None) -> Path:
     doc = yaml.safe_load((RIGS / "sim.yaml").read_text())
     doc["sim"]["time_scale"] = 0
+    doc["sim"]["noise"] = "dlpf"
     if errors:
         doc["sim"]["errors"] = errors
     if effects:
@@ -110,7 +111,7 @@ def test_a_clean_session_closes_the_gap_with_bias_tempco_only(sessions):
     _, d = discover_session(sessions["clean"])
     assert [e.name for e in d.effects] == ["bias_tempco"]
     j = d.to_json()
-    assert j["format"] == "rig-discover/2" and j["gap_closed"] is True
+    assert j["format"] == "rig-discover/3" and j["gap_closed"] is True
 
 
 def test_an_effect_outside_the_library_leaves_the_gap_open_and_says_where(sessions):

@@ -14,7 +14,7 @@ def add_parser(sub) -> None:
                                        "disagree beyond the noise")
     c.add_argument("session_a")
     c.add_argument("session_b")
-    c.add_argument("--json", action="store_true", help="print the rig-compare/1 JSON instead of the report")
+    c.add_argument("--json", action="store_true", help="print the rig-compare/2 JSON instead of the report")
     c.add_argument("--calibrated", action="store_true",
                    help="compare specific force calibrated by each session's own calibration.yaml "
                         "(default: raw counts, which needs the same sensor model and range)")

@@ -1,0 +1,353 @@
+"""The linear problem of the discrepancy search: generalised least squares over all steps and axes.
+
+The step means of a session are not independent: besides each mean's own standard error
+(``sem``, from the scatter of the step's samples) they share the slow wander of the bias
+(:mod:`calib.wander`). The covariance of the stacked means (axis-major rows, counts^2) is
+
+    V = blockdiag_j( diag(sem_j^2) + lsb^2 W ),   W = wander_cov_g2(step times, durations, bias stability)
+
+and every fit is ordinary least squares after whitening by the Cholesky factor of V
+(``L^-1 y = L^-1 G theta + e``, e ~ N(0, I) when the model holds). The whitened residual of
+step i is its *innovation*: its residual less what the residuals of the steps before it
+predict through the wander, in standard deviations. Chi-square, the nested F tests and the
+verdict all use it, so they are calibrated when the wander is there, and reduce to the
+familiar ``r / sem`` weighting when the stability is unknown (``StepMeans.bias_stability`` None).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy import linalg, stats
+
+from calib.accel.inputs import StepMeans
+from calib.effects import LIBRARY, EffectInputs
+from calib.frames import AXES
+from calib.magnitude import fit_magnitude
+from calib.wander import wander_cov_g2
+
+#: baseline columns: which force components enter each output axis (the seed's triangular model)
+TRIANGULAR_COLUMNS = {"x": [0, 1, 2], "y": [1, 2], "z": [2]}
+MIN_JUMP_SIDE = 3  # steps a bias jump needs on each side
+COLUMN_TOL = 1e-6  # a whitened column whose part outside the model is below this fraction is dependent
+#: per-step nuisance columns an effect brings with it: thermal_hysteresis leaves the steps before the
+#: first known heating or cooling transition (leg unknown, h = 0) to an offset of their own
+NUISANCE = {"thermal_hysteresis": "initial_leg"}
+
+
+@dataclass
+class Fit:
+    theta: np.ndarray
+    cov0: np.ndarray
+    rss: float  # generalised chi-square (whitened)
+    dof: int
+    resid: np.ndarray  # (3K,) counts
+    names: list  # (block, index) per column
+    white: np.ndarray  # whitened residual rows
+
+
+class Problem:
+    """Stacked generalised least squares over all steps and output axes (axis-major rows)."""
+
+    def __init__(self, steps: StepMeans, ctx, t0_c: float, t_ref_s: float) -> None:
+        self.steps = steps
+        self.ctx = ctx
+        self.k = len(steps)
+        self.lsb = float(steps.lsb_per_g)
+        self.y = np.asarray(steps.mean_counts, float).T.ravel()
+        self.sem = np.asarray(steps.sem_counts, float).T.ravel()
+        f = np.asarray(steps.f_nominal_g, float)
+        self.pose_free = not np.all(np.isfinite(f))
+        self.f = np.where(np.isfinite(f), f, 0.0)
+        self.t0_c = t0_c
+        self.t_ref_s = t_ref_s
+        self.wander_g2 = wander_cov_g2(np.asarray(steps.t_s, float), ctx.duration_s, steps.bias_stability)
+        self.base, self.base_names = self._baseline()
+        self.matrix_g = np.eye(3)
+        self.cols: dict[str, np.ndarray] = {}
+        self.keep: dict[str, np.ndarray] = {}
+        self.jump_grid = jump_times(np.asarray(steps.t_s, float))
+        self.t_jump = float(np.median(self.jump_grid)) if len(self.jump_grid) else None
+        self.multiplicity = {"bias_jump": max(len(self.jump_grid), 1)}  # Bonferroni cost of the time search
+        self._factors = self._cholesky()
+        self._white: dict[str, np.ndarray] = {}
+
+    # -- covariance ------------------------------------------------------------------------------
+    def _cholesky(self) -> list:
+        """Inverses of the lower Cholesky factors of each block of V (None for a diagonal block: divide by sem)."""
+        if not np.any(self.wander_g2):
+            return [None] * 3
+        w = self.wander_g2 * self.lsb**2
+        return [_inverse_cholesky(np.diag(self.sem[j * self.k:(j + 1) * self.k] ** 2) + w) for j in range(3)]
+
+    def whiten(self, m: np.ndarray) -> np.ndarray:
+        """L^-1 m for fit rows ``m`` (3K,) or (3K, P)."""
+        k = self.k
+        out = np.empty_like(m, dtype=float)
+        for j, inv in enumerate(self._factors):
+            blk = m[j * k:(j + 1) * k]
+            s = self.sem[j * k:(j + 1) * k].reshape((k,) + (1,) * (m.ndim - 1))
+            out[j * k:(j + 1) * k] = blk / s if inv is None else inv @ blk
+        return out
+
+    def white_cols(self, name: str) -> np.ndarray:
+        """Whitened fit rows of effect ``name``'s columns (cached until its columns are rebuilt)."""
+        if name not in self._white:
+            self._white[name] = self.whiten(self.rows(self.cols[name]))
+        return self._white[name]
+
+    def rows(self, m: np.ndarray) -> np.ndarray:
+        """Stacked (3K, ...) axis-major rows -> the rows the fit uses (here: the same)."""
+        return m
+
+    def spread(self, rows: np.ndarray) -> np.ndarray:
+        """Fit-row residuals -> (3K,) axis-major residuals (here: the same)."""
+        return rows
+
+    # -- design ----------------------------------------------------------------------------------
+    def _baseline(self):
+        k = self.k
+        blocks, names = [], []
+        for j, a in enumerate(AXES):
+            if self.pose_free:
+                groups = np.unique(self.ctx.pose_group) if self.ctx.pose_group is not None else np.array([0])
+                labels = self.ctx.pose_group if self.ctx.pose_group is not None else np.zeros(k, int)
+                cols = [(labels == g).astype(float) for g in groups]
+                nm = [f"b_{a}[{g}]" for g in groups]
+            else:
+                cols = [np.ones(k)] + [self.f[:, c] for c in TRIANGULAR_COLUMNS[a]]
+                nm = [f"b_{a}"] + [f"m_{a}{AXES[c]}" for c in TRIANGULAR_COLUMNS[a]]
+            for c, n in zip(cols, nm):
+                full = np.zeros(3 * k)
+                full[j * k:(j + 1) * k] = c
+                blocks.append(full)
+                names.append(n)
+        return np.stack(blocks, axis=1), names
+
+    def inputs(self) -> EffectInputs:
+        s = self.steps
+        return EffectInputs(f_g=self.f, temp_c=None if s.temp_c is None else np.asarray(s.temp_c, float),
+                            t_s=np.asarray(s.t_s, float), heating=self.ctx.heating,
+                            base_to_sensor=self.ctx.base_to_sensor, matrix_g=self.matrix_g, t0_c=self.t0_c,
+                            t_ref_s=self.t_ref_s, temp_rate=self.ctx.temp_rate, t_jump_s=self.t_jump)
+
+    def set_jump(self, t_jump_s: float) -> None:
+        """Move the bias jump to ``t_jump_s`` (rebuilds its columns)."""
+        self.t_jump = float(t_jump_s)
+        self.build_columns(["bias_jump"])
+        self.keep["bias_jump"] = self.observable_columns("bias_jump")
+
+    def test(self, name: str, small: Fit, big: Fit) -> tuple[float, float]:
+        """F test of adding ``name`` (``big`` = ``small`` + name), its p-value multiplied by the number
+        of values its nonlinear parameter was searched over (the jump time: Bonferroni)."""
+        f, p = f_test(small, big)
+        return f, min(1.0, p * self.multiplicity.get(name, 1))
+
+    def build_columns(self, names) -> None:
+        x = self.inputs()
+        for n in names:
+            c = LIBRARY[n].columns_g(x)  # (K, 3, P)
+            cols = np.transpose(c, (1, 0, 2)).reshape(3 * self.k, -1) * self.lsb
+            self.cols[n] = np.concatenate([cols, self.nuisance_columns(n)], axis=1)
+            self._white.pop(n, None)
+
+    def nuisance_columns(self, name: str) -> np.ndarray:
+        """(3K, Q) columns that come with effect ``name`` but are not its parameters (see NUISANCE)."""
+        if NUISANCE.get(name) != "initial_leg" or self.ctx.heating is None or not np.any(self.ctx.heating == 0):
+            return np.zeros((3 * self.k, 0))
+        unknown = (np.asarray(self.ctx.heating) == 0).astype(float)
+        out = np.zeros((3 * self.k, 3))
+        for j in range(3):
+            out[j * self.k:(j + 1) * self.k, j] = unknown
+        return out
+
+    def design(self, effects, extra=None) -> tuple[np.ndarray, list]:
+        mats, names = [self.base], [("base", n) for n in self.base_names]
+        for e in effects:
+            keep = self.keep[e]
+            mats.append(self.cols[e][:, keep])
+            names += [(e, int(i)) for i in np.flatnonzero(keep)]
+        if extra is not None:
+            mats.append(extra[0])
+            names += [("nuisance", n) for n in extra[1]]
+        return np.concatenate(mats, axis=1), names
+
+    def fit(self, effects, extra=None) -> Fit:
+        """GLS fit of the baseline plus ``effects`` (plus ``extra`` = (columns, names) of nuisance factors);
+        columns the others already span are dropped (the dof counts only what is determined)."""
+        g, names = self.design(effects, extra)
+        if "base" not in self._white:
+            self._white["base"] = self.whiten(self.rows(self.base))
+            self._white["y"] = self.whiten(self.rows(self.y))
+        parts = [self._white["base"]] + [self.white_cols(e)[:, self.keep[e]] for e in effects]
+        if extra is not None:
+            parts.append(self.whiten(self.rows(extra[0])))
+        gw, yw = np.concatenate(parts, axis=1), self._white["y"]
+        keep = _determined(gw)
+        gw, g, names = gw[:, keep], g[:, keep], [n for n, kk in zip(names, keep) if kk]
+        q, r = np.linalg.qr(gw)
+        theta = np.linalg.solve(r, q.T @ yw)
+        rinv = np.linalg.inv(r)
+        white = yw - gw @ theta
+        resid = self.spread(self.rows(self.y) - self.rows(g) @ theta)
+        return Fit(theta, rinv @ rinv.T, float(white @ white), len(yw) - g.shape[1], resid, names, white)
+
+    def observable_columns(self, name: str) -> np.ndarray:
+        """Mask of the effect's columns the design determines beyond the baseline."""
+        if "base_q" not in self._white:
+            self._white["base_q"] = np.linalg.qr(self.whiten(self.rows(self.base)))[0]
+        return independent(self._white["base_q"], self.white_cols(name))
+
+    @property
+    def baseline_name(self) -> str:
+        return "pose_groups" if self.pose_free else "seed"
+
+    def normalised(self, fit: Fit) -> np.ndarray:
+        """(K, 3) whitened residuals (innovations), each ~N(0, 1) when the model holds."""
+        return fit.white.reshape(3, self.k).T
+
+    def marginal(self, fit: Fit) -> np.ndarray:
+        """(K, 3) residuals in their own marginal standard deviations, ``r / sqrt(sem^2 + lsb^2 W_ii)``:
+        for saying where a residual sits (a jump stays a step in time); not independent between steps."""
+        sd = np.sqrt(self.sem.reshape(3, self.k) ** 2 + np.diag(self.wander_g2)[None, :] * self.lsb ** 2)
+        return (fit.resid.reshape(3, self.k) / sd).T
+
+    def rms_g(self, fit: Fit) -> float:
+        """RMS residual of a fit, g."""
+        return float(np.sqrt(np.mean(fit.resid ** 2)) / self.lsb)
+
+    def axis_chi2(self, fit: Fit) -> np.ndarray:
+        """(3,) generalised chi-square of each output axis."""
+        return np.sum(self.normalised(fit) ** 2, axis=0)
+
+
+def _inverse_cholesky(v: np.ndarray) -> np.ndarray:
+    """L^-1 for V = L L^T (lower triangular)."""
+    chol = np.linalg.cholesky(v)
+    return linalg.solve_triangular(chol, np.eye(len(v)), lower=True)
+
+
+def _determined(gw: np.ndarray) -> np.ndarray:
+    """Mask of the whitened design's columns not spanned by the columns before them."""
+    keep = np.ones(gw.shape[1], bool)
+    if gw.shape[1] > gw.shape[0]:
+        return independent(np.zeros((gw.shape[0], 0)), gw)
+    _, r = np.linalg.qr(gw)
+    norms = np.linalg.norm(gw, axis=0)
+    d = np.abs(np.diag(r))
+    bad = (d <= COLUMN_TOL * np.where(norms > 0, norms, 1.0)) | (norms == 0)
+    if not bad.any():
+        return keep
+    return independent(np.zeros((gw.shape[0], 0)), gw)
+
+
+def independent(basis: np.ndarray, cw: np.ndarray) -> np.ndarray:
+    """Mask of the (whitened) columns ``cw`` that add a direction to the orthonormal ``basis`` (and to
+    the columns kept before them)."""
+    keep = np.zeros(cw.shape[1], bool)
+    for i in range(cw.shape[1]):
+        c = cw[:, i]
+        norm = np.linalg.norm(c)
+        if norm == 0:
+            continue
+        r = c - basis @ (basis.T @ c)
+        if np.linalg.norm(r) > COLUMN_TOL * norm:
+            keep[i] = True
+            basis = np.concatenate([basis, (r / np.linalg.norm(r))[:, None]], axis=1)
+    return keep
+
+
+class RadialProblem(Problem):
+    """Sessions with unknown poses that never repeat (an imu_tk-style hand-held recording): the
+    magnitude model ``|M^-1 (a - b)| = 1 g`` as the baseline.
+
+    The fit is linearised at the magnitude solution: each step's direction ``f_i`` is estimated from
+    it, and only the component of each step's residual along ``u_i = unit(U^T f_i)`` (``U = M^-1``) is
+    used, the one a change of the unknown direction cannot absorb (to first order). One row per step;
+    its covariance is ``diag(sd_i^2) + (u_i . u_k) lsb^2 W_ik`` (sd_i: the step's standard error along
+    u_i; W: the wander, independent per axis). Residuals are reported per axis as ``u_i r_i`` so the
+    localisation and the verdict read them like any other session's. Only bias-type effects are
+    candidates (poses unknown).
+    """
+
+    def __init__(self, steps: StepMeans, ctx, t0_c: float, t_ref_s: float) -> None:
+        a = np.asarray(steps.mean_counts, float)
+        sem = np.asarray(steps.sem_counts, float)
+        mfit = fit_magnitude(a, sem, radius=1.0)
+        u = np.linalg.inv(mfit.matrix)
+        f = (a - mfit.bias) @ u.T
+        f /= np.linalg.norm(f, axis=1)[:, None]
+        self.u = None
+        super().__init__(replace(steps, f_nominal_g=f), ctx, t0_c, t_ref_s)
+        proj = f @ u
+        self.u = proj / np.linalg.norm(proj, axis=1)[:, None]
+        self.sd = np.sqrt(np.sum((self.u * sem) ** 2, axis=1))
+        self._factors = self._cholesky()
+        self._white = {}
+        self.pose_free = True  # directions estimated, not known: no calibration, no force effects
+
+    def _cholesky(self) -> list:
+        if self.u is None:
+            return []
+        v = np.diag(self.sd ** 2) + (self.u @ self.u.T) * self.wander_g2 * self.lsb ** 2
+        return [_inverse_cholesky(v)]
+
+    @property
+    def baseline_name(self) -> str:
+        return "magnitude"
+
+    def whiten(self, m: np.ndarray) -> np.ndarray:
+        return self._factors[0] @ m
+
+    def rows(self, m: np.ndarray) -> np.ndarray:
+        """(3K, ...) axis-major rows -> (K, ...) components along each step's ``u_i``."""
+        k = self.k
+        return sum(self.u[:, j].reshape((k,) + (1,) * (m.ndim - 1)) * m[j * k:(j + 1) * k] for j in range(3))
+
+    def spread(self, rows: np.ndarray) -> np.ndarray:
+        return (self.u * rows[:, None]).T.ravel()
+
+    def normalised(self, fit: Fit) -> np.ndarray:
+        """Each step's radial innovation spread over the axes as ``sqrt(3) u_i z_i``: a step's mean square
+        over the axes is ``z_i^2`` (~1 when the model holds), as for other sessions."""
+        return np.sqrt(3.0) * self.u * fit.white[:, None]
+
+    def marginal(self, fit: Fit) -> np.ndarray:
+        """Each step's radial residual in its marginal standard deviation, spread as in :meth:`normalised`."""
+        rows = self.rows(fit.resid)
+        sd = np.sqrt(self.sd ** 2 + np.diag(self.wander_g2) * self.lsb ** 2)
+        return np.sqrt(3.0) * self.u * (rows / sd)[:, None]
+
+    def rms_g(self, fit: Fit) -> float:
+        """RMS over the steps of the radial residual, g."""
+        return float(np.sqrt(np.mean(np.sum(fit.resid.reshape(3, self.k) ** 2, axis=0))) / self.lsb)
+
+
+def f_test(small: Fit, big: Fit) -> tuple[float, float]:
+    """Nested-model F statistic and p-value (``big`` adds columns to ``small``)."""
+    q = small.dof - big.dof
+    if q <= 0 or big.dof <= 0:
+        return 0.0, 1.0
+    f = max(small.rss - big.rss, 0.0) / q / (big.rss / big.dof)
+    return float(f), float(stats.f.sf(f, q, big.dof))
+
+
+def jump_times(t_s: np.ndarray) -> np.ndarray:
+    """Candidate bias-jump times: midpoints between consecutive distinct step times that leave at least
+    ``MIN_JUMP_SIDE`` steps on each side."""
+    t = np.unique(np.asarray(t_s, float))
+    mids = 0.5 * (t[:-1] + t[1:])
+    return mids[MIN_JUMP_SIDE - 1:len(mids) - MIN_JUMP_SIDE + 1]
+
+
+def scan_jump(prob: Problem, others: list, extra=None) -> float:
+    """Put ``bias_jump`` at the step boundary that lowers chi2 most with ``others`` in the model."""
+    best = (np.inf, prob.t_jump)
+    for tj in prob.jump_grid:
+        prob.set_jump(tj)
+        rss = prob.fit(list(others) + ["bias_jump"], extra).rss
+        if rss < best[0]:
+            best = (rss, tj)
+    prob.set_jump(best[1])
+    return best[1]
