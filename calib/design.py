@@ -177,15 +177,21 @@ def solve_wls(g: np.ndarray, y: np.ndarray, sem: np.ndarray, names: list[str],
     sessions report sigmas a factor of 5 apart, so an insignificant misfit leaves the sigmas alone.
     """
     w = 1.0 / sem
-    gw = g * w[:, None]
-    yw = y * w
+    return solve_whitened(g, y, g * w[:, None], y * w, names, misfit_p)
+
+
+def solve_whitened(g: np.ndarray, y: np.ndarray, gw: np.ndarray, yw: np.ndarray, names: list[str],
+                   misfit_p: float = 0.01) -> AxisFit:
+    """Least squares on the whitened design ``gw`` and data ``yw`` (weighted: rows divided by the
+    sem; generalised: premultiplied by the inverse Cholesky factor of the data's covariance), with
+    the Birge rescale of :func:`solve_wls`; residuals are ``y - g p`` in the data's own units."""
     q, r = np.linalg.qr(gw)
     params = np.linalg.solve(r, q.T @ yw)
     rinv = np.linalg.inv(r)
     cov0 = rinv @ rinv.T
-    res = y - g @ params
-    chi2 = float(np.sum((res * w) ** 2))
+    white = yw - gw @ params
+    chi2 = float(white @ white)
     dof = g.shape[0] - g.shape[1]
     inflated, _ = misfit(chi2, dof, misfit_p)
     cov = cov0 * (chi2 / dof) if inflated else cov0
-    return AxisFit(list(names), params, cov, cov0, res, chi2, dof, inflated)
+    return AxisFit(list(names), params, cov, cov0, y - g @ params, chi2, dof, inflated)

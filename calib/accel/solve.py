@@ -28,7 +28,7 @@ import numpy as np
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration, FitSummary, ThermalModel
 from calib.design import (AXES, AxisFit, Inputs, LinearModel, Term, check_model, check_rank, const_term, force_term,
-                          misfit, solve_wls, temp_term, undetermined)
+                          solve_whitened, solve_wls, temp_term, undetermined)
 from calib.errors import CalibError, ObservabilityError
 from calib.magnitude import fit_magnitude
 from calib.wander import wander_cov_g2
@@ -189,16 +189,7 @@ def solve_gls(g: np.ndarray, y: np.ndarray, cov_y: np.ndarray, names: list[str],
     factor, then as :func:`calib.design.solve_wls` (rescaled by chi2/dof only when the misfit is
     significant at ``misfit_p``). Residuals are in counts (not whitened)."""
     chol = np.linalg.cholesky(cov_y)
-    gw, yw = np.linalg.solve(chol, g), np.linalg.solve(chol, y)
-    q, r = np.linalg.qr(gw)
-    params = np.linalg.solve(r, q.T @ yw)
-    rinv = np.linalg.inv(r)
-    cov0 = rinv @ rinv.T
-    white = yw - gw @ params
-    chi2, dof = float(white @ white), g.shape[0] - g.shape[1]
-    inflated, _ = misfit(chi2, dof, misfit_p)
-    return AxisFit(list(names), params, cov0 * (chi2 / dof) if inflated else cov0, cov0, y - g @ params, chi2, dof,
-                   inflated)
+    return solve_whitened(g, y, np.linalg.solve(chol, g), np.linalg.solve(chol, y), names, misfit_p)
 
 
 def assemble(steps: StepMeans, model: str, fits: dict, order: int, t0_c: float, method: str,
