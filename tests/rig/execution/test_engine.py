@@ -20,10 +20,9 @@ from rig.execution.executors import temperature
 from rig.execution.operator import OperatorAbsent, SilentOperator
 from rig.planning.kinematics import AXES
 from rig.session import SessionWriter, load_session
-from rig.simulation.simrig import SimSettings, SimulatedRig
-from rig.simulation.simulated import open_in_process_rig
 from rig.simulation.world import ChamberConfig
-from rig.workflow.lifecycle import session_columns
+
+from engine_rig import make_rig, start as start_engine  # noqa: F401 - make_rig is a fixture
 
 HEAD = """format: rig-procedure/1
 name: unit
@@ -38,27 +37,9 @@ def procedure(steps: str, extra: str = ""):
     return load_procedure_text(HEAD.format(extra=extra) + steps, "unit.yaml")
 
 
-@pytest.fixture
-def make_rig(request):
-    rigs = []
-
-    def make(seed: int = 1, model: str = "MPU-9150", **settings):
-        sim = SimulatedRig(SimSettings(time_scale=0, **settings), seed=seed, sensor_model=model)
-        rig = open_in_process_rig(sim, name=f"{request.node.name}-{len(rigs)}")
-        rigs.append(rig)
-        return rig
-
-    yield make
-    for rig in rigs:
-        rig.close()
-
-
 def start(proc, rig, tmp_path, operator=None, **kw) -> tuple[Engine, SessionWriter]:
-    rig.sensor.configure(proc.sensor_settings())
-    manifest = {"procedure": {"name": proc.name, "text": "", "file": None}, "rig": rig.describe(),
-                "software": {"name": "test"}, "steps": [s.to_manifest() for s in proc.expanded_steps()]}
-    writer = SessionWriter.create(tmp_path, "unit", manifest, columns=session_columns(proc, rig))
-    return Engine(proc, rig, writer, operator or SilentOperator(), **kw), writer
+    """An engine on a fresh session; the manifest records no procedure text."""
+    return start_engine(proc, rig, tmp_path, operator, text="", **kw)
 
 
 def moving(rig) -> list[str]:

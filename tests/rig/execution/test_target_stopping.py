@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
 import pytest
 
 from rig.cli.console import plain_progress_line
@@ -22,9 +21,8 @@ from rig.execution.executors.target_policy import BLOCK_S, MIN_DWELL_S
 from rig.execution.operator import SilentOperator
 from rig.planning.kinematics import AXES
 from rig.session import SessionWriter, load_session
-from rig.simulation.simrig import SimSettings, SimulatedRig
-from rig.simulation.simulated import open_in_process_rig
-from rig.workflow.lifecycle import session_columns
+
+from engine_rig import make_rig, start as start_engine  # noqa: F401 - make_rig is a fixture
 
 TEXT = """format: rig-procedure/1
 name: unit_target
@@ -57,27 +55,8 @@ class Recorder(SilentOperator):
         self.lines.append(message)
 
 
-@pytest.fixture
-def make_rig(request):
-    rigs = []
-
-    def make(seed: int = 1, **settings):
-        sim = SimulatedRig(SimSettings(time_scale=0, **settings), seed=seed)
-        rig = open_in_process_rig(sim, name=f"{request.node.name}-{len(rigs)}")
-        rigs.append(rig)
-        return rig
-
-    yield make
-    for rig in rigs:
-        rig.close()
-
-
 def start(proc, rig, tmp_path, operator=None, **kw) -> tuple[Engine, SessionWriter]:
-    rig.sensor.configure(proc.sensor_settings())
-    manifest = {"procedure": {"name": proc.name, "text": proc.text, "file": None}, "rig": rig.describe(),
-                "software": {"name": "test"}, "steps": [s.to_manifest() for s in proc.expanded_steps()]}
-    writer = SessionWriter.create(tmp_path, "unit", manifest, columns=session_columns(proc, rig))
-    return Engine(proc, rig, writer, operator or Recorder(), **kw), writer
+    return start_engine(proc, rig, tmp_path, operator or Recorder(), **kw)
 
 
 def target_procedure(target: str):
