@@ -12,6 +12,8 @@ REPO = Path(__file__).resolve().parents[1]
 PROCEDURES = REPO / "procedures"
 RIGS = REPO / "rigs"
 DATASETS = REPO.parent / "shared" / "datasets"
+#: the seed's six faces as the ``steps:`` of a procedure written in a test
+SIX_FACES_STEPS = "".join(f'  - pose: "{face}"\n' for face in ("+Z up", "+X up", "-Z up", "-X up", "+Y up", "-Y up"))
 
 
 def pytest_configure(config):

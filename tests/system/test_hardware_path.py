@@ -16,6 +16,8 @@ from rig.cli import main
 from rig.simulation.simrig import SimSettings, SimulatedRig
 from rig.simulation.simulated import publish_bus, withdraw_bus
 
+from conftest import SIX_FACES_STEPS
+
 PROCEDURE = """format: rig-procedure/1
 name: six_position_quick
 description: The six faces, 1 s each (real time).
@@ -23,13 +25,7 @@ sensor: {accel_range_g: 4, sample_rate_hz: 100}
 dwell: {seconds: 1}
 settle: {window_s: 0.3, threshold_g: 0.01, timeout_s: 10}
 steps:
-  - pose: "+Z up"
-  - pose: "+X up"
-  - pose: "-Z up"
-  - pose: "-X up"
-  - pose: "+Y up"
-  - pose: "-Y up"
-solve: {model: triangular, method: pinv, thermal: off}
+""" + SIX_FACES_STEPS + """solve: {model: triangular, method: pinv, thermal: off}
 """
 
 

@@ -18,7 +18,7 @@ import re
 
 import yaml
 
-from conftest import RIGS
+from conftest import RIGS, SIX_FACES_STEPS
 from rig.cli import main
 from rig.session import load_session
 from rig.simulation import simulated
@@ -29,13 +29,7 @@ sensor: {model: MPU-9150, accel_range_g: 4, sample_rate_hz: 1000}
 dwell: {seconds: 1}
 settle: {window_s: 0.3, threshold_g: 0.01, timeout_s: 20}
 steps:
-  - pose: "+Z up"
-  - pose: "+X up"
-  - pose: "-Z up"
-  - pose: "-X up"
-  - pose: "+Y up"
-  - pose: "-Y up"
-solve: {model: triangular, method: pinv, thermal: "off"}
+""" + SIX_FACES_STEPS + """solve: {model: triangular, method: pinv, thermal: "off"}
 """
 KEEPS_UP = r"this machine keeps up with about [0-9.]+x for a 1 kHz MPU-9150; use --time-scale (?:[0-9.]+ or 0|0) " \
            r"\(virtual time\)$"

@@ -22,6 +22,7 @@ from rig.execution.operator import SilentOperator
 from rig.planning.kinematics import AXES
 from rig.session import SessionWriter, load_session
 
+from conftest import SIX_FACES_STEPS
 from engine_rig import make_rig, start as start_engine  # noqa: F401 - make_rig is a fixture
 
 TEXT = """format: rig-procedure/1
@@ -31,13 +32,7 @@ settle: {{window_s: 0.25, threshold_g: 0.01, timeout_s: 10}}
 order: fastest
 target: {target}
 steps:
-  - pose: "+Z up"
-  - pose: "+X up"
-  - pose: "-Z up"
-  - pose: "-X up"
-  - pose: "+Y up"
-  - pose: "-Y up"
-solve: {{model: triangular, method: pinv, thermal: auto}}
+{six_faces}solve: {{model: triangular, method: pinv, thermal: auto}}
 """
 
 
@@ -60,7 +55,7 @@ def start(proc, rig, tmp_path, operator=None, **kw) -> tuple[Engine, SessionWrit
 
 
 def target_procedure(target: str):
-    return load_procedure_text(TEXT.format(target=target), "unit.yaml")
+    return load_procedure_text(TEXT.format(target=target, six_faces=SIX_FACES_STEPS), "unit.yaml")
 
 
 def events(writer, kind: str) -> list[dict]:
@@ -219,7 +214,7 @@ def test_a_bad_target_is_one_line_naming_the_key(target, key, message):
       "\n# full model\n"), None, None),
 ])
 def test_a_target_the_rest_of_the_procedure_contradicts_is_refused(edit, key, message):
-    text = TEXT.format(target="{attitude_error_deg: 0.03, max_seconds: 90}").replace(*edit)
+    text = TEXT.format(target="{attitude_error_deg: 0.03, max_seconds: 90}", six_faces=SIX_FACES_STEPS).replace(*edit)
     if key is None:  # the sigma names a parameter the full model lacks
         text = text.replace("model: triangular", "model: full")
         key, message = "target.sigma", "names no parameter of the full model"
