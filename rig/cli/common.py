@@ -56,6 +56,13 @@ def json_default(o):
     return str(o)
 
 
+def check_false_alarm(p: float) -> float:
+    """``--false-alarm``: a probability in (0, 0.5)."""
+    if not 0 < p < 0.5:
+        raise UsageError(f"--false-alarm: expected a probability in (0, 0.5), got {p:g}")
+    return p
+
+
 def parse_thermal(v):
     """``--thermal``: auto, off or a polynomial order 1..3."""
     if v is None or v in ("auto", "off"):

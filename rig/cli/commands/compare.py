@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 
 from rig.analysis import compare as cmp
-from rig.cli.common import EXIT_OK, UsageError, json_default, report_warnings
+from rig.cli.common import EXIT_OK, check_false_alarm, json_default, report_warnings
 
 
 def add_parser(sub) -> None:
@@ -23,8 +23,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    if not 0 < args.false_alarm < 0.5:
-        raise UsageError(f"--false-alarm: expected a probability in (0, 0.5), got {args.false_alarm:g}")
+    check_false_alarm(args.false_alarm)
     c = cmp.compare_sessions(args.session_a, args.session_b, false_alarm=args.false_alarm,
                              calibrated=args.calibrated)
     for s in (c.a.session, c.b.session):

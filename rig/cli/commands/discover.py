@@ -6,7 +6,7 @@ import json
 
 from rig.analysis import discover as dsc
 from rig.analysis import twin as twn
-from rig.cli.common import EXIT_OK, UsageError, json_default, report_warnings
+from rig.cli.common import EXIT_OK, check_false_alarm, json_default, report_warnings
 
 
 def add_parser(sub) -> None:
@@ -25,8 +25,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    if not 0 < args.false_alarm < 0.5:
-        raise UsageError(f"--false-alarm: expected a probability in (0, 0.5), got {args.false_alarm:g}")
+    check_false_alarm(args.false_alarm)
     session, d = dsc.discover_session(args.session, false_alarm=args.false_alarm)
     report_warnings("discover", session)
     extra = {}
