@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from calib.design import solve_wls
+from calib.design import session_rule, solve_wls
 from calib.errors import CalibError
 
 def check_array(owner: str, name: str, value: Any, shape: tuple, positive: bool = False) -> np.ndarray:
@@ -80,7 +80,7 @@ def fit_affine(x: np.ndarray, y: np.ndarray, sem: np.ndarray, param_names: list[
     The caller checks observability first (:func:`input_coverage`).
     """
     g = affine_design(x)
-    fits = [solve_wls(g, y[:, i], sem[:, i], param_names[i]) for i in range(3)]
+    fits = session_rule([solve_wls(g, y[:, i], sem[:, i], param_names[i]) for i in range(3)])
     p = np.array([f.params[:3] for f in fits])
     c = np.array([f.params[3] for f in fits])
     chi2 = sum(f.chi2 for f in fits)

@@ -42,7 +42,7 @@ class Redundancy:
                               for b, s in zip(p.bias_counts, p.sigma_counts))
             lines.append(f"  +/-{p.axis_up}   {cells}")
         lines.append("  spread   " + "  ".join(f"{s / lsb_per_g * 1e3:14.2f}" for s in self.spread_counts)
-                     + f"   chi2/dof " + " ".join(f"{c / max(self.dof, 1):.1f}" for c in self.chi2))
+                     + "   chi2/dof " + " ".join(f"{c / max(self.dof, 1):.1f}" for c in self.chi2))
         return "\n".join(lines)
 
 

@@ -28,7 +28,7 @@ import numpy as np
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration, FitSummary, ThermalModel
 from calib.design import (AXES, AxisFit, Inputs, LinearModel, Term, check_model, check_rank, const_term, force_term,
-                          solve_whitened, solve_wls, temp_term, undetermined)
+                          session_rule, solve_whitened, solve_wls, temp_term, undetermined)
 from calib.errors import CalibError, ObservabilityError
 from calib.magnitude import fit_magnitude
 from calib.wander import wander_cov_g2
@@ -165,6 +165,7 @@ def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> A
         y, sem = steps.mean_counts[:, j], steps.sem_counts[:, j]
         fits[a] = (solve_gls(designs[a], y, wander_covariance(steps, sem), lm.names(a)) if wander
                    else solve_wls(designs[a], y, sem, lm.names(a)))
+    fits = session_rule(fits)
     if wander:  # the wander is in the fit's covariance already: not added to the bias sigma again
         steps = dataclasses.replace(steps, bias_stability=None)
     return assemble(steps, model, fits, order, x.t0_c, method, effects=ramp_effects(fits, steps.lsb_per_g, x.t0_c))

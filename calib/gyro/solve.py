@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from calib.affine import fit_affine, input_coverage
-from calib.design import solve_wls
+from calib.design import session_rule, solve_wls
 from calib.errors import ObservabilityError
 from calib.gyro.inputs import RateStepMeans
 from calib.gyro.result import AXES, OFF_DIAGONAL, BiasPair, GyroCalibration, param_names
@@ -124,6 +124,7 @@ def _solve_with_g(steps: RateStepMeans, g_inputs: list[int]) -> GyroCalibration:
     for i in range(3):
         nm = [f"M_{AXES[i]}{a}" for a in AXES] + [f"b_{AXES[i]}"] + [f"G_{AXES[i]}{AXES[k]}" for k in g_inputs]
         fits.append(solve_wls(design, steps.mean_counts[:, i], steps.sem_counts[:, i], nm))
+    fits = session_rule(fits)
     m = np.array([ft.params[:3] for ft in fits])
     b = np.array([ft.params[3] for ft in fits])
     gm, gs = np.zeros((3, 3)), np.zeros((3, 3))

@@ -157,3 +157,25 @@ def test_estimator_is_efficient_against_the_cramer_rao_bound():
     truth_bz = TRUTH.bias_counts[2]
     rms = np.sqrt(np.mean((est[:, 2] - truth_bz) ** 2))
     assert rms / np.sqrt(crb[0, 0]) <= 1.1
+
+
+def test_a_clean_session_keeps_its_noise_sigmas_unless_the_whole_session_misfits():
+    """The Birge rescale is decided on the session's chi2 over all axes (calib.design.session_rule):
+    clean sessions are rescaled at its 1 % level, not at 1 % per axis (about 3 % of them)."""
+    rng = np.random.default_rng(21)
+    rescaled = 0
+    for _ in range(1500):
+        s = make_steps(TRUTH, six_faces(), rng=rng)
+        noise_only = calib.solve(_exact(s), thermal="off").sigma["bias_counts"]  # chi2 = 0: never rescaled
+        rescaled += not np.allclose(calib.solve(s, thermal="off").sigma["bias_counts"], noise_only)
+    assert rescaled <= 27  # 15 expected at 1 % per session; the per-axis rule gives 45 +- 7
+
+
+def test_a_misfit_on_one_axis_still_rescales_that_axis_alone():
+    s = _exact(make_steps(TRUTH, six_faces(), rng=np.random.default_rng(5)))
+    noise_only = calib.solve(s, thermal="off").sigma["bias_counts"]
+    bad = s.mean_counts.copy()
+    bad[0, 0] += 30 * s.sem_counts[0, 0]  # one x step far off the model
+    sig = calib.solve(calib.StepMeans(**{**s.__dict__, "mean_counts": bad}), thermal="off").sigma["bias_counts"]
+    assert sig[0] > 3 * noise_only[0]
+    np.testing.assert_allclose(sig[1:], noise_only[1:])
