@@ -88,7 +88,7 @@ class Design:
         st, ctx = step_means(s, idx), step_context(s, idx)
         k = len(st)
         return cls(np.asarray(st.f_nominal_g, float), np.asarray(st.temp_c, float), np.asarray(st.t_s, float),
-                   ctx.duration_s, np.asarray(st.n_samples) * rate_factor, ctx.heating,
+                   st.duration_s, np.asarray(st.n_samples) * rate_factor, ctx.heating,
                    ctx.temp_rate if ctx.temp_rate is not None else np.zeros(k), ctx.angles_deg, st.names)
 
     def trial(self, rng, field=None, value=None, jump_t_s=None):
@@ -108,8 +108,8 @@ class Design:
         sems, _ = step_standard_errors(blocks, 1 / np.sqrt(12.0))
         steps = StepMeans(names=self.names, f_nominal_g=self.f, mean_counts=np.array([b.mean(axis=0) for b in blocks]),
                           sem_counts=sems, n_samples=self.n, temp_c=self.temp, t_s=self.t_mid, lsb_per_g=LSB,
-                          bias_stability=STABILITY)
-        ctx = StepContext(heating=self.heating, temp_rate=self.rate, duration_s=self.dur, angles_deg=self.angles)
+                          bias_stability=STABILITY, duration_s=self.dur)
+        ctx = StepContext(heating=self.heating, temp_rate=self.rate, angles_deg=self.angles)
         return discover(steps, ctx), m
 
 
@@ -217,9 +217,9 @@ def run_time(session: Path) -> tuple[float, float, int]:
                      mean_counts=np.vstack([st.mean_counts] * 2), sem_counts=np.vstack([st.sem_counts] * 2),
                      n_samples=np.concatenate([st.n_samples] * 2), temp_c=np.concatenate([st.temp_c] * 2),
                      t_s=np.concatenate([st.t_s, st.t_s + span]), lsb_per_g=st.lsb_per_g,
-                     bias_stability=st.bias_stability)
+                     bias_stability=st.bias_stability, duration_s=np.concatenate([st.duration_s] * 2))
     ctx2 = StepContext(heating=np.concatenate([ctx.heating] * 2), base_to_sensor=np.concatenate([ctx.base_to_sensor] * 2),
-                       temp_rate=np.concatenate([ctx.temp_rate] * 2), duration_s=np.concatenate([ctx.duration_s] * 2),
+                       temp_rate=np.concatenate([ctx.temp_rate] * 2),
                        angles_deg=np.concatenate([ctx.angles_deg] * 2))
     t0 = time.perf_counter()
     discover(both, ctx2)

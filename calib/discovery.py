@@ -69,8 +69,8 @@ class StepContext:
         calibration's ``thermal_gradient`` entry for ``apply``.
     angles_deg : (K, 3) turntable angles a1, a2, a3 of each step, deg; or None (used to say where an
         unexplained residual sits).
-    duration_s : (K,) duration of each step's capture, s; or None (step means then treated as point
-        values in the wander covariance: slightly conservative).
+
+    The duration of each step's capture is the step means' own (``StepMeans.duration_s``).
     """
 
     heating: np.ndarray | None = None
@@ -80,7 +80,6 @@ class StepContext:
     temp_rate: np.ndarray | None = None
     rate_window_s: float = 5.0
     angles_deg: np.ndarray | None = None
-    duration_s: np.ndarray | None = None
 
 
 @dataclass
@@ -278,7 +277,7 @@ def _outcome(steps, ctx, prob, base_fit, final, selected, aliases, unobs, factor
                      where=localise(steps, ctx, prob.marginal(base_fit)), history=history,
                      false_alarm=false_alarm, calibration=cal, not_named=dict(getattr(prob, "last_pass", {})),
                      gap_closed=closed, dof_after=final.dof, p_fit=p_fit, baseline=prob.baseline_name,
-                     unexplained=left, wander_rms_g=wander_rms_g(steps.t_s, ctx.duration_s, steps.bias_stability),
+                     unexplained=left, wander_rms_g=wander_rms_g(steps.t_s, steps.duration_s, steps.bias_stability),
                      observability=obs, dropped=dropped)
 
 

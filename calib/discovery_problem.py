@@ -62,7 +62,7 @@ class Problem:
         self.f = np.where(np.isfinite(f), f, 0.0)
         self.t0_c = t0_c
         self.t_ref_s = t_ref_s
-        self.wander_g2 = wander_cov_g2(np.asarray(steps.t_s, float), ctx.duration_s, steps.bias_stability)
+        self.wander_g2 = wander_cov_g2(np.asarray(steps.t_s, float), steps.duration_s, steps.bias_stability)
         self.base, self.base_names = self._baseline()
         self.matrix_g = np.eye(3)
         self.cols: dict[str, np.ndarray] = {}

@@ -32,7 +32,7 @@ from calib.design import misfit
 from calib.discovery import unexplained, unexplained_lines
 from calib.frames import AXES
 from calib.wander import wander_cov_g2
-from rig.analysis.discover import step_context, step_durations
+from rig.analysis.discover import step_context
 from rig.errors import RigInputError
 from rig.session import Session, load_session, step_means
 
@@ -246,7 +246,7 @@ def compare_sessions(path_a, path_b, *, false_alarm: float = 0.01, calibrated: b
     note = ("specific force calibrated by each session's own calibration.yaml, g" if calibrated
             else _raw_unit(a, b))
     (sa, means_a), (sb, means_b) = side(a, idx, calibrated), side(b, idx, calibrated)
-    wanders = [wander_cov_g2(s.t_s, step_durations(s.session, idx), m.bias_stability)
+    wanders = [wander_cov_g2(s.t_s, m.duration_s, m.bias_stability)
                for s, m in ((sa, means_a), (sb, means_b))]
     z = whitened_difference(sa, sb, wanders)
     zc, chi2, p = judge(z, false_alarm)

@@ -78,7 +78,7 @@ def step_context(session: Session, step_indices: list[int]) -> StepContext:
                            for i in step_indices])
     rates, window = step_rates(session, step_indices)
     return StepContext(heating=heating, base_to_sensor=b2s, pose_group=groups, band_c=BAND_C, temp_rate=rates,
-                       rate_window_s=window, duration_s=step_durations(session, step_indices),
+                       rate_window_s=window,
                        angles_deg=np.asarray(angles, float) if all(a is not None for a in angles) else None)
 
 
@@ -96,16 +96,6 @@ def step_rates(session: Session, step_indices: list[int]) -> tuple[np.ndarray | 
             rates[pos] = np.polyfit(t[ok] - t[ok].mean(), tc[ok], 1)[0]
             spans.append(float(np.ptp(t[ok])))
     return (rates if np.all(np.isfinite(rates)) else None), (float(np.median(spans)) if spans else 5.0)
-
-
-def step_durations(session: Session, step_indices: list[int]) -> np.ndarray:
-    """Duration of each step's capture (s): the span of its samples' times (for the wander covariance)."""
-    out = np.zeros(len(step_indices))
-    for pos, i in enumerate(step_indices):
-        t = np.asarray(session.step_samples(i)["t_s"], float)
-        t = t[np.isfinite(t)]
-        out[pos] = float(np.ptp(t)) if len(t) >= 2 else 0.0
-    return out
 
 
 def discover_session(session_dir, *, false_alarm: float = 0.01) -> tuple[Session, Discovery]:

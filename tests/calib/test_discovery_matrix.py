@@ -82,7 +82,7 @@ def run(design: dict, seed: int, stability=MPU, outside=None, **hidden):
     k = len(design["f"])
     steps = steps_from_output(design["f"], out, temp_c=design["temp"], t_s=design["t"], sem_g=SEM_G, rng=rng,
                               stability=stability, duration_s=DWELL_S)
-    ctx = StepContext(heating=design["heating"], temp_rate=design["rate"], duration_s=np.full(k, DWELL_S),
+    ctx = StepContext(heating=design["heating"], temp_rate=design["rate"],
                       angles_deg=np.stack([design["a1"], np.zeros(k), np.zeros(k)], axis=1))
     return discover(steps, ctx), m
 
