@@ -178,32 +178,90 @@ def noise_settings(session: Session, idx: list) -> tuple[str, list, list]:
 
 
 # -- the chamber ------------------------------------------------------------------------------------------------
-def chamber_temps(t_s: np.ndarray, setpoints: list, initial_c: float, tau_s: float) -> np.ndarray:
-    """The simulated chamber's sensor temperature at ``t_s``: first-order relaxation to each setpoint
-    (``setpoints``: time-ordered (t_s, setpoint_c)) from wherever it was (rig/simulation/world.py)."""
+@dataclass(frozen=True)
+class ChamberCommand:
+    """One command a session gave its chamber (an ``events.jsonl`` ``chamber`` event).
+
+    A set-point: hold ``to_c`` from ``t_s`` on (``rate_c_per_s`` 0). A ramp: move the set-point from
+    ``from_c`` (None: where it is at ``t_s``) to ``to_c`` at ``rate_c_per_s`` (magnitude, C/s) over
+    ``duration_s`` (as the chamber reported it), then hold ``to_c``.
+    """
+
+    t_s: float
+    to_c: float
+    rate_c_per_s: float = 0.0
+    from_c: float | None = None
+    duration_s: float = 0.0
+
+
+def setpoint_segments(commands: list, initial_c: float) -> list[tuple[float, float, float]]:
+    """The chamber's set-point as time-ordered linear segments ``(t_start_s, setpoint_c, rate_c_per_s)``,
+    from ``initial_c`` held since forever; a command replaces what the previous one had planned
+    (rig/simulation/world.py ``SimChamber``)."""
+    segs = [(-math.inf, float(initial_c), 0.0)]
+    for cmd in sorted(commands, key=lambda c: c.t_s):
+        segs = [sg for sg in segs if sg[0] <= cmd.t_s]
+        if not cmd.rate_c_per_s:
+            segs.append((cmd.t_s, cmd.to_c, 0.0))
+            continue
+        t0, c0, r0 = segs[-1]
+        start_c = cmd.from_c if cmd.from_c is not None else c0 + r0 * (cmd.t_s - t0 if r0 else 0.0)
+        rate = abs(cmd.rate_c_per_s) * (1.0 if cmd.to_c >= start_c else -1.0)
+        segs += [(cmd.t_s, start_c, rate), (cmd.t_s + cmd.duration_s, cmd.to_c, 0.0)]
+    return segs
+
+
+def chamber_temps(t_s: np.ndarray, commands: list, initial_c: float, tau_s: float) -> np.ndarray:
+    """The simulated chamber's sensor temperature at ``t_s`` (C): a first-order lag ``tau_s`` behind the
+    set-point of :func:`setpoint_segments`, in closed form per segment (with set-point ``S0 + r dt``,
+    ``T = S0 + r dt - r tau + (T0 - S0 + r tau) exp(-dt / tau)``), starting at ``initial_c``.
+
+    ``commands``: :class:`ChamberCommand` entries, or ``(t_s, setpoint_c)`` pairs for set-points."""
+    cmds = [c if isinstance(c, ChamberCommand) else ChamberCommand(float(c[0]), float(c[1])) for c in commands]
+    segs = setpoint_segments(cmds, initial_c)
     t = np.asarray(t_s, float)
     out = np.full(len(t), float(initial_c))
-    c_now, t_prev, set_prev = float(initial_c), None, None
-    for i, (t_set, c_set) in enumerate(setpoints):
-        if t_prev is not None:  # the temperature when this setpoint is given
-            c_now = set_prev + (c_now - set_prev) * math.exp(-max(t_set - t_prev, 0.0) / tau_s)
-        t_end = setpoints[i + 1][0] if i + 1 < len(setpoints) else np.inf
-        sel = (t >= t_set) & (t < t_end)
-        out[sel] = c_set + (c_now - c_set) * np.exp(-(t[sel] - t_set) / tau_s)
-        t_prev, set_prev = t_set, c_set
+    c_now = float(initial_c)
+    for i, (t0, s0, r) in enumerate(segs):
+        if i == 0:
+            continue
+        if i > 1:  # the temperature at this segment's start, from the previous segment
+            tp, sp, rp = segs[i - 1]
+            dt = t0 - tp
+            c_now = sp + rp * dt - rp * tau_s + (c_now - sp + rp * tau_s) * math.exp(-dt / tau_s)
+        t_end = segs[i + 1][0] if i + 1 < len(segs) else np.inf
+        sel = (t >= t0) & (t < t_end)
+        dt = t[sel] - t0
+        out[sel] = s0 + r * dt - r * tau_s + (c_now - s0 + r * tau_s) * np.exp(-dt / tau_s)
     return out
 
 
-def _temperature_record(session: Session, idx: list) -> tuple[list, np.ndarray, np.ndarray]:
-    """The chamber setpoints (t_s, C) and the observed (t_s, temp_c): each static step's mean and each
-    temperature step's first reading (1 s after its setpoint)."""
-    setpoints, t_obs, c_obs = [], [], []
-    for e in read_events(session.path):
+def chamber_commands(events: list) -> list[ChamberCommand]:
+    """The chamber commands among a session's events (set-points and ramps), time-ordered."""
+    out = []
+    for e in events:
         t = e.get("t_s")
-        if e.get("kind") == "chamber" and isinstance(t, (int, float)) and isinstance(e.get("setpoint_c"), (int, float)):
-            setpoints.append((float(t), float(e["setpoint_c"])))
-        elif (e.get("kind") == "temperature" and isinstance(t, (int, float))
-              and isinstance(e.get("start_c"), (int, float))):
+        if e.get("kind") != "chamber" or not isinstance(t, (int, float)):
+            continue
+        if isinstance(e.get("setpoint_c"), (int, float)):
+            out.append(ChamberCommand(float(t), float(e["setpoint_c"])))
+        elif all(isinstance(e.get(k), (int, float)) for k in ("ramp_to_c", "rate_c_per_min", "duration_s")):
+            from_c = e.get("from_c")
+            out.append(ChamberCommand(float(t), float(e["ramp_to_c"]), abs(float(e["rate_c_per_min"])) / 60.0,
+                                      float(from_c) if isinstance(from_c, (int, float)) else None,
+                                      float(e["duration_s"])))
+    return sorted(out, key=lambda c: c.t_s)
+
+
+def _temperature_record(session: Session, idx: list) -> tuple[list, np.ndarray, np.ndarray]:
+    """The chamber commands and the observed (t_s, temp_c): each static step's mean and each temperature
+    step's first reading (1 s after its setpoint)."""
+    events = read_events(session.path)
+    t_obs, c_obs = [], []
+    for e in events:
+        t = e.get("t_s")
+        if (e.get("kind") == "temperature" and isinstance(t, (int, float))
+                and isinstance(e.get("start_c"), (int, float))):
             t_obs.append(float(t) - float(e.get("waited_s", 0.0)) + 1.0)
             c_obs.append(float(e["start_c"]))
     for i in idx:
@@ -212,29 +270,30 @@ def _temperature_record(session: Session, idx: list) -> tuple[list, np.ndarray, 
         if ok.any():
             t_obs.append(float(np.mean(s["t_s"][ok])))
             c_obs.append(float(np.mean(s["temp_c"][ok])))
-    return sorted(setpoints), np.asarray(t_obs), np.asarray(c_obs)
+    return chamber_commands(events), np.asarray(t_obs), np.asarray(c_obs)
 
 
 def fit_chamber(session: Session, idx: list) -> tuple[float, float, float | None, list]:
-    """(initial_c, tau_s) of the simulated chamber fitted to the session's temperature record, the RMS
-    misfit (C, None without a thermometer) and notes. ``initial_c`` enters linearly (solved for each
-    tau); tau by a bounded scalar search over log tau."""
+    """(initial_c, tau_s) of the simulated chamber fitted to the session's temperature record (set-points
+    and ramps), the RMS misfit (C, None without a thermometer) and notes. ``initial_c`` enters affinely
+    (solved for each tau about the first reading); tau by a bounded scalar search over log tau."""
     if not session.has_temperature:
         return 25.0, DEFAULT_TAU_S, None, ["the session has no thermometer: the twin's chamber is held at 25 C"]
-    setpoints, t, c = _temperature_record(session, idx)
+    commands, t, c = _temperature_record(session, idx)
     if len(c) == 0:
         return 25.0, DEFAULT_TAU_S, None, ["no temperature readings: the twin's chamber is held at 25 C"]
-    if not setpoints:
+    if not commands:
         notes = [] if np.ptp(c) < 0.5 else [f"the temperature changed by {np.ptp(c):.1f} C without chamber "
                                             "setpoints: the twin holds it constant"]
         return float(np.mean(c)), DEFAULT_TAU_S, float(np.std(c)), notes
+    c_first = float(c[np.argmin(t)])
 
     def solve(log_tau: float) -> tuple[float, float]:
         tau = math.exp(log_tau)
-        base = chamber_temps(t, setpoints, 0.0, tau)
-        gain = chamber_temps(t, setpoints, 1.0, tau) - base
-        t0 = float(np.dot(gain, c - base) / np.dot(gain, gain)) if np.dot(gain, gain) > 1e-12 else float(c[0])
-        return t0, float(np.sqrt(np.mean((base + gain * t0 - c) ** 2)))
+        base = chamber_temps(t, commands, c_first, tau)
+        gain = chamber_temps(t, commands, c_first + 1.0, tau) - base
+        t0 = c_first + (float(np.dot(gain, c - base) / np.dot(gain, gain)) if np.dot(gain, gain) > 1e-12 else 0.0)
+        return t0, float(np.sqrt(np.mean((chamber_temps(t, commands, t0, tau) - c) ** 2)))
 
     best = minimize_scalar(lambda x: solve(x)[1], bounds=(math.log(1.0), math.log(1e5)), method="bounded",
                            options={"xatol": 1e-4})

@@ -7,6 +7,7 @@ values are refused with one line, exit 2.
 
 from __future__ import annotations
 
+import json
 import re
 
 import numpy as np
@@ -197,3 +198,29 @@ def test_ramps_without_a_start_or_with_other_steps_and_blank_names_are_refused(t
     assert main(["run", str(path), "--rig", virtual_rig(tmp_path), "--out", str(tmp_path / "s")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f": {key}: " in err[0] and expected in err[0], err
+
+
+def test_the_twin_of_a_ramp_session_re_simulates_its_chamber_and_agrees_with_it(tmp_path, capsys):
+    """The loop of docs/twin.md on a ramp: the twin's chamber (fitted to the set-points and ramps in the
+    session's events) reproduces the measured temperatures, so the re-simulated session agrees step by step."""
+    rig = virtual_rig(tmp_path)
+    assert main(["run", short_ramp(tmp_path), "--rig", rig, "--out", str(tmp_path / "a"), "--seed", "3",
+                 "--quiet"]) == 0
+    measured = only_session(tmp_path / "a")
+    capsys.readouterr()
+    assert main(["discover", str(measured), "--json", "--twin", str(tmp_path / "twin.yaml")]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    chamber = yaml.safe_load((tmp_path / "twin.yaml").read_text())["sim"]["chamber"]
+    assert chamber["tau_s"] == pytest.approx(120.0, rel=0.02)  # rigs/sim.yaml's chamber
+    assert "chamber model fits" not in doc["twin_notes"]
+    seed = doc["twin_run"].split("--seed")[1].split()[0]
+    assert main(["run", doc["twin_procedure"], "--rig", doc["twin"], "--out", str(tmp_path / "b"), "--seed", seed,
+                 "--quiet"]) == 0
+    capsys.readouterr()
+    main(["compare", str(measured), str(only_session(tmp_path / "b")), "--json"])
+    cmp = json.loads(capsys.readouterr().out)
+    a, b = load_session(measured), load_session(only_session(tmp_path / "b"))
+    ta = [np.mean(a.step_samples(i)["temp_c"]) for i in a.static_step_indices()]
+    tb = [np.mean(b.step_samples(i)["temp_c"]) for i in b.static_step_indices()]
+    assert np.max(np.abs(np.subtract(ta, tb))) < 0.05  # C: the same temperatures at the same steps
+    assert cmp["agree"], cmp

@@ -114,6 +114,30 @@ def test_the_chamber_model_is_the_simulators():
     assert np.allclose(twin.chamber_temps(t, setpoints, 27.6, 90.0), chamber.temp_at(t), atol=1e-9)
 
 
+def test_the_chamber_model_follows_the_simulators_ramps_from_the_sessions_events():
+    """Set-points, a ramp from where the set-point is, a ramp from a stated start, and a set-point that
+    cuts a ramp short: the twin's chamber (fed the ``chamber`` events as the runner writes them) is the
+    simulator's to 1e-9 C."""
+    clock = VirtualClock()
+    chamber = SimChamber(clock, ChamberConfig(initial_c=27.6, tau_s=90.0))
+    events = []
+    for t_set, kind, args in ((5.0, "ramp", (52.6, 4.0, None)), (500.0, "set", 40.0),
+                              (700.0, "ramp", (20.0, 3.0, 35.0)), (900.0, "set", 30.0),
+                              (1000.0, "ramp", (45.0, 6.0, None))):
+        clock.sleep(t_set - clock.now())
+        if kind == "set":
+            chamber.set_target_c(args)
+            events.append({"kind": "chamber", "t_s": t_set, "setpoint_c": args})
+        else:
+            to_c, rate, from_c = args
+            duration = chamber.ramp_to_c(to_c, rate, from_c)
+            events.append({"kind": "chamber", "t_s": t_set, "ramp_to_c": to_c, "rate_c_per_min": rate,
+                           "from_c": from_c, "duration_s": duration})
+    t = np.linspace(0.0, 1600.0, 800)
+    commands = twin.chamber_commands(events)
+    assert np.allclose(twin.chamber_temps(t, commands, 27.6, 90.0), chamber.temp_at(t), atol=1e-9)
+
+
 @pytest.mark.parametrize("model, rate", [("MPU-9150", 100.0), ("MPU-9150", 500.0), ("ADXL345", 100.0)])
 def test_the_noise_bandwidth_is_what_the_driver_configures_in_the_simulated_chip(model, rate):
     sim = SimulatedRig(SimSettings(time_scale=0), seed=1, sensor_model=model)
