@@ -1,5 +1,9 @@
 """Affine least squares ``y = P x + c`` (3 outputs, 3 inputs), shared by the gyroscope (``counts = M w + b``)
-and the magnetometer (``m = A h + B``) solvers, and the array check of their step-mean inputs."""
+and the magnetometer (``m = A h + B``) solvers, and the array checks of their step-mean inputs.
+
+With the sensor's bias wander between the steps (:mod:`calib.wander`) the fit is generalised least
+squares, ``V = diag(sem^2) + W`` per output axis (axes independent, W common to them), as the
+accelerometer's solver (docs/methods.md, "Per-step standard errors")."""
 
 from __future__ import annotations
 
@@ -8,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from calib.design import session_rule, solve_wls
+from calib.design import session_rule, solve_gls, solve_wls
 from calib.errors import CalibError
 
 def check_array(owner: str, name: str, value: Any, shape: tuple, positive: bool = False) -> np.ndarray:
@@ -27,6 +31,31 @@ def check_array(owner: str, name: str, value: Any, shape: tuple, positive: bool 
     if positive and not np.all(v > 0):
         raise CalibError(f"{owner}.{name}: every value must be > 0")
     return v
+
+
+def check_times(owner: str, k: int, t_s: Any, duration_s: Any) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The steps' mid-times ``t_s`` (K,) (s) and capture durations ``duration_s`` (K,) (s, >= 0) as
+    float arrays, or None where not given; :class:`CalibError` naming ``owner`` otherwise."""
+    t = None if t_s is None else check_array(owner, "t_s", t_s, (k,))
+    d = None if duration_s is None else check_array(owner, "duration_s", duration_s, (k,))
+    if d is not None and np.any(d < 0):
+        raise CalibError(f"{owner}.duration_s: every duration must be >= 0 s")
+    return t, d
+
+
+def step_covariance(sem: np.ndarray, wander: np.ndarray | None) -> np.ndarray:
+    """(K, K) covariance of one output axis' step means: ``diag(sem^2)`` plus the wander (K, K) (same
+    units squared; None: none)."""
+    v = np.diag(np.asarray(sem, float) ** 2)
+    return v if wander is None else v + wander
+
+
+def solve_axis(g: np.ndarray, y: np.ndarray, sem: np.ndarray, wander: np.ndarray | None, names: list[str]):
+    """One output axis: weighted least squares (``wander`` None) or generalised least squares with
+    :func:`step_covariance` (:func:`calib.design.solve_gls`)."""
+    if wander is None:
+        return solve_wls(g, y, sem, names)
+    return solve_gls(g, y, step_covariance(sem, wander), names)
 
 
 @dataclass(frozen=True)
@@ -74,13 +103,22 @@ def input_coverage(x: np.ndarray, rel_tol: float = 1e-9) -> tuple[list[int], boo
     return missing, bool(sv[-1] > 1e-10 * sv[0])
 
 
-def fit_affine(x: np.ndarray, y: np.ndarray, sem: np.ndarray, param_names: list[list[str]]) -> AffineFit:
-    """Fit ``y = P x + c`` per output axis with :func:`calib.design.solve_wls` (weights 1/sem).
+def fit_affine(x: np.ndarray, y: np.ndarray, sem: np.ndarray, param_names: list[list[str]],
+               wander: np.ndarray | None = None) -> AffineFit:
+    """Fit ``y = P x + c`` per output axis, with the Birge rule decided on the session
+    (:func:`calib.design.session_rule`).
+
+    Parameters
+    ----------
+    x : (K, 3) inputs; y : (K, 3) step means; sem : (K, 3) their standard errors (units of y).
+    param_names : per output axis, the names of ``[P_i0, P_i1, P_i2, c_i]``.
+    wander : (K, K) covariance of the sensor's bias wander between the step means, units of y
+        squared, common to the three output axes (:mod:`calib.wander`); None: weights 1/sem only.
 
     The caller checks observability first (:func:`input_coverage`).
     """
     g = affine_design(x)
-    fits = session_rule([solve_wls(g, y[:, i], sem[:, i], param_names[i]) for i in range(3)])
+    fits = session_rule([solve_axis(g, y[:, i], sem[:, i], wander, param_names[i]) for i in range(3)])
     p = np.array([f.params[:3] for f in fits])
     c = np.array([f.params[3] for f in fits])
     chi2 = sum(f.chi2 for f in fits)

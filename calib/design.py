@@ -217,3 +217,13 @@ def solve_whitened(g: np.ndarray, y: np.ndarray, gw: np.ndarray, yw: np.ndarray,
     inflated, _ = misfit(chi2, dof, misfit_p)
     cov = cov0 * (chi2 / dof) if inflated else cov0
     return AxisFit(list(names), params, cov, cov0, y - g @ params, chi2, dof, inflated)
+
+
+def solve_gls(g: np.ndarray, y: np.ndarray, cov_y: np.ndarray, names: list[str], misfit_p: float = 0.01) -> AxisFit:
+    """Generalised least squares with the data's covariance ``cov_y`` (K, K) (the step means' standard
+    errors on the diagonal plus the sensor's bias wander between the steps, :mod:`calib.wander`):
+    whitened by its Cholesky factor, then as :func:`solve_wls` (rescaled by chi2/dof only when the
+    misfit is significant at ``misfit_p``). Residuals are in the data's own units (not whitened).
+    Shared by the accelerometer, gyroscope and magnetometer solvers."""
+    chol = np.linalg.cholesky(cov_y)
+    return solve_whitened(g, y, np.linalg.solve(chol, g), np.linalg.solve(chol, y), names, misfit_p)

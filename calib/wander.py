@@ -46,7 +46,9 @@ With ``min(t, s) = (t + s - |t - s|) / 2`` the covariance of two window means is
 with itself. A constant added to every mean (the walk's value at the origin) lies in the
 span of any model with a bias, so the choice of origin does not change a fit.
 
-Everything is in g^2 (multiply by ``lsb_per_g^2`` for counts^2).
+:func:`wander_cov` is in the square of the figures' unit, for any sensor (the gyroscope's deg/s, the
+magnetometer's uT); :func:`wander_cov_g2` is the accelerometer's, in g^2 (multiply by
+``lsb_per_g^2`` for counts^2).
 """
 
 from __future__ import annotations
@@ -104,22 +106,36 @@ def random_walk_cov(start_s, end_s) -> np.ndarray:
     return 0.5 * (m[:, None] + m[None, :] - e_abs)
 
 
-def wander_cov_g2(t_mid_s, duration_s, stability: BiasStability | None, *, tau_min_s: float = TAU_MIN_S,
-                  per_decade: int = PER_DECADE) -> np.ndarray:
-    """(K, K) covariance (g^2) of the bias wander between the means of K steps centred at ``t_mid_s``
-    (s) lasting ``duration_s`` (s; 0: point values); zeros when ``stability`` is None."""
+def wander_cov(t_mid_s, duration_s, bias_instability: float, random_walk_per_rts: float, flicker_corner_s: float,
+               *, tau_min_s: float = TAU_MIN_S, per_decade: int = PER_DECADE) -> np.ndarray:
+    """(K, K) covariance of the bias wander between the means of K steps centred at ``t_mid_s`` (s)
+    lasting ``duration_s`` (s; 0 or None: point values), in the square of the sensor's unit.
+
+    Any sensor: ``bias_instability`` is the Allan deviation floor B (g, deg/s, uT ...),
+    ``random_walk_per_rts`` the random walk K (the same unit / sqrt(s)), ``flicker_corner_s`` the
+    longest correlation time of the flicker (s).
+    """
     t = np.asarray(t_mid_s, float)
     d = np.broadcast_to(np.asarray(0.0 if duration_s is None else duration_s, float), t.shape)
-    if stability is None:
-        return np.zeros((len(t), len(t)))
     start, end = t - d / 2, t + d / 2
-    out = stability.random_walk_g_per_rts**2 * random_walk_cov(start, end)
-    coeff = stability.bias_instability_g / FLICKER_FLOOR
-    if coeff > 0 and stability.flicker_corner_s > 0:
+    out = float(random_walk_per_rts) ** 2 * random_walk_cov(start, end)
+    coeff = float(bias_instability) / FLICKER_FLOOR
+    if coeff > 0 and flicker_corner_s > 0:
         var = coeff**2 * (math.log(10) / per_decade) / (2 * math.pi)  # per node
-        for tau in flicker_taus_s(stability.flicker_corner_s, tau_min_s, per_decade):
+        for tau in flicker_taus_s(flicker_corner_s, tau_min_s, per_decade):
             out = out + var * gauss_markov_cov(start, end, float(tau))
     return out
+
+
+def wander_cov_g2(t_mid_s, duration_s, stability: BiasStability | None, *, tau_min_s: float = TAU_MIN_S,
+                  per_decade: int = PER_DECADE) -> np.ndarray:
+    """(K, K) covariance (g^2) of the accelerometer's bias wander between the means of K steps centred
+    at ``t_mid_s`` (s) lasting ``duration_s`` (s; 0: point values); zeros when ``stability`` is None."""
+    t = np.asarray(t_mid_s, float)
+    if stability is None:
+        return np.zeros((len(t), len(t)))
+    return wander_cov(t, duration_s, stability.bias_instability_g, stability.random_walk_g_per_rts,
+                      stability.flicker_corner_s, tau_min_s=tau_min_s, per_decade=per_decade)
 
 
 def wander_rms_g(t_mid_s, duration_s, stability: BiasStability | None) -> float:

@@ -28,7 +28,7 @@ import numpy as np
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration, FitSummary, ThermalModel
 from calib.design import (AXES, AxisFit, Inputs, LinearModel, Term, check_model, check_rank, const_term, force_term,
-                          session_rule, solve_whitened, solve_wls, temp_term, undetermined)
+                          session_rule, solve_gls, solve_wls, temp_term, undetermined)
 from calib.errors import CalibError, ObservabilityError
 from calib.magnitude import fit_magnitude
 from calib.wander import wander_cov_g2
@@ -183,14 +183,6 @@ def wander_covariance(steps: StepMeans, sem_counts: np.ndarray) -> np.ndarray:
     the steps with this covariance makes both sigmas honest (docs/methods.md, "Step uncertainty")."""
     w = wander_cov_g2(np.asarray(steps.t_s, float), steps.duration_s, steps.bias_stability)
     return np.diag(np.asarray(sem_counts, float) ** 2) + float(steps.lsb_per_g) ** 2 * w
-
-
-def solve_gls(g: np.ndarray, y: np.ndarray, cov_y: np.ndarray, names: list[str], misfit_p: float = 0.01) -> AxisFit:
-    """Generalised least squares with the step means' covariance ``cov_y``: whitened by its Cholesky
-    factor, then as :func:`calib.design.solve_wls` (rescaled by chi2/dof only when the misfit is
-    significant at ``misfit_p``). Residuals are in counts (not whitened)."""
-    chol = np.linalg.cholesky(cov_y)
-    return solve_whitened(g, y, np.linalg.solve(chol, g), np.linalg.solve(chol, y), names, misfit_p)
 
 
 def assemble(steps: StepMeans, model: str, fits: dict, order: int, t0_c: float, method: str,

@@ -1,4 +1,5 @@
-"""Gyroscope inputs: per-step means of the constant-rate steps of a rate-table session."""
+"""Gyroscope inputs: per-step means of the constant-rate steps of a rate-table session, and the
+gyroscope's bias stability (:class:`GyroBiasStability`)."""
 
 from __future__ import annotations
 
@@ -6,8 +7,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.affine import check_array
+from calib.affine import check_array, check_times
 from calib.errors import CalibError
+from calib.wander import wander_cov
+
+
+@dataclass(frozen=True)
+class GyroBiasStability:
+    """How far a gyroscope's zero-rate output wanders, as an Allan-variance characterisation states it
+    (docs/sensors.md, "Bias stability").
+
+    bias_instability_dps : Allan deviation floor B of the bias (flicker), deg/s.
+    random_walk_dps_per_rts : bias random walk K, deg/s/sqrt(s).
+    flicker_corner_s : longest correlation time of the flicker, s.
+    """
+
+    bias_instability_dps: float
+    random_walk_dps_per_rts: float
+    flicker_corner_s: float
+
+    def cov_dps2(self, t_mid_s, duration_s) -> np.ndarray:
+        """(K, K) covariance of the wander between the means of steps centred at ``t_mid_s`` (s) lasting
+        ``duration_s`` (s), (deg/s)^2 (:func:`calib.wander.wander_cov`)."""
+        return wander_cov(t_mid_s, duration_s, self.bias_instability_dps, self.random_walk_dps_per_rts,
+                          self.flicker_corner_s)
 
 
 @dataclass(frozen=True)
@@ -19,9 +42,15 @@ class RateStepMeans:
     names : (K,) step names.
     rate_nominal_dps : (K, 3) true angular rate of the step in the sensor frame, deg/s.
     mean_counts : (K, 3) mean raw gyroscope output, counts.
-    sem_counts : (K, 3) standard error of each mean (sample std / sqrt(n)), counts, > 0.
+    sem_counts : (K, 3) standard error of each mean (from the step's own scatter, correlated samples
+        accounted for: :func:`calib.uncertainty.step_standard_errors`), counts, > 0.
     n_samples : (K,) samples per step.
     lsb_per_dps : nominal sensitivity at the recorded range, counts per deg/s, > 0.
+    f_mean_g : (K, 3) mean specific force during each step, sensor frame, g, or None.
+    t_s : (K,) mid-time of each step's capture, s from session start, or None (unknown).
+    duration_s : (K,) how long each step's capture lasted, s, or None (point values in time).
+    bias_stability : the gyroscope's :class:`GyroBiasStability`, or None (unknown: the steps are
+        weighed by their standard errors alone). Used only with ``t_s``.
     """
 
     names: tuple
@@ -30,7 +59,10 @@ class RateStepMeans:
     sem_counts: np.ndarray
     n_samples: np.ndarray
     lsb_per_dps: float
-    f_mean_g: np.ndarray | None = None  # (K, 3) mean specific force during each step, sensor frame, g
+    f_mean_g: np.ndarray | None = None
+    t_s: np.ndarray | None = None
+    duration_s: np.ndarray | None = None
+    bias_stability: GyroBiasStability | None = None
 
     def __post_init__(self) -> None:
         k = len(self.names)
@@ -41,6 +73,9 @@ class RateStepMeans:
                             ("n_samples", (k,))):
             object.__setattr__(self, name, check_array(owner, name, getattr(self, name), shape,
                                                        positive=name in ("sem_counts", "n_samples")))
+        t, d = check_times(owner, k, self.t_s, self.duration_s)
+        object.__setattr__(self, "t_s", t)
+        object.__setattr__(self, "duration_s", d)
         try:
             lsb = float(self.lsb_per_dps)
         except (TypeError, ValueError):
@@ -52,3 +87,9 @@ class RateStepMeans:
     def __len__(self) -> int:
         return len(self.names)
 
+    def wander_counts2(self) -> np.ndarray | None:
+        """(K, K) covariance of the bias wander between the step means, counts^2 (the same for every
+        output axis), or None when the stability or the step times are unknown."""
+        if self.bias_stability is None or self.t_s is None:
+            return None
+        return self.lsb_per_dps**2 * self.bias_stability.cov_dps2(self.t_s, self.duration_s)

@@ -1,11 +1,19 @@
-"""Gyroscope solver: 12-parameter weighted least squares over the rate steps, and the seed's +/- pairs."""
+"""Gyroscope solver: 12-parameter least squares over the rate steps, and the seed's +/- pairs.
+
+The steps are weighed by their standard errors and, when the gyroscope's bias stability and the
+steps' times are known (:meth:`calib.gyro.inputs.RateStepMeans.wander_counts2`), by the covariance of
+the zero-rate output's wander between them: generalised least squares, as the accelerometer's solver
+(docs/methods.md, "Per-step standard errors"). Rate steps last 100 s and follow one another for half
+an hour, so the wander between them is several times a step's own standard error: without it a clean
+simulated session had chi2/dof ~ 35, bias sigmas 6 times too small and, Birge-rescaled, scale and
+coupling sigmas twice too large."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from calib.affine import fit_affine, input_coverage
-from calib.design import session_rule, solve_wls
+from calib.affine import fit_affine, input_coverage, solve_axis
+from calib.design import session_rule
 from calib.errors import ObservabilityError
 from calib.gyro.inputs import RateStepMeans
 from calib.gyro.result import AXES, OFF_DIAGONAL, BiasPair, GyroCalibration, param_names
@@ -15,9 +23,12 @@ def find_bias_pairs(steps: RateStepMeans, rel_tol: float = 1e-6) -> list[BiasPai
     """Zero-rate outputs from every pair of steps with opposite nominal rates.
 
     Each step is used at most once; steps with zero rate are skipped. For a pair
-    ``b = (a_plus + a_minus) / 2`` and ``sigma = sqrt(sem_plus^2 + sem_minus^2) / 2`` (counts).
+    ``b = (a_plus + a_minus) / 2`` and ``sigma = sqrt(sem_plus^2 + sem_minus^2 + W_pp + W_mm + 2 W_pm) / 2``
+    (counts; W the bias wander's covariance between the step means, zero when unknown: the sigma is
+    then the steps' standard errors alone).
     """
     w = steps.rate_nominal_dps
+    wander = steps.wander_counts2()
     used = np.zeros(len(steps), bool)
     pairs = []
     for i in range(len(steps)):
@@ -27,13 +38,19 @@ def find_bias_pairs(steps: RateStepMeans, rel_tol: float = 1e-6) -> list[BiasPai
         for j in range(i + 1, len(steps)):
             if not used[j] and np.linalg.norm(w[i] + w[j]) <= rel_tol * ri:
                 used[i] = used[j] = True
-                dominant = np.abs(w[i]) / ri
-                axis = AXES[int(np.argmax(dominant))] if dominant.max() > 1 - 1e-6 else "xyz"
-                bias = 0.5 * (steps.mean_counts[i] + steps.mean_counts[j])
-                sig = 0.5 * np.sqrt(steps.sem_counts[i] ** 2 + steps.sem_counts[j] ** 2)
-                pairs.append(BiasPair(axis_spun=axis, rate_dps=ri, bias_counts=bias, sigma_counts=sig))
+                pairs.append(_pair(steps, i, j, ri, 0.0 if wander is None else wander[np.ix_([i, j], [i, j])].sum()))
                 break
     return pairs
+
+
+def _pair(steps: RateStepMeans, i: int, j: int, rate_dps: float, wander_counts2: float) -> BiasPair:
+    """The zero-rate output of steps ``i`` and ``j`` (opposite rates of magnitude ``rate_dps``, deg/s);
+    ``wander_counts2`` the variance (counts^2) the wander adds to the sum of their means."""
+    dominant = np.abs(steps.rate_nominal_dps[i]) / rate_dps
+    axis = AXES[int(np.argmax(dominant))] if dominant.max() > 1 - 1e-6 else "xyz"
+    bias = 0.5 * (steps.mean_counts[i] + steps.mean_counts[j])
+    sig = 0.5 * np.sqrt(steps.sem_counts[i] ** 2 + steps.sem_counts[j] ** 2 + wander_counts2)
+    return BiasPair(axis_spun=axis, rate_dps=rate_dps, bias_counts=bias, sigma_counts=sig)
 
 
 def _check_observable(w: np.ndarray) -> None:
@@ -77,9 +94,10 @@ def solve_gyro(steps: RateStepMeans) -> GyroCalibration:
 
     Returns
     -------
-    :class:`GyroCalibration` with M and b from weighted least squares over all steps
-    (per output axis, columns ``[w_x, w_y, w_z, 1]``, weights 1/sem; covariance
-    not rescaled by chi2/dof, see :func:`calib.design.solve_wls`),
+    :class:`GyroCalibration` with M and b from least squares over all steps (per output axis,
+    columns ``[w_x, w_y, w_z, 1]``; generalised with the bias wander between the steps when
+    ``steps.bias_stability`` and ``steps.t_s`` are known, else weights 1/sem; covariance rescaled
+    by chi2/dof only on a significant misfit of the session, :func:`calib.design.session_rule`),
     and the + / - pair zero-rate outputs of the seed method for comparison.
 
     Raises
@@ -93,7 +111,7 @@ def solve_gyro(steps: RateStepMeans) -> GyroCalibration:
     if g_inputs:
         return _solve_with_g(steps, g_inputs)
     names = [[f"M_{AXES[i]}{a}" for a in AXES] + [f"b_{AXES[i]}"] for i in range(3)]
-    fit = fit_affine(w, steps.mean_counts, steps.sem_counts, names)
+    fit = fit_affine(w, steps.mean_counts, steps.sem_counts, names, steps.wander_counts2())
     m, b = fit.matrix, fit.offset
     res_dps = np.linalg.solve(m, fit.residuals.T).T
     nonorth = {f"m_{AXES[i]}{AXES[j]}": float(m[i, j] / m[i, i]) for i, j in OFF_DIAGONAL}
@@ -120,10 +138,11 @@ def _solve_with_g(steps: RateStepMeans, g_inputs: list[int]) -> GyroCalibration:
     """``counts = M w + b + G f``: the 12 parameters plus the determined columns of G (counts per g)."""
     w, f = steps.rate_nominal_dps, steps.f_mean_g
     design = np.column_stack([w, np.ones(len(w))] + [f[:, k] for k in g_inputs])
+    wander = steps.wander_counts2()
     fits = []
     for i in range(3):
         nm = [f"M_{AXES[i]}{a}" for a in AXES] + [f"b_{AXES[i]}"] + [f"G_{AXES[i]}{AXES[k]}" for k in g_inputs]
-        fits.append(solve_wls(design, steps.mean_counts[:, i], steps.sem_counts[:, i], nm))
+        fits.append(solve_axis(design, steps.mean_counts[:, i], steps.sem_counts[:, i], wander, nm))
     fits = session_rule(fits)
     m = np.array([ft.params[:3] for ft in fits])
     b = np.array([ft.params[3] for ft in fits])

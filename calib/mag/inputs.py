@@ -1,4 +1,5 @@
-"""Magnetometer inputs: per-step means of the static steps that have magnetometer readings."""
+"""Magnetometer inputs: per-step means of the static steps that have magnetometer readings, and the
+magnetometer's bias stability (:class:`MagBiasStability`)."""
 
 from __future__ import annotations
 
@@ -6,7 +7,29 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.affine import check_array
+from calib.affine import check_array, check_times
+from calib.wander import wander_cov
+
+
+@dataclass(frozen=True)
+class MagBiasStability:
+    """How far a magnetometer's offset wanders, as an Allan-variance characterisation states it
+    (docs/sensors.md, "Bias stability").
+
+    bias_instability_ut : Allan deviation floor B of the offset (flicker), uT.
+    random_walk_ut_per_rts : offset random walk K, uT/sqrt(s).
+    flicker_corner_s : longest correlation time of the flicker, s.
+    """
+
+    bias_instability_ut: float
+    random_walk_ut_per_rts: float
+    flicker_corner_s: float
+
+    def cov_ut2(self, t_mid_s, duration_s) -> np.ndarray:
+        """(K, K) covariance of the wander between the means of steps centred at ``t_mid_s`` (s) lasting
+        ``duration_s`` (s), uT^2 (:func:`calib.wander.wander_cov`)."""
+        return wander_cov(t_mid_s, duration_s, self.bias_instability_ut, self.random_walk_ut_per_rts,
+                          self.flicker_corner_s)
 
 
 @dataclass(frozen=True)
@@ -18,8 +41,13 @@ class MagStepMeans:
     names : (K,) step names.
     field_nominal_ut : (K, 3) true field in the sensor frame, uT, or None when the poses are unknown.
     mean_ut : (K, 3) mean magnetometer output, uT.
-    sem_ut : (K, 3) standard error of each mean (sample std / sqrt(n)), uT, > 0.
+    sem_ut : (K, 3) standard error of each mean (from the step's own scatter, correlated samples
+        accounted for: :func:`calib.uncertainty.step_standard_errors`), uT, > 0.
     n_samples : (K,) samples per step.
+    t_s : (K,) mid-time of each step's readings, s from session start, or None (unknown).
+    duration_s : (K,) how long each step's readings lasted, s, or None (point values in time).
+    bias_stability : the magnetometer's :class:`MagBiasStability`, or None (unknown: the steps are
+        weighed by their standard errors alone). Used only with ``t_s``.
     """
 
     names: tuple
@@ -27,6 +55,9 @@ class MagStepMeans:
     mean_ut: np.ndarray
     sem_ut: np.ndarray
     n_samples: np.ndarray
+    t_s: np.ndarray | None = None
+    duration_s: np.ndarray | None = None
+    bias_stability: MagBiasStability | None = None
 
     def __post_init__(self) -> None:
         k = len(self.names)
@@ -37,7 +68,16 @@ class MagStepMeans:
         for name, shape in (("mean_ut", (k, 3)), ("sem_ut", (k, 3)), ("n_samples", (k,))):
             object.__setattr__(self, name, check_array(owner, name, getattr(self, name), shape,
                                                        positive=name in ("sem_ut", "n_samples")))
+        t, d = check_times(owner, k, self.t_s, self.duration_s)
+        object.__setattr__(self, "t_s", t)
+        object.__setattr__(self, "duration_s", d)
 
     def __len__(self) -> int:
         return len(self.names)
 
+    def wander_ut2(self) -> np.ndarray | None:
+        """(K, K) covariance of the offset wander between the step means, uT^2 (the same for every output
+        axis), or None when the stability or the step times are unknown."""
+        if self.bias_stability is None or self.t_s is None:
+            return None
+        return self.bias_stability.cov_ut2(self.t_s, self.duration_s)

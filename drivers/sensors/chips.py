@@ -52,6 +52,15 @@ class ChipSpec:
         family, docs/sensors.md): flicker floor B (g), random walk K (g/sqrt(s)) and the longest
         correlation time of the flicker (s). The simulator's ``dlpf`` noise draws its bias wander
         from them and the solver states how far a session's bias may stand off the long-run bias.
+    gyro_bias_instability_dps, gyro_random_walk_dps_per_rts, gyro_flicker_corner_s : float or None
+        The same characterisation of the gyroscope's zero-rate output: flicker floor B (deg/s), random
+        walk K (deg/s/sqrt(s)), flicker corner (s); None for a chip without a gyroscope.
+    mag_bias_instability_ut, mag_random_walk_ut_per_rts, mag_flicker_corner_s : float or None
+        The same of the magnetometer's offset: B (uT), K (uT/sqrt(s)), flicker corner (s); None for a
+        chip without a magnetometer. Both are typical figures of the families (the datasheets state
+        noise only; docs/sensors.md, "Bias stability"): the simulator's ``dlpf`` noise draws the gyro
+        and magnetometer wander from them (:meth:`drivers.sensors.sim.noise.NoiseConfig.for_chip`) and
+        the gyro and magnetometer solvers weigh the steps with the covariance they imply.
     """
 
     model: str
@@ -69,6 +78,12 @@ class ChipSpec:
     accel_bias_instability_g: float = 40e-6
     accel_random_walk_g_per_rts: float = 4e-6
     accel_flicker_corner_s: float = 5000.0
+    gyro_bias_instability_dps: float | None = None
+    gyro_random_walk_dps_per_rts: float | None = None
+    gyro_flicker_corner_s: float | None = None
+    mag_bias_instability_ut: float | None = None
+    mag_random_walk_ut_per_rts: float | None = None
+    mag_flicker_corner_s: float | None = None
 
     def accepts_rate(self, rate_hz: float) -> bool:
         """Whether the chip can run at ``rate_hz`` (Hz, within 1e-9 relative)."""
@@ -82,7 +97,11 @@ CHIPS: dict[str, ChipSpec] = {
         accel_ranges_g=tuple(mpu9150_regs.ACCEL_RANGES), sample_rates_hz=mpu9150_regs.SAMPLE_RATES_HZ,
         has_temperature=True, has_gyro=True, has_magnetometer=True, driver=Mpu9150,
         accel_noise_density_g_rthz=(400e-6, 400e-6, 400e-6),  # product spec PS-MPU-9150A: 400 ug/rtHz
-        accel_bias_instability_g=40e-6, accel_random_walk_g_per_rts=4e-6, accel_flicker_corner_s=5000.0),
+        accel_bias_instability_g=40e-6, accel_random_walk_g_per_rts=4e-6, accel_flicker_corner_s=5000.0,
+        # MPU-9150 gyro: 7.2 deg/h flicker floor, 0.012 deg/s/sqrt(h) rate random walk (docs/sensors.md)
+        gyro_bias_instability_dps=0.002, gyro_random_walk_dps_per_rts=2e-4, gyro_flicker_corner_s=5000.0,
+        # AK8975: 0.1 uT flicker floor (a third of its 0.3 uT LSB), 0.6 uT/sqrt(h) walk (docs/sensors.md)
+        mag_bias_instability_ut=0.1, mag_random_walk_ut_per_rts=0.01, mag_flicker_corner_s=5000.0),
     "ADXL345": ChipSpec(
         model="ADXL345", default_address=adxl345_regs.DEFAULT_ADDRESS, addresses=adxl345_regs.ADDRESSES,
         identity_register=adxl345_regs.DEVID, identity_value=adxl345_regs.DEVID_VALUE,

@@ -3,6 +3,10 @@
 - :func:`step_means`: accelerometer, :class:`calib.data.StepMeans` (static steps);
 - :func:`rate_step_means`: gyroscope, :class:`calib.gyro.RateStepMeans` (rate steps);
 - :func:`mag_step_means`: magnetometer, :class:`calib.magnetometer.MagStepMeans` (static steps with readings).
+
+Each carries the steps' times and capture durations and the recorded chip's bias stability from the
+chip registry (:func:`bias_stability`, :func:`gyro_bias_stability`, :func:`mag_bias_stability`), so
+the solvers weigh the steps with the wander between them (docs/methods.md, "Per-step standard errors").
 """
 
 from __future__ import annotations
@@ -14,10 +18,11 @@ import numpy as np
 
 from calib.accel import BiasStability
 from calib.data import StepMeans
-from calib.gyro import RateStepMeans
+from calib.gyro import GyroBiasStability, RateStepMeans
+from calib.mag import MagBiasStability
 from calib.magnetometer import MagStepMeans
 from calib.uncertainty import step_standard_errors
-from drivers.sensors.chips import CHIPS
+from drivers.sensors.chips import CHIPS, ChipSpec
 from rig.errors import SessionFormatError
 from rig.planning.kinematics import sensor_to_world
 from rig.session.manifest import MAG_COUNTS_PER_UT, SessionManifest, SiteInfo
@@ -38,19 +43,54 @@ class Session(Protocol):
 
     def static_step_indices(self, include_flagged: bool = False, unknown_pose: bool = False) -> list[int]: ...
 
-def bias_stability(session) -> BiasStability | None:
-    """The recorded chip's bias characterisation (:data:`drivers.sensors.chips.CHIPS`), or None for a
-    sensor the registry does not know (imports of other sensors: their bias sigmas are the fit's alone)."""
+def recorded_chip(session) -> ChipSpec | None:
+    """The registry's spec of the session's sensor (:data:`drivers.sensors.chips.CHIPS`), or None for a
+    sensor the registry does not know (imports of other sensors)."""
     info = getattr(session, "info", None)
     model = getattr(getattr(getattr(info, "rig", None), "sensor", None), "model", None)
-    chip = CHIPS.get(model) if isinstance(model, str) else None
+    return CHIPS.get(model) if isinstance(model, str) else None
+
+
+def bias_stability(session) -> BiasStability | None:
+    """The recorded chip's accelerometer bias characterisation, or None for a sensor the registry does
+    not know (imports of other sensors: their bias sigmas are the fit's alone)."""
+    chip = recorded_chip(session)
     if chip is None:
         return None
     return BiasStability(chip.accel_bias_instability_g, chip.accel_random_walk_g_per_rts, chip.accel_flicker_corner_s)
 
 
+def gyro_bias_stability(session) -> GyroBiasStability | None:
+    """The recorded chip's gyroscope bias characterisation (deg/s), or None (unknown sensor, or a chip
+    the registry gives no gyroscope figures)."""
+    chip = recorded_chip(session)
+    if chip is None or chip.gyro_bias_instability_dps is None:
+        return None
+    return GyroBiasStability(chip.gyro_bias_instability_dps, chip.gyro_random_walk_dps_per_rts or 0.0,
+                             chip.gyro_flicker_corner_s or chip.accel_flicker_corner_s)
+
+
+def mag_bias_stability(session) -> MagBiasStability | None:
+    """The recorded chip's magnetometer offset characterisation (uT), or None (unknown sensor, or a chip
+    the registry gives no magnetometer figures)."""
+    chip = recorded_chip(session)
+    if chip is None or chip.mag_bias_instability_ut is None:
+        return None
+    return MagBiasStability(chip.mag_bias_instability_ut, chip.mag_random_walk_ut_per_rts or 0.0,
+                            chip.mag_flicker_corner_s or chip.accel_flicker_corner_s)
+
+
+def capture_window(t_s: np.ndarray) -> tuple[float, float]:
+    """Mid-time and duration (s) of a step's capture from its samples' times ``t_s`` (n >= 2): n samples
+    span n sample periods."""
+    n = len(t_s)
+    return 0.5 * (float(np.min(t_s)) + float(np.max(t_s))), float(np.ptp(t_s)) * n / (n - 1)
+
+
 #: the standard error of a mean never goes below the quantisation of one count
 _QUANTUM_SIGMA = 1.0 / np.sqrt(12.0)
+#: nor a magnetometer reading's scatter below 0.01 uT (the session's resolution)
+_MAG_SEM_FLOOR_UT = 0.01
 
 
 def _rows_by_step(step: np.ndarray):
@@ -86,9 +126,9 @@ def step_means(session: Session, include=None) -> StepMeans:
         blocks.append(a)
         ns.append(n)
         temps.append(_step_temperature(session, rows, i) if session.has_temperature else np.nan)
-        tt = session.samples["t_s"][rows]
-        ts.append(0.5 * (tt.min() + tt.max()))
-        durations.append(float(tt.max() - tt.min()) * n / (n - 1))  # n samples span n sample periods
+        mid, duration = capture_window(session.samples["t_s"][rows])
+        ts.append(mid)
+        durations.append(duration)
     sems, _ = step_standard_errors(blocks, _QUANTUM_SIGMA)  # correlated samples: pooled VIF per axis
     return StepMeans(names=tuple(names), f_nominal_g=np.array(f_nom, float), mean_counts=np.array(means),
                      sem_counts=sems, n_samples=np.array(ns, int),
@@ -134,7 +174,7 @@ def rate_step_means(session: Session, accel=None) -> RateStepMeans:
     steps = [s for s in session.info.steps if s.kind == "rate" and s.status == "complete"]
     if not steps:
         raise SessionFormatError(str(session.path), None, "steps", "no complete rate step")
-    names, w, means, blocks, ns, fs = [], [], [], [], [], []
+    names, w, means, blocks, ns, fs, windows = [], [], [], [], [], [], []
     for st in steps:
         rows = session.samples["step"] == st.index
         g = session.samples["gyro_counts"][rows].astype(float)
@@ -148,12 +188,34 @@ def rate_step_means(session: Session, accel=None) -> RateStepMeans:
         names.append(st.name)
         w.append(st.rate_nominal_dps)
         means.append(g.mean(axis=0))
-        blocks.append(g)
+        blocks.append(without_gravity_signal(g, session.samples["accel_counts"][rows]))
         ns.append(len(g))
+        windows.append(capture_window(session.samples["t_s"][rows]))
     sems, _ = step_standard_errors(blocks, _QUANTUM_SIGMA)
+    t_mid, duration = np.array(windows, float).T
     return RateStepMeans(names=tuple(names), rate_nominal_dps=np.array(w, float), mean_counts=np.array(means),
                          sem_counts=sems, n_samples=np.array(ns), lsb_per_dps=float(lsb),
-                         f_mean_g=np.array(fs, float))
+                         f_mean_g=np.array(fs, float), t_s=t_mid, duration_s=duration,
+                         bias_stability=gyro_bias_stability(session))
+
+
+def without_gravity_signal(gyro_counts: np.ndarray, accel_counts: np.ndarray) -> np.ndarray:
+    """A rate step's gyroscope samples (n, 3) less their least-squares fit on the specific force the
+    accelerometer saw (n, 3), counts.
+
+    Spinning about a horizontal axis turns gravity through the sensor frame once a revolution, and the
+    gyroscope's g-sensitivity ``G f`` follows it: a sinusoid of several counts within the step. It is
+    not noise in the step mean (the solver models the mean with the step's mean specific force), but
+    it would dominate the step's scatter and its autocorrelation (a variance inflation of 100 to 200 at
+    25 deg/s and 100 Hz): the standard errors were ten times the noise's. Without usable accelerometer
+    samples the gyroscope samples are returned as they are."""
+    a = np.asarray(accel_counts, float)
+    g = np.asarray(gyro_counts, float)
+    if a.shape != g.shape or not np.all(np.isfinite(a)):
+        return g
+    design = np.column_stack([np.ones(len(a)), a - a.mean(axis=0)])
+    coef, *_ = np.linalg.lstsq(design, g, rcond=None)
+    return g - design @ coef
 
 
 def _mean_specific_force(session: Session, rows: np.ndarray, accel) -> np.ndarray:
@@ -178,29 +240,36 @@ def site_field_world(site: SiteInfo | None) -> np.ndarray | None:
 def mag_step_means(session: Session, known_field: bool = True) -> MagStepMeans | None:
     """Per-step magnetometer means of the complete static steps that have readings; with
     ``known_field`` the nominal field in the sensor frame from the site field and the step's stage
-    angles (None when the session records no site field). None when there are no readings."""
+    angles (None when the session records no site field). None when there are no readings.
+
+    Standard errors from each step's scatter with the variance inflation of correlated readings
+    pooled over the steps (:func:`calib.uncertainty.step_standard_errors`), never below 0.01 uT; the
+    times and durations are those of the readings (the first ``mag_samples`` of a step)."""
     if "mag_counts" not in session.samples:
         return None
     mag_info = session.info.rig.sensor.magnetometer
     lsb = float((mag_info.mag_lsb_per_ut if mag_info is not None else None) or MAG_COUNTS_PER_UT)
     h_world = site_field_world(session.info.rig.site) if known_field else None
-    names, h, means, sems, ns = [], [], [], [], []
+    names, h, blocks, windows = [], [], [], []
     for st in session.info.steps:
         if not st.is_static or st.status != "complete":
             continue
-        m = session.samples["mag_counts"][session.samples["step"] == st.index]
-        m = m[np.all(np.isfinite(m), axis=1)] / lsb
-        if len(m) < 2:
+        rows = session.samples["step"] == st.index
+        m = session.samples["mag_counts"][rows]
+        ok = np.all(np.isfinite(m), axis=1)
+        if ok.sum() < 2:
             continue
         names.append(st.name)
         if h_world is not None and st.angles_deg is not None:
             r = sensor_to_world(np.asarray([st.angles_deg], float))[0]
             h.append(r.T @ h_world)
-        means.append(m.mean(axis=0))
-        sems.append(np.maximum(m.std(axis=0, ddof=1), 0.01) / np.sqrt(len(m)))
-        ns.append(len(m))
+        blocks.append(m[ok] / lsb)
+        windows.append(capture_window(session.samples["t_s"][rows][ok]))
     if not names:
         return None
+    sems, _ = step_standard_errors(blocks, _MAG_SEM_FLOOR_UT)
+    t_mid, duration = np.array(windows, float).T
     field = np.array(h, float) if len(h) == len(names) else None
-    return MagStepMeans(names=tuple(names), field_nominal_ut=field, mean_ut=np.array(means), sem_ut=np.array(sems),
-                        n_samples=np.array(ns))
+    return MagStepMeans(names=tuple(names), field_nominal_ut=field, mean_ut=np.array([b.mean(axis=0) for b in blocks]),
+                        sem_ut=sems, n_samples=np.array([len(b) for b in blocks]), t_s=t_mid, duration_s=duration,
+                        bias_stability=mag_bias_stability(session))

@@ -76,3 +76,27 @@ def test_on_the_simulator_s_wandering_bias_the_reported_bias_sigma_holds():
 
     r = bench.run_config(100.0, 44.0, n_sessions=100, n_discover=0)
     assert np.all((r["ratio"][:3] > 0.75) & (r["ratio"][:3] < 1.35)), r["ratio"]
+
+
+def test_the_gyro_and_magnetometer_figures_come_from_the_chip_registry_for_simulator_and_solver():
+    """One source: the ChipSpec's figures are the simulator's noise defaults and the solvers' stability."""
+    from drivers.sensors.sim.noise import NoiseConfig
+
+    chip = CHIPS["MPU-9150"]
+    session = SimpleNamespace(info=SimpleNamespace(rig=SimpleNamespace(sensor=SimpleNamespace(model="MPU-9150"))))
+    for cfg in (NoiseConfig(), NoiseConfig.for_chip("MPU-9150")):
+        assert cfg.gyro_bias_instability_dps == [chip.gyro_bias_instability_dps] * 3
+        assert cfg.gyro_random_walk_dps_per_rts == [chip.gyro_random_walk_dps_per_rts] * 3
+        assert cfg.mag_bias_instability_ut == [chip.mag_bias_instability_ut] * 3
+        assert cfg.mag_random_walk_ut_per_rts == [chip.mag_random_walk_ut_per_rts] * 3
+        assert cfg.gyro_flicker_band_s[1] == chip.gyro_flicker_corner_s
+        assert cfg.mag_flicker_band_s[1] == chip.mag_flicker_corner_s
+    gyro, mag = adapter.gyro_bias_stability(session), adapter.mag_bias_stability(session)
+    assert (gyro.bias_instability_dps, gyro.random_walk_dps_per_rts, gyro.flicker_corner_s) == (
+        chip.gyro_bias_instability_dps, chip.gyro_random_walk_dps_per_rts, chip.gyro_flicker_corner_s)
+    assert (mag.bias_instability_ut, mag.random_walk_ut_per_rts, mag.flicker_corner_s) == (
+        chip.mag_bias_instability_ut, chip.mag_random_walk_ut_per_rts, chip.mag_flicker_corner_s)
+    # a chip without a gyroscope or magnetometer has no such figures (and no simulated wander of them)
+    adxl = SimpleNamespace(info=SimpleNamespace(rig=SimpleNamespace(sensor=SimpleNamespace(model="ADXL345"))))
+    assert adapter.gyro_bias_stability(adxl) is None and adapter.mag_bias_stability(adxl) is None
+    assert NoiseConfig.for_chip("ADXL345").gyro_bias_instability_dps == [0.0] * 3

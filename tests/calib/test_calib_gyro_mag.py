@@ -384,3 +384,35 @@ def test_mag_to_dict_from_dict_round_trip_is_exact():
         assert back.method == cal.method and back.field_ut == cal.field_ut and back.fit_quality == cal.fit_quality
         m = np.random.default_rng(98).normal(0, 50, (5, 3))
         np.testing.assert_array_equal(back.apply(m), cal.apply(m))
+
+
+def test_step_times_must_match_the_steps_and_durations_be_non_negative():
+    kw = _valid_rate_kwargs()
+    k = len(kw["names"])
+    with pytest.raises(CalibError, match=r"RateStepMeans\.t_s: expected shape"):
+        RateStepMeans(**kw, t_s=np.arange(k - 1.0))
+    with pytest.raises(CalibError, match=r"RateStepMeans\.duration_s: every duration"):
+        RateStepMeans(**kw, t_s=np.arange(k * 1.0), duration_s=np.full(k, -1.0))
+    with pytest.raises(CalibError, match=r"MagStepMeans\.t_s: contains NaN"):
+        MagStepMeans(**_valid_mag_kwargs(), t_s=np.full(8, np.nan))
+
+
+def test_the_wander_between_steps_enters_the_gyro_fit_and_the_pair_sigmas():
+    """With a stability and step times the fit is GLS with V = diag(sem^2) + lsb^2 W (the bias sigma
+    then holds the wander common to the session) and each +/- pair's sigma holds their wander."""
+    from calib.gyro import GyroBiasStability
+
+    model = GyroErrorModel.draw(np.random.default_rng(33))
+    steps = gyro_steps(model, np.random.default_rng(34))
+    k = len(steps)
+    stab = GyroBiasStability(0.002, 2e-4, 5000.0)
+    timed = RateStepMeans(**{**steps.__dict__, "t_s": 100.0 + 108.0 * np.arange(k), "duration_s": np.full(k, 100.0),
+                             "bias_stability": stab})
+    plain, wandering = solve_gyro(steps), solve_gyro(timed)
+    w = timed.wander_counts2()
+    assert w.shape == (k, k) and np.allclose(w, LSB_PER_DPS**2 * stab.cov_dps2(timed.t_s, timed.duration_s))
+    for a in AXES:
+        assert wandering.sigma[f"b_{a}"] > 3 * plain.sigma[f"b_{a}"]
+    first = wandering.bias_pairs[0]
+    expected = 0.5 * np.sqrt(timed.sem_counts[0] ** 2 + timed.sem_counts[1] ** 2 + w[:2, :2].sum())
+    np.testing.assert_allclose(first.sigma_counts, expected)

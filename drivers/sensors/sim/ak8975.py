@@ -44,7 +44,7 @@ class Ak8975Model(I2CDevice):
         self.clock = clock
         self.noise = noise or NoiseConfig()
         self.noise_process = NoiseProcess(self.noise.mag_bias_instability_ut, self.noise.mag_random_walk_ut_per_rts,
-                                          own_stream(seed, MAG_NOISE_STREAM), self.noise.flicker_band_s)
+                                          own_stream(seed, MAG_NOISE_STREAM), self.noise.mag_flicker_band_s)
         self.rng = np.random.default_rng(seed)
         self.asa = bytes(int(x) for x in self.rng.integers(150, 190, 3))
         self.regs = bytearray(REGISTER_COUNT)

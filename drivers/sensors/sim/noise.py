@@ -16,15 +16,18 @@ Two models, chosen by :class:`NoiseConfig` ``model`` (a rig file: ``sim: {noise:
     independent samples with sigma = density * sqrt(pi/2 * min(bandwidth, rate/2)), drawn from the
     sampler's own generator, no wander (what the simulator did before; the golden recordings use it).
 
-Parameters per chip (:meth:`NoiseConfig.for_chip`, "datasheet class": the datasheets give noise
-density only, so bias instability and random walk are typical Allan-variance figures of consumer
-MEMS parts of these families, stated in docs/sensors.md):
+Parameters per chip (:meth:`NoiseConfig.for_chip`) come from the chip registry,
+:class:`drivers.sensors.chips.ChipSpec` (``accel_*``, ``gyro_*``, ``mag_*`` bias instability, random
+walk and flicker corner), the one source the solvers read too ("datasheet class": the datasheets give
+noise density only, so bias instability and random walk are typical Allan-variance figures of
+consumer MEMS parts of these families, stated in docs/sensors.md):
 
 =========================  ==================  ==================  ===========================
 quantity                   MPU-9150 accel      ADXL345             MPU-9150 gyro / AK8975
 =========================  ==================  ==================  ===========================
 bias instability (ADEV)    40 ug               100 ug              0.002 deg/s / 0.1 uT
 random walk K              4 ug/sqrt(s)        10 ug/sqrt(s)       2e-4 deg/s/sqrt(s) / 0.01 uT/sqrt(s)
+flicker corner             5000 s              5000 s              5000 s / 5000 s
 =========================  ==================  ==================  ===========================
 """
 
@@ -44,18 +47,30 @@ NOISE_MODELS = ("white", "dlpf")
 DEFAULT_NOISE_MODEL = "dlpf"
 #: Allan deviation floor of flicker noise = sqrt(2 ln 2 / pi) * B (IEEE Std 952, annex C)
 FLICKER_FLOOR = math.sqrt(2 * math.log(2) / math.pi)
-
+#: the chip whose figures a NoiseConfig built without one carries
+DEFAULT_CHIP = "MPU-9150"
+#: shortest correlation time of the simulated flicker, s
+FLICKER_TAU_MIN_S = 0.02
 
 
 def _chip_params(chip: str) -> dict:
-    """The chip registry's bias characterisation (one source for the simulator and the solver)."""
-    spec = CHIPS.get(chip, CHIPS["MPU-9150"])
-    return {"accel_bias_instability_g": spec.accel_bias_instability_g,
-            "accel_random_walk_g_per_rts": spec.accel_random_walk_g_per_rts}
+    """The chip registry's bias characterisation of ``chip`` (one source for the simulator and the
+    solver): per-axis lists of bias instability and random walk, and each sensor's flicker band (s).
+    A sensor the chip does not have gets no wander (zeros)."""
+    spec = CHIPS.get(chip, CHIPS[DEFAULT_CHIP])
+    out = {}
+    for sensor, b_unit, k_unit in (("accel", "g", "g_per_rts"), ("gyro", "dps", "dps_per_rts"),
+                                   ("mag", "ut", "ut_per_rts")):
+        for key in (f"{sensor}_bias_instability_{b_unit}", f"{sensor}_random_walk_{k_unit}"):
+            out[key] = [float(getattr(spec, key) or 0.0)] * 3
+        corner = getattr(spec, f"{sensor}_flicker_corner_s") or spec.accel_flicker_corner_s
+        out["flicker_band_s" if sensor == "accel" else f"{sensor}_flicker_band_s"] = (FLICKER_TAU_MIN_S, float(corner))
+    return out
 
 
-def _v(x: float):
-    return field(default_factory=lambda: [float(x)] * 3)
+def _chip(key: str):
+    """A NoiseConfig field defaulting to :data:`DEFAULT_CHIP`'s registry figure."""
+    return field(default_factory=lambda: _chip_params(DEFAULT_CHIP)[key])
 
 
 @dataclass
@@ -63,17 +78,22 @@ class NoiseConfig:
     """Which noise model a simulated chip uses and the parameters of the coloured terms.
 
     White-noise densities stay in the error models (``noise_density_g_per_rthz``,
-    ``noise_density_dps_per_rthz``, ``noise_ut``); the filter comes from the chip's registers.
+    ``noise_density_dps_per_rthz``, ``noise_ut``); the filter comes from the chip's registers. The
+    bias instabilities (sensor units), random walks (sensor units / sqrt(s)) and flicker bands
+    ``(tau_min, tau_max)`` (s; ``flicker_band_s`` the accelerometer's) default to the MPU-9150's
+    figures in the chip registry (:class:`drivers.sensors.chips.ChipSpec`).
     """
 
     model: str = DEFAULT_NOISE_MODEL
-    accel_bias_instability_g: list = _v(40e-6)
-    accel_random_walk_g_per_rts: list = _v(4e-6)
-    gyro_bias_instability_dps: list = _v(0.002)
-    gyro_random_walk_dps_per_rts: list = _v(2e-4)
-    mag_bias_instability_ut: list = _v(0.1)
-    mag_random_walk_ut_per_rts: list = _v(0.01)
-    flicker_band_s: tuple = (0.02, 5000.0)
+    accel_bias_instability_g: list = _chip("accel_bias_instability_g")
+    accel_random_walk_g_per_rts: list = _chip("accel_random_walk_g_per_rts")
+    gyro_bias_instability_dps: list = _chip("gyro_bias_instability_dps")
+    gyro_random_walk_dps_per_rts: list = _chip("gyro_random_walk_dps_per_rts")
+    mag_bias_instability_ut: list = _chip("mag_bias_instability_ut")
+    mag_random_walk_ut_per_rts: list = _chip("mag_random_walk_ut_per_rts")
+    flicker_band_s: tuple = _chip("flicker_band_s")
+    gyro_flicker_band_s: tuple = _chip("gyro_flicker_band_s")
+    mag_flicker_band_s: tuple = _chip("mag_flicker_band_s")
 
     def __post_init__(self) -> None:
         if self.model not in NOISE_MODELS:
@@ -84,11 +104,9 @@ class NoiseConfig:
         return self.model == "dlpf"
 
     @classmethod
-    def for_chip(cls, chip: str = "MPU-9150", model: str | None = None) -> "NoiseConfig":
-        """Datasheet-class parameters of ``chip`` with ``model`` (default :data:`DEFAULT_NOISE_MODEL`)."""
-        p = {k: [v] * 3 for k, v in _chip_params(chip).items()}
-        corner = CHIPS.get(chip, CHIPS["MPU-9150"]).accel_flicker_corner_s
-        return cls(model=model or DEFAULT_NOISE_MODEL, flicker_band_s=(0.02, corner), **p)
+    def for_chip(cls, chip: str = DEFAULT_CHIP, model: str | None = None) -> "NoiseConfig":
+        """The chip registry's parameters of ``chip`` with ``model`` (default :data:`DEFAULT_NOISE_MODEL`)."""
+        return cls(model=model or DEFAULT_NOISE_MODEL, **_chip_params(chip))
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)

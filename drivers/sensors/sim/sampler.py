@@ -32,7 +32,7 @@ class LazySampler:
         self.accel_noise = NoiseProcess(n.accel_bias_instability_g, n.accel_random_walk_g_per_rts,
                                         own_stream(seed, ACCEL_NOISE_STREAM), n.flicker_band_s)
         self.gyro_noise = NoiseProcess(n.gyro_bias_instability_dps, n.gyro_random_walk_dps_per_rts,
-                                       own_stream(seed, GYRO_NOISE_STREAM), n.flicker_band_s)
+                                       own_stream(seed, GYRO_NOISE_STREAM), n.gyro_flicker_band_s)
         self.hyst = HysteresisState(accel_errors.hysteresis_band_c)
         self.rate_hz = 100.0
         self.bandwidth_hz = 44.0
