@@ -105,7 +105,7 @@ def fit_magnitude(mean_counts, sem_counts=None, *, radius: float = 1.0, min_inte
     cov[np.ix_(keep, keep)] = cov_q
     b, u, r = _unpack(p, radius)
     m = np.linalg.inv(u)
-    sig_m = _sigma_matrix(m, cov[3:9, 3:9])
+    sig_m = matrix_sigma(m, cov[3:9, 3:9])
     f = (a - b) @ u.T
     resid = np.linalg.norm(f, axis=1) - r
     _check_coverage(f)
@@ -125,7 +125,7 @@ def _check_intervals(a: np.ndarray, min_intervals: int) -> None:
         raise ObservabilityError("the static intervals lie in a plane: turn the sensor through all three axes")
 
 
-def _sigma_matrix(m: np.ndarray, cov_u: np.ndarray) -> np.ndarray:
+def matrix_sigma(m: np.ndarray, cov_u: np.ndarray) -> np.ndarray:
     """1-sigma (3, 3) of ``M = U^-1`` by first-order propagation (``dM = -M dU M``) of U's (6, 6) covariance."""
     jm = np.zeros((9, 6))
     for j, (r_, c_) in enumerate(zip(*_IU)):

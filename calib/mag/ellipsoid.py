@@ -21,7 +21,7 @@ from scipy.optimize import least_squares
 
 from calib.design import misfit
 from calib.errors import ObservabilityError
-from calib.magnitude import MISFIT_P, MagnitudeFit, _sigma_matrix, fit_magnitude
+from calib.magnitude import MISFIT_P, MagnitudeFit, fit_magnitude, matrix_sigma
 
 _IU = np.triu_indices(3)
 #: times V is evaluated at the current solution and the whitened fit redone
@@ -90,4 +90,4 @@ def _result(sol, m: np.ndarray, radius: float, converged: bool) -> MagnitudeFit:
     return MagnitudeFit(matrix=mat, bias=b, radius=float(radius), cov=cov,
                         residual_rms=float(np.sqrt(np.mean(resid**2))),
                         chi2_per_dof=chi2 / dof if dof > 0 else float("nan"), n_intervals=k, converged=converged,
-                        sigma_bias=np.sqrt(np.diag(cov)[:3]), sigma_matrix=_sigma_matrix(mat, cov[3:9, 3:9]))
+                        sigma_bias=np.sqrt(np.diag(cov)[:3]), sigma_matrix=matrix_sigma(mat, cov[3:9, 3:9]))
