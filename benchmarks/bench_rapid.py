@@ -108,7 +108,8 @@ def lower_bound_s(session_dir: Path, rig_file: Path) -> tuple[float, float, floa
     pooled = np.sqrt(sum(((b - b.mean(0)) ** 2).sum(0) for b in blocks) / sum(len(b) - 1 for b in blocks))
     unit = pooled * np.sqrt(vif / session.info.rig.sensor.sample_rate_hz)
     goal = proc.target.goal(proc.solve.model)
-    pred = Predictor(goal, steps.lsb_per_g, steps.bias_stability_counts())
+    pred = Predictor(goal, steps.lsb_per_g, stability=steps.bias_stability)
+    pred.timeline = (steps.t_s, steps.duration_s)  # the session's own windows (the plan keeps them)
     k = len(steps)
     plan = plan_dwell(pred, steps.f_nominal_g, steps.sem_counts, unit, np.ones(k, bool), np.full(k, 0.5), 1e6)
     return travel, settle, plan.total_s, travel + settle + plan.total_s

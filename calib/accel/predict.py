@@ -1,9 +1,11 @@
 """Predicting a calibration's accuracy before it is measured, and the dwell that reaches a target
 (docs/methods.md, "Accuracy targets: predicted uncertainty and the stopping rule").
 
-The accelerometer solve is weighted linear least squares per output axis, so the covariance of its
-parameters, ``C_j = (G_j^T W_j G_j)^-1``, depends only on the poses (``G_j``) and the per-step
-standard errors (``W_j = diag(1 / sem^2)``), never on the readings themselves. A step's standard
+The accelerometer solve is linear least squares per output axis, so the covariance of its
+parameters, ``C_j = (G_j^T W_j G_j)^-1``, depends only on the poses (``G_j``), the per-step standard
+errors and the steps' capture windows (``W_j = V_j^-1``, ``V_j = diag(sem^2) + lsb^2 W`` with the
+chip's bias wander ``W`` between the windows, the solver's generalised least squares; or
+``diag(1 / sem^2)`` plus a bias floor without a timeline), never on the readings themselves. A step's standard
 error is ``u / sqrt(t)`` for a dwell of ``t`` seconds, ``u`` the noise measured so far with the
 correlation-aware inflation of :mod:`calib.uncertainty`. Everything a target asks for is therefore
 known before the dwell is spent:
@@ -32,11 +34,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from calib.accel.inputs import BiasStability
 from calib.accel.solve import base_model
 from calib.design import AXES, Inputs
 from calib.errors import CalibError, ObservabilityError
 from calib.evaluation import GIMBAL_LOCK_COS
 from calib.synthetic import f_from_roll_pitch
+from calib.wander import wander_cov_g2
 
 #: the seed paper's seven verification poses, (roll, pitch) in degrees
 SEED_TABLE_ROLL_PITCH_DEG = ((0, 90), (-60, 60), (-30, 30), (0, 0), (30, -30), (60, -60), (90, 0))
@@ -128,15 +132,27 @@ class Predictor:
     """The prediction for one goal and sensitivity (``lsb_per_g``); reusable for any poses and
     standard errors (the verification-pose Jacobians and the draws are computed once).
 
-    ``bias_floor_counts``: 1-sigma by which the session's bias stands off the sensor's long-run bias
-    (the chip's bias stability, :meth:`calib.accel.inputs.StepMeans.bias_stability_counts`); it adds
-    to every bias's variance, as the solver adds it to the reported bias sigma.
+    Two ways to hold the chip's bias wander, the second the solver's own:
+
+    - ``bias_floor_counts``: 1-sigma by which the session's bias stands off the sensor's long-run
+      bias (:meth:`calib.accel.inputs.StepMeans.bias_stability_counts`), added to every bias's
+      variance (what is common to the whole session; not the wander *between* the steps);
+    - ``stability`` (:class:`calib.accel.inputs.BiasStability`) and a ``timeline``, the steps'
+      capture windows ``(t_mid_s (K,), duration_s (K,))``: the covariance is that of the solver's
+      generalised least squares, ``(G^T V^-1 G)^-1`` with ``V = diag(sem^2) + lsb^2 W`` and ``W`` the
+      wander between the windows (:func:`calib.wander.wander_cov_g2`), which holds both the common part
+      and what differs between steps far apart in time. ``bias_floor`` is then not added. The
+      timeline is state (set before a prediction, as the run's plan moves); without one the floor
+      is used.
     """
 
-    def __init__(self, goal: Goal, lsb_per_g: float, bias_floor_counts: float = 0.0) -> None:
+    def __init__(self, goal: Goal, lsb_per_g: float, bias_floor_counts: float = 0.0,
+                 stability: BiasStability | None = None) -> None:
         self.goal = goal
         self.lsb = float(lsb_per_g)
         self.bias_floor = float(bias_floor_counts)
+        self.stability = stability
+        self.timeline: tuple[np.ndarray, np.ndarray] | None = None
         self.model = base_model(goal.model)
         self.targets = goal.sigma_targets()
         self.rows = {}  # axis -> (E, P_j): d(roll/pitch errors, rad) / d(parameter errors, counts)
@@ -170,18 +186,32 @@ class Predictor:
         f = np.asarray(f_steps, float)
         sem = np.asarray(sem_counts, float)
         x = Inputs(f, None, np.zeros(len(f)))
+        wander = self.wander_counts2(len(f))
         out = {}
         for j, a in enumerate(AXES):
             g = self.model.design(a, x)
-            w = 1.0 / sem[:, j] ** 2
-            info = g.T @ (g * w[:, None])
+            if wander is None:
+                info = g.T @ (g / sem[:, j:j + 1] ** 2)
+            else:
+                info = g.T @ np.linalg.solve(np.diag(sem[:, j] ** 2) + wander, g)
             if len(f) < g.shape[1] or np.linalg.cond(info) > 1e12:
                 raise ObservabilityError(f"the poses do not determine the {self.goal.model} model's "
                                          f"{a} axis ({len(f)} steps, {g.shape[1]} parameters)")
             cov = np.linalg.inv(info)
-            cov[0, 0] += self.bias_floor**2  # the bias is every model's first term
+            if wander is None:
+                cov[0, 0] += self.bias_floor**2  # the bias is every model's first term
             out[a] = (self.model.names(a), cov)
         return out
+
+    def wander_counts2(self, k: int) -> np.ndarray | None:
+        """(K, K) covariance (counts^2) of the bias wander between the timeline's K windows, or None
+        (no stability or no timeline: the bias floor is used instead)."""
+        if self.stability is None or self.timeline is None:
+            return None
+        t_mid_s, duration_s = (np.asarray(v, float) for v in self.timeline)
+        if len(t_mid_s) != k or len(duration_s) != k:
+            raise CalibError(f"the prediction's timeline has {len(t_mid_s)} windows for {k} steps")
+        return self.lsb**2 * wander_cov_g2(t_mid_s, duration_s, self.stability)
 
     def predict(self, f_steps, sem_counts) -> Prediction:
         """The prediction for steps at ``f_steps`` (K, 3) with standard errors ``sem_counts`` (K, 3)."""

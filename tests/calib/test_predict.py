@@ -7,12 +7,14 @@ predicted 95 % bound.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from pydantic import TypeAdapter
 
 import calib
-from calib.accel import StepMeans
+from calib.accel import BiasStability, StepMeans
 from calib.accel.predict import Goal, Predictor, plan_dwell, planned_sems, seed_table_f, target_record
 from calib.accel.result import triangular_matrix
 from calib.accel.target_record import TargetRecord
@@ -67,6 +69,29 @@ def test_the_predicted_sigmas_are_those_the_solver_reports():
         assert p.sigmas[f"accel.scale_{a}"] == pytest.approx(cal.sigma["scale_counts_per_g"][j], rel=1e-9)
     for name in ("alpha_yz", "alpha_zy", "alpha_zx"):
         assert p.sigmas[f"accel.{name}"] == pytest.approx(cal.sigma["misalignment"][name], rel=1e-6)
+
+
+def test_with_the_steps_timeline_the_predicted_sigmas_are_the_solvers_generalised_least_squares():
+    """The chip's wander between the capture windows, not only its common part: the prediction is the
+    covariance the solver reports for the same steps (calib.accel.solve: GLS with the wander)."""
+    rng = np.random.default_rng(4)
+    sem = rng.uniform(0.5, 2.0, (6, 3))
+    t_s, duration_s = 5.0 + 40.0 * np.arange(6), np.full(6, 30.0)  # 30 s dwells, 10 s moves
+    stability = BiasStability(40e-6, 4e-6, 5000.0)  # the MPU-9150's figures, g
+    m = triangular_matrix(np.full(3, LSB), {"alpha_yz": 0.0, "alpha_zy": 0.0, "alpha_zx": 0.0})
+    steps = dataclasses.replace(steps_for(FACES, FACES @ m.T, sem), t_s=t_s, duration_s=duration_s,
+                                bias_stability=stability)
+    cal = calib.solve(steps, thermal="off")  # noise-free: no Birge rescaling
+    pred = Predictor(Goal(sigma={"accel.*": 1.0}), LSB, stability=stability)
+    floor_only = Predictor(Goal(sigma={"accel.*": 1.0}), LSB, steps.bias_stability_counts()).predict(FACES, sem).sigmas
+    pred.timeline = (t_s, duration_s)
+    p = pred.predict(FACES, sem).sigmas
+    for j, a in enumerate("xyz"):
+        assert p[f"accel.bias_{a}"] == pytest.approx(cal.sigma["bias_counts"][j], rel=1e-9)
+        assert p[f"accel.scale_{a}"] == pytest.approx(cal.sigma["scale_counts_per_g"][j], rel=1e-9)
+        assert p[f"accel.scale_{a}"] > 1.02 * floor_only[f"accel.scale_{a}"]  # the floor misses the between-step part
+    for name in ("alpha_yz", "alpha_zy", "alpha_zx"):
+        assert p[f"accel.{name}"] == pytest.approx(cal.sigma["misalignment"][name], rel=1e-6)
 
 
 def test_the_bias_stability_adds_to_every_bias_and_nothing_else():

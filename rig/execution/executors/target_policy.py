@@ -62,15 +62,13 @@ class Decision:
     eta_s: float
 
 
-def bias_floor_counts(model: str | None, lsb_per_g: float, duration_s: float) -> float:
-    """1-sigma (counts) by which a session's bias stands off the long-run bias (the chip's bias
-    stability over the session, as the solver reports it); 0 for a chip the registry does not know."""
+def chip_stability(model: str | None) -> BiasStability | None:
+    """The accelerometer bias stability of the registry's chip (the solver's, rig.session.adapter), or None
+    for a chip the registry does not know (the prediction then has no wander)."""
     chip = CHIPS.get(model) if isinstance(model, str) else None
     if chip is None:
-        return 0.0
-    stability = BiasStability(chip.accel_bias_instability_g, chip.accel_random_walk_g_per_rts,
-                              chip.accel_flicker_corner_s)
-    return stability.sigma_g(duration_s) * float(lsb_per_g)
+        return None
+    return BiasStability(chip.accel_bias_instability_g, chip.accel_random_walk_g_per_rts, chip.accel_flicker_corner_s)
 
 
 class TargetSetup:
@@ -83,9 +81,18 @@ class TargetSetup:
         self.spec = procedure.target
         self.goal = self.spec.goal(procedure.solve.model)
         self.rate = float(procedure.sensor.sample_rate_hz)  # what the sensor is configured to (also before it is)
-        self.predictor = Predictor(self.goal, sensor.accel_lsb_per_g,
-                                   bias_floor_counts(sensor.model, sensor.accel_lsb_per_g, self.spec.max_seconds))
+        self.predictor = Predictor(self.goal, sensor.accel_lsb_per_g, stability=chip_stability(sensor.model))
         self.statics = [s for s in procedure.expanded_steps() if s.kind == "static"]
+
+    def timeline(self, start_s: float, steps: list, dwell_s: list) -> tuple[np.ndarray, np.ndarray]:
+        """Capture windows ``(t_mid_s, duration_s)`` of ``steps`` taken one after another from session time
+        ``start_s`` with dwells ``dwell_s`` (s), each after its move and settling (:meth:`overhead_of`)."""
+        mids, t = [], float(start_s)
+        for s, d in zip(steps, dwell_s):
+            t += self.overhead_of(s.index)
+            mids.append(t + d / 2)
+            t += d
+        return np.array(mids), np.asarray(dwell_s, float)
 
     def overhead_of(self, index: int) -> float:
         """Move into static step ``index`` from the one before it, settle and margin (s)."""
@@ -109,6 +116,7 @@ class TargetPolicy:
         self.predictor, self.statics = setup.predictor, setup.statics
         self.blocks: dict[int, np.ndarray] = {i: np.asarray(a, float) for i, (_, a) in (recorded or {}).items()}
         self.mids: dict[int, float] = {i: _mid(t) for i, (t, _) in (recorded or {}).items()}
+        self.spans: dict[int, float] = {i: _span(t) for i, (t, _) in (recorded or {}).items()}
         self.block_n = max(2, int(round(BLOCK_S * self.rate)))
         self.min_n = self.block_n * max(1, int(np.ceil(MIN_DWELL_S * self.rate / self.block_n)))
         self.planned_s: dict[int, float] = {}
@@ -138,7 +146,7 @@ class TargetPolicy:
         layout = _Layout.build(self, step, np.asarray(accel_counts, float), tau)
         budget_s = self.spec.max_seconds - float(t_s[-1]) - self._reserved_after(step)
         last = self._last_free(step)
-        self.predictor.bias_floor = self._bias_floor(step, _mid(t_s), last)
+        self.predictor.timeline = self._timeline(layout, step, np.asarray(t_s, float), tau)
         first_look = step.index not in self.planned_s
         if first_look or tau >= self.planned_s[step.index] - 1e-9 or tau >= REPLAN_GROWTH * self.replanned_at:
             self._replan(step, layout, tau, budget_s, first_look)
@@ -207,6 +215,7 @@ class TargetPolicy:
         if status == "complete" and len(samples):
             self.blocks[step.index] = np.asarray(samples.accel_counts, float)
             self.mids[step.index] = _mid(np.asarray(samples.t_s, float) - self.ctx.t0_s)
+            self.spans[step.index] = _span(np.asarray(samples.t_s, float))
 
     def step_stats(self, step) -> dict:
         """What the session records about this pose's decision (``steps[i].stats.target``)."""
@@ -223,7 +232,8 @@ class TargetPolicy:
         if not rows:
             return
         sems, _ = step_standard_errors([self.blocks[s.index] for s in rows], QUANTUM_SIGMA)
-        self.predictor.bias_floor = self._floor_for(np.ptp([self.mids[s.index] for s in rows]))
+        self.predictor.timeline = (np.array([self.mids[s.index] for s in rows]),
+                                   np.array([self.spans[s.index] for s in rows]))
         p = self.predictor.predict(np.array([s.f_nominal for s in rows], float), sems)
         summary = ("target met: " if p.met else "target not met: ") + describe(self.goal, p)
         rig_time = self.ctx.session_time()
@@ -246,16 +256,20 @@ class TargetPolicy:
         dwell = sum(MIN_DWELL_S if s.dwell_rule == "target" else nominal_dwell_s(s, self.rate) for s in later)
         return self._overhead_after(step) + dwell
 
-    def _bias_floor(self, step, mid_s: float, last: bool) -> float:
-        """The bias stability over the session's expected span (the steps' mid-times, as the solver)."""
-        mids = list(self.mids.values()) + [mid_s]
-        later = 0.0 if last else self._overhead_after(step) + sum(
-            self.planned_s.get(s.index, MIN_DWELL_S) for s in self.statics if s.index > step.index)
-        return self._floor_for(float(np.ptp(mids)) + later)
-
-    def _floor_for(self, span_s: float) -> float:
-        sensor = self.ctx.rig.sensor
-        return bias_floor_counts(sensor.model, sensor.accel_lsb_per_g, span_s)
+    def _timeline(self, layout, step, t_s: np.ndarray, tau: float) -> tuple[np.ndarray, np.ndarray]:
+        """The capture windows the solver will see for ``layout``'s rows (:class:`calib.accel.predict.Predictor`
+        weighs the chip's wander between them): the recorded poses' own, this pose's from its first sample
+        to its planned end, the poses to come after it at their planned (or given, or least) dwell."""
+        done = layout.indices[:layout.current]
+        this_s = max(tau, self.planned_s.get(step.index, tau))
+        start = float(t_s[0]) if len(t_s) else 0.0
+        by_index = {s.index: s for s in self.statics}
+        rest = [by_index[i] for i in layout.indices[layout.current + 1:]]
+        dwell = [self.planned_s.get(s.index, MIN_DWELL_S) if s.dwell_rule == "target"
+                 else nominal_dwell_s(s, self.rate) for s in rest]
+        mids, spans = self.setup.timeline(start + this_s, rest, dwell)
+        return (np.concatenate([[self.mids[i] for i in done], [start + this_s / 2], mids]),
+                np.concatenate([[self.spans[i] for i in done], [this_s], spans]))
 
     def _shown(self, p) -> tuple[float, float, str]:
         if p.attitude_error_deg is not None:
@@ -320,6 +334,12 @@ def standard_errors(blocks: list, max_lag: int | None) -> tuple[np.ndarray, np.n
 def _mid(t_s) -> float:
     t = np.asarray(t_s, float)
     return float(0.5 * (t.min() + t.max())) if len(t) else 0.0
+
+
+def _span(t_s) -> float:
+    """A capture's duration (s) as the solver takes it (rig.session.adapter): n samples span n periods."""
+    t = np.asarray(t_s, float)
+    return float(np.ptp(t) * len(t) / (len(t) - 1)) if len(t) >= 2 else 0.0
 
 
 def _pooled_sd(blocks: list) -> np.ndarray:

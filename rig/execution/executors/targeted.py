@@ -58,9 +58,13 @@ def preflight(procedure, step, rig) -> None:
     density = min(chip.accel_noise_density_g_rthz) if chip is not None else None  # the quietest axis: optimistic
     if density is None or procedure.target.attitude_error_deg is None:
         return  # sigma targets are in counts, whose scale the sensor knows only once configured
-    attitude_only = Predictor(replace(policy.goal, sigma={}), rig.sensor.accel_lsb_per_g, policy.predictor.bias_floor)
+    attitude_only = Predictor(replace(policy.goal, sigma={}), rig.sensor.accel_lsb_per_g,
+                              stability=policy.predictor.stability)
     f = np.array([s.f_nominal for s in policy.statics], float)
     free = np.array([s.dwell_rule == "target" for s in policy.statics])
+    attitude_only.timeline = policy.timeline(0.0, policy.statics, [MIN_DWELL_S if s.dwell_rule == "target" else
+                                                                   nominal_dwell_s(s, policy.rate)
+                                                                   for s in policy.statics])
     unit = np.full(3, density * np.sqrt(OPTIMISM) * rig.sensor.accel_lsb_per_g)
     sem = np.tile(unit, (len(f), 1)) / np.sqrt([[max(nominal_dwell_s(s, policy.rate), MIN_DWELL_S)]
                                                 for s in policy.statics])
@@ -173,7 +177,9 @@ def calibration_record(session, steps, model: str | None = None, method: str | N
                 "poses": spec.poses_record(), "predicted_attitude_error_deg": None, "sigma": [],
                 "max_seconds": float(spec.max_seconds), "rig_time_s": rig_time,
                 "summary": f"not evaluated: {exc}"}
-    predictor = Predictor(goal, float(steps.lsb_per_g), steps.bias_stability_counts())
+    predictor = Predictor(goal, float(steps.lsb_per_g), steps.bias_stability_counts(), stability=steps.bias_stability)
+    if steps.duration_s is not None:  # the solver's own covariance: GLS with the wander between the steps
+        predictor.timeline = (steps.t_s, steps.duration_s)
     prediction = predictor.predict(steps.f_nominal_g, steps.sem_counts)
     return target_record(goal, prediction, poses=spec.poses_record(), max_seconds=spec.max_seconds,
                          rig_time_s=rig_time)

@@ -11,6 +11,7 @@ import json
 
 import pytest
 
+import calib
 from rig.cli.console import plain_progress_line
 from rig.config.procedure import load_procedure_text
 from rig.errors import RigInputError
@@ -114,6 +115,11 @@ def test_a_per_parameter_sigma_target_is_met(make_rig, tmp_path):
     assert record["met"] and len(record["sigma"]) == 6, record["summary"]
     assert all(s["predicted"] <= s["target"] for s in record["sigma"])
     assert max(s["predicted"] / s["target"] for s in record["sigma"]) > 0.85  # stopped when met, not later
+    # what was predicted is what the solver reports: its GLS with the chip's wander between the poses
+    cal = calib.solve(load_session(writer.session_dir).step_means(), thermal="off")
+    predicted = {s["parameter"]: s["predicted"] for s in record["sigma"]}
+    for j, a in enumerate("xyz"):
+        assert predicted[f"accel.bias_{a}"] == pytest.approx(cal.sigma["bias_counts"][j], rel=1e-6)
 
 
 def test_a_target_out_of_reach_even_at_the_datasheet_noise_is_refused_before_anything_moves(make_rig, tmp_path):
