@@ -3,6 +3,7 @@
 Usage::
 
     .venv/bin/python benchmarks/bench_discover.py [--seeds 20] [--clean 100] [--full 0] [--sessions 'GLOB']
+        [--pvalues] [--no-mdm] [--no-run-time] [--designs a,b] [--effects a,b] [--templates T26 THERMAL]
 
 **Sample-level simulation** (the default, fast): a template session fixes the design (poses, step
 times and durations, temperatures, legs, rates, outer-axis angles, samples per step). Each trial
@@ -24,6 +25,13 @@ turntable and sensor with ``noise: dlpf``; ``--sessions GLOB`` evaluates already
 directories instead (each glob match is a session's parent directory, as written by ``rig run --out``).
 A false alarm is any effect named other than ``bias_tempco`` (which every drawn sensor has); the
 verdict's false alarms (``gap_closed: false`` on a clean session) are counted separately.
+
+**Calibration of the tests** (``--pvalues``): on the same clean sessions, each candidate's F-test
+p-value against the baseline plus ``bias_tempco`` (:func:`calib.discovery.candidate_pvalues`), which
+is uniform when the test is calibrated: the table gives the counts below 0.001, 0.01 and 0.05 and the
+Kolmogorov-Smirnov p-value against the uniform, and how many sessions Bonferroni's family (the smallest
+p-value times the number of candidates) puts below 0.01 (what forward selection can name: at most
+1 % of sessions).
 """
 
 from __future__ import annotations
@@ -38,12 +46,13 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from scipy import stats
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from calib.accel.inputs import BiasStability, StepMeans  # noqa: E402
-from calib.discovery import StepContext, discover  # noqa: E402
+from calib.discovery import StepContext, candidate_pvalues, discover  # noqa: E402
 from calib.effects import heating_state  # noqa: E402
 from calib.uncertainty import step_standard_errors  # noqa: E402
 from drivers.sensors.chips import CHIPS  # noqa: E402
@@ -91,8 +100,8 @@ class Design:
                    st.duration_s, np.asarray(st.n_samples) * rate_factor, ctx.heating,
                    ctx.temp_rate if ctx.temp_rate is not None else np.zeros(k), ctx.angles_deg, st.names)
 
-    def trial(self, rng, field=None, value=None, jump_t_s=None):
-        """Discover on one simulated session of this design with ``field`` = ``value`` hidden."""
+    def session(self, rng, field=None, value=None, jump_t_s=None):
+        """(step means, context, drawn error model) of one simulated session with ``field`` = ``value`` hidden."""
         m = AccelErrorModel.draw(rng)
         m.t_ref_c = float(np.mean(self.temp))
         if field:
@@ -110,6 +119,11 @@ class Design:
                           sem_counts=sems, n_samples=self.n, temp_c=self.temp, t_s=self.t_mid, lsb_per_g=LSB,
                           bias_stability=STABILITY, duration_s=self.dur)
         ctx = StepContext(heating=self.heating, temp_rate=self.rate, angles_deg=self.angles)
+        return steps, ctx, m
+
+    def trial(self, rng, field=None, value=None, jump_t_s=None):
+        """Discover on one simulated session of this design with ``field`` = ``value`` hidden."""
+        steps, ctx, m = self.session(rng, field, value, jump_t_s)
         return discover(steps, ctx), m
 
 
@@ -207,6 +221,36 @@ def full_rig(paths) -> tuple[int, int, int, list]:
     return len(paths), fa, gap, names
 
 
+def session_pvalues(paths) -> list[dict]:
+    """Per recorded clean session: each candidate's p-value against the baseline plus the real bias_tempco."""
+    out = []
+    for p in paths:
+        s = load_session(p)
+        idx = s.static_step_indices()
+        out.append(candidate_pvalues(step_means(s, idx), step_context(s, idx)))
+    return out
+
+
+def clean_pvalues(design: Design, n: int) -> list[dict]:
+    """The same over ``n`` clean sample-level trials of ``design`` (the seeds of :func:`clean_rates`)."""
+    return [candidate_pvalues(*design.session(np.random.default_rng(5000 + s))[:2]) for s in range(n)]
+
+
+def pvalue_lines(rows: list[dict], label: str) -> list[str]:
+    """Markdown rows: per candidate, how many p-values fall below 0.001, 0.01 and 0.05 (uniform under a
+    calibrated test: n times that), and the Kolmogorov-Smirnov p-value against the uniform; then the
+    sessions whose smallest p-value times the number of candidates is below 0.01 (Bonferroni's family)."""
+    lines = []
+    for name in sorted({k for r in rows for k in r}):
+        p = np.array([r[name] for r in rows if name in r])
+        ks = stats.kstest(p, "uniform").pvalue
+        lines.append(f"| {label} | {name} | {len(p)} | {(p < 0.001).sum()} | {(p < 0.01).sum()} | {(p < 0.05).sum()} | "
+                     f"{ks:.2g} |")
+    fam = sum(min(r.values()) * len(r) < 0.01 for r in rows if r)
+    lines.append(f"| {label} | (family: min p x candidates < 0.01) | {len(rows)} | | {fam} | | |")
+    return lines
+
+
 def run_time(session: Path) -> tuple[float, float, int]:
     """(CLI seconds, search seconds, steps) of one discovery on ``session`` twice over (156 steps)."""
     s = load_session(session)
@@ -230,6 +274,12 @@ def run_time(session: Path) -> tuple[float, float, int]:
     return time.perf_counter() - t0, search, len(both)
 
 
+def print_run_time(template: Path) -> None:
+    cli_s, search_s, k = run_time(template)
+    print(f"\nrun time: the search on a {k}-step session (tumble26 twice over) {search_s:.2f} s; "
+          f"`rig discover --json` on the 78-step session end to end {cli_s:.2f} s (target < 10 s)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--seeds", type=int, default=20)
@@ -239,6 +289,9 @@ def main() -> None:
     ap.add_argument("--no-mdm", action="store_true", help="skip the smallest-detected-magnitude search")
     ap.add_argument("--designs", default=None, help="comma-separated designs for the clean runs (default: all)")
     ap.add_argument("--effects", default=None, help="comma-separated effects for the detection runs (default: all)")
+    ap.add_argument("--pvalues", action="store_true",
+                    help="report each candidate's null p-values (calibration: uniform) on the clean sessions")
+    ap.add_argument("--no-run-time", action="store_true", help="skip the run-time measurement")
     ap.add_argument("--templates", nargs=2, default=None, metavar=("TUMBLE26", "THERMAL"),
                     help="recorded dlpf sessions to use as templates instead of recording them")
     args = ap.parse_args()
@@ -252,9 +305,11 @@ def main() -> None:
                "tumble26_1khz": Design.from_session(templates["tumble26"], rate_factor=10),
                "thermal": Design.from_session(templates["thermal"]), "legs": legs_design(), "ramps": ramps_design()}
 
-    cli_s, search_s, k = run_time(templates["tumble26"])
-    print(f"\nrun time: the search on a {k}-step session (tumble26 twice over) {search_s:.2f} s; "
-          f"`rig discover --json` on the 78-step session end to end {cli_s:.2f} s (target < 10 s)")
+    if not args.no_run_time:
+        print_run_time(templates["tumble26"])
+    PVALUE_HEAD = ("| sessions | candidate | n | p < 0.001 | p < 0.01 | p < 0.05 | KS p (uniform) |\n"
+                   "|---|---|---|---|---|---|---|")
+    pv_rows: list[str] = []
 
     print(f"\nclean sessions, sample-level dlpf simulation ({args.clean} per design):")
     print("| design | steps | spurious names | gap_closed false | mean chi2/dof after |\n|---|---|---|---|---|")
@@ -263,6 +318,8 @@ def main() -> None:
             continue
         fa, gap, chi = clean_rates(des, args.clean)
         print(f"| {name} | {len(des.f)} | {fa}/{args.clean} | {gap}/{args.clean} | {chi:.3f} |", flush=True)
+        if args.pvalues:
+            pv_rows += pvalue_lines(clean_pvalues(des, args.clean), f"{name} (sample level)")
 
     print(f"\ndetection over {args.seeds} seeds at the stated magnitude (pattern x magnitude per axis):")
     print("| effect | design | magnitude | named | named alone (+ bias_tempco) | within 3 sigma | "
@@ -291,6 +348,13 @@ def main() -> None:
         for name, ps in paths.items():
             n, fa, gap, names = full_rig(ps)
             print(f"| {name} | {n} | {fa}/{n} | {gap}/{n} | {names} |", flush=True)
+            if args.pvalues:
+                pv_rows += pvalue_lines(session_pvalues(ps), f"{name} (full rig)")
+    if pv_rows:
+        print("\nnull p-values of each candidate against the baseline + bias_tempco (calibrated: uniform; "
+              "bias_jump's is Bonferroni over the jump times, conservative):")
+        print(PVALUE_HEAD)
+        print("\n".join(pv_rows))
 
 
 if __name__ == "__main__":

@@ -44,12 +44,14 @@ from calib.frames import AXES
 from calib.wander import wander_rms_g
 
 __all__ = ["COLUMN_TOL", "FORCE_EFFECTS", "HINTS", "MIN_JUMP_SIDE", "TRIANGULAR_COLUMNS", "Discovery", "FoundEffect",
-           "StepContext", "StepRow", "coverage_problem", "discover", "f_test", "jump_times", "localise",
-           "scan_jump", "summary_lines", "unexplained", "unexplained_lines", "verdict"]
+           "StepContext", "StepRow", "candidate_pvalues", "coverage_problem", "discover", "f_test", "jump_times",
+           "localise", "remaining", "scan_jump", "summary_lines", "unexplained", "unexplained_lines", "verdict"]
 
 FORMAT = "rig-discover/3"
 TEMP_EFFECTS = ("bias_tempco_quadratic", "bias_tempco_cubic")  # enter only after bias_tempco
 NEEDS = {"bias_tempco": TEMP_EFFECTS}  # bias_tempco stays while a higher order is in
+POLYNOMIAL = ("bias_tempco",) + TEMP_EFFECTS  # the seed's thermal model: preferred among aliases
+ORDER = list(LIBRARY)  # among equally simple aliases, the library's order (the more common physics first)
 MIN_RADIAL_STEPS = 12  # pose-free steps the magnitude baseline (9 parameters) needs, with dof to spare
 
 
@@ -223,6 +225,39 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
                     false_alarm, t0, t_ref, observable)
 
 
+def candidate_pvalues(steps: StepMeans, ctx: StepContext | None = None, model=("bias_tempco",),
+                      false_alarm: float = 0.01) -> dict:
+    """The F-test p-value of adding each observable candidate, alone, to the baseline plus ``model``.
+
+    A calibration check, not part of the search: on sessions whose truth is the baseline plus
+    ``model`` (a clean simulated sensor: its real ``bias_tempco``) each p-value is uniform on [0, 1]
+    when its test is calibrated, so the fraction below ``u`` is ``u``. ``bias_jump``'s p-value is the
+    search's (the best jump time, multiplied by the number of times: conservative, not uniform).
+    Effects of ``model`` the session cannot observe are left out of it.
+
+    Returns
+    -------
+    dict : candidate -> p-value, for every observable candidate not in ``model``.
+    """
+    ctx = ctx or StepContext()
+    temps = None if steps.temp_c is None else np.asarray(steps.temp_c, float)
+    t0 = float(np.mean(temps)) if temps is not None else 25.0
+    prob = _problem(steps, ctx, t0, float(np.mean(steps.t_s)))
+    base_fit = prob.fit([])
+    if not prob.pose_free:
+        prob.matrix_g = _matrix_from(base_fit) / prob.lsb
+    observable = triage(prob, list(LIBRARY), false_alarm)[0]
+    fit = _Cache(prob)
+    held = [n for n in model if n in observable]
+    cur = fit(held)
+    out = {}
+    for n in remaining(observable, held):
+        if n == "bias_jump":
+            scan_jump(prob, held)
+        out[n] = prob.test(n, cur, fit(held + [n]))[1]
+    return out
+
+
 class _Cache:
     """Fits of the problem by (effects, nuisance factor), computed once (the jump time is part of the key)."""
 
@@ -347,31 +382,49 @@ def _step_rows(steps: StepMeans, prob: Problem, ctx: StepContext, base_fit: Fit,
                     z0[i].tolist(), z1[i].tolist()) for i in range(k)]
 
 
+def remaining(observable: list, selected: list) -> list:
+    """The candidates that may enter a model holding ``selected``: the observable ones not in it, the
+    higher temperature orders only once ``bias_tempco`` is in."""
+    return [n for n in observable if n not in selected and (n not in TEMP_EFFECTS or "bias_tempco" in selected)]
+
+
 def _select(prob: Problem, observable: list, alpha: float, fit: _Cache) -> tuple[list, list]:
-    """Forward stepwise selection (Bonferroni over the candidates left), aliases, then a backward pass."""
+    """Forward stepwise selection (Bonferroni over the candidates left), aliases, then a backward pass.
+
+    When the most significant candidate has aliases (neither it nor they significant once the other
+    is in), the data cannot tell them apart and :func:`_preference` decides which enters; the group is
+    reported, that one first.
+    """
     selected: list[str] = []
     aliases: list[list[str]] = []
     prob.last_pass = {}
     while True:
-        remaining = [n for n in observable if n not in selected
-                     and (n not in TEMP_EFFECTS or "bias_tempco" in selected)]
-        if not remaining:
+        left = remaining(observable, selected)
+        if not left:
             break
         cur = fit(selected)
-        if "bias_jump" in remaining:
+        if "bias_jump" in left:
             scan_jump(prob, selected)
-        pvals = {n: prob.test(n, cur, fit(selected + [n])) for n in remaining}
-        thr = alpha / len(remaining)
-        best = min(remaining, key=lambda n: (pvals[n][1], -pvals[n][0]))
+        pvals = {n: prob.test(n, cur, fit(selected + [n])) for n in left}
+        thr = alpha / len(left)
+        best = min(left, key=lambda n: (pvals[n][1], -pvals[n][0]))
         if pvals[best][1] >= thr:
-            prob.last_pass = {n: (pvals[n][1], thr) for n in remaining}
+            prob.last_pass = {n: (pvals[n][1], thr) for n in left}
             break
-        group = [best] + [n for n in remaining if n != best and pvals[n][1] < thr and _aliased(prob, fit, selected,
-                                                                                              best, n, thr)]
+        group = [best] + [n for n in left if n != best and pvals[n][1] < thr and _aliased(prob, fit, selected,
+                                                                                         best, n, thr)]
+        chosen = min(group, key=lambda n: _preference(prob, n))
         if len(group) > 1:
-            aliases.append(group)
-        selected.append(best)
+            aliases.append([chosen] + [n for n in group if n != chosen])
+        selected.append(chosen)
     return _backward(prob, selected, alpha, fit), aliases
+
+
+def _preference(prob: Problem, name: str) -> tuple:
+    """Sort key among aliases, the preferred first: a term of the temperature polynomial (the seed's own
+    thermal model, which its thermal calibration fits), then the fewest columns (nuisance columns
+    included: the simpler explanation), then the library's order (the more common physics)."""
+    return name not in POLYNOMIAL, int(prob.keep[name].sum()), ORDER.index(name)
 
 
 def _aliased(prob: Problem, fit: _Cache, selected: list, best: str, n: str, thr: float) -> bool:

@@ -9,11 +9,13 @@ temperature level, leg), plus a **change point** in time (a bias step per axis, 
 Bonferroni over the times). A factor is used only when its levels group the steps (2 to K/2 levels).
 
 The factor with the smallest p-value of its F test (added to the named effects) is kept when that
-p-value is below ``false_alarm``; every named effect is then re-tested with it in the model (backward
-elimination, the least significant first, at ``false_alarm``) and those it makes unnecessary are
-dropped; an effect whose columns lie wholly inside the factor's span (a bias jump at a time-block
-boundary) adds nothing to it and is dropped too. The factor is
-reported under ``unexplained.factor``; it never enters the calibration.
+p-value, multiplied by the number of factors tried (Bonferroni: the best of several factors is
+significant at ``false_alarm`` only then), is below ``false_alarm``; every named effect is then
+re-tested with it in the model (backward elimination, the least significant first, at
+``false_alarm``) and those it makes unnecessary are dropped; an effect whose columns lie wholly inside
+the factor's span (a bias jump at a time-block boundary) adds nothing to it and is dropped too. The
+factor is reported under ``unexplained.factor`` (``p_value`` the Bonferroni-adjusted one, ``tried``
+the number of factors compared); it never enters the calibration.
 """
 
 from __future__ import annotations
@@ -120,14 +122,16 @@ def candidates(prob: Problem, selected: list, base) -> dict:
 
 def lack_of_fit(prob: Problem, selected: list, alpha: float, fit, needs: dict) -> tuple[list, dict | None]:
     """The named effects that survive the best nuisance factor, and the factor (None when no factor is
-    significant at ``alpha``). ``fit(names, extra)`` fits (cached by the caller); ``needs`` maps an
-    effect to those that need it in the model (bias_tempco under its higher orders)."""
+    significant at ``alpha``, Bonferroni over the factors tried). ``fit(names, extra)`` fits (cached by
+    the caller); ``needs`` maps an effect to those that need it in the model (bias_tempco under its
+    higher orders)."""
     base = fit(selected, None)
     found = candidates(prob, selected, base)
     if not found:
         return selected, None
     name = min(found, key=lambda n: found[n][0])
     p, extra, detail = found[name]
+    p = min(1.0, p * len(found))  # the best of len(found) factors: Bonferroni
     if p >= alpha:
         return selected, None
     kept, dropped = list(selected), []
@@ -147,6 +151,6 @@ def lack_of_fit(prob: Problem, selected: list, alpha: float, fit, needs: dict) -
         dropped.append(worst)
     with_factor = fit(kept, extra)
     without = fit(kept, None)
-    return kept, {"name": name, "p_value": float(p), **detail, "dropped": dropped,
+    return kept, {"name": name, "p_value": float(p), "tried": len(found), **detail, "dropped": dropped,
                   "chi2_drop": float(without.rss - with_factor.rss), "dof": int(without.dof - with_factor.dof),
                   "rms_with_factor_g": prob.rms_g(with_factor)}

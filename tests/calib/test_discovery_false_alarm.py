@@ -1,0 +1,101 @@
+"""False alarms of the discrepancy search on clean sessions (issue 15: at most the stated rate).
+
+Every simulated sensor has a real ``bias_tempco``; anything else named on a clean session is a false
+alarm. The F tests themselves are calibrated (uniform p-values under the null, docs/discrepancy.md);
+these tests pin the ways the *selection* around them went beyond the stated rate: an alias of the
+real effect entering in its place (about 5 % of clean sessions of the thermal design), and the best
+of several nuisance factors reported as if it had been the only one tried (about 5 % of sessions
+whose gap is open for no reason a factor describes).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from calib.discovery import StepContext, candidate_pvalues, discover
+from calib.effects import heating_state
+from calib.synthetic import steps_from_output
+from drivers.sensors.sim.error_model import AccelErrorModel
+from test_discovery_matrix import DWELL_S, FACES, MPU, SEM_G, legs, run, tumble
+
+
+def thermal(levels=(27.6, 32.6, 37.6, 42.6, 47.6, 52.6)):
+    """procedures/thermal.yaml at the step level: six faces at each of six chamber levels 5 C apart,
+    steps 16 s apart, 10 minutes between levels (the temperature rises with time: a bias linear in
+    temperature and one linear in time differ only by the steps' order within a level)."""
+    f = np.tile(FACES, (len(levels), 1))
+    k = len(f)
+    temp = np.repeat(levels, 6) + 0.02 * np.random.default_rng(99).standard_normal(k)
+    t = 60.0 + np.arange(k) * 16.0 + np.repeat(np.arange(len(levels)) * 600.0, 6)
+    return {"f": f, "temp": temp, "t": t, "heating": heating_state(temp, 0.5), "rate": np.zeros(k), "a1": np.zeros(k)}
+
+
+@pytest.mark.parametrize("seed", [38, 48, 50])
+def test_a_clean_thermal_session_whose_wander_looks_like_a_drift_names_the_real_bias_tempco(seed):
+    """The wander of these sessions fits a drift slightly better than the real tempco, and neither is
+    significant once the other is in: the data cannot tell them apart, so the stated preference (the
+    temperature polynomial, the seed's own thermal model) decides, and the drift is reported as its
+    alias, not named. Before, the more significant one was named: bias_drift in 15 of 300 seeds."""
+    d, _ = run(thermal(), seed)
+    assert [e.name for e in d.effects] == ["bias_tempco"], [e.name for e in d.effects]
+    assert ["bias_tempco", "bias_drift"] in d.aliases, d.aliases
+    assert d.gap_closed
+
+
+def _understated(seed, factor=0.6):
+    """A clean tumble session of white noise whose stated standard errors are ``factor`` x the true
+    ones: the gap is open (chi2/dof ~ 1 / factor^2) but what remains has no structure at all."""
+    des = tumble()
+    rng = np.random.default_rng(seed)
+    m = AccelErrorModel.draw(rng)
+    m.t_ref_c = float(np.mean(des["temp"]))
+    out = m.output_g(des["f"], des["temp"], des["t"], des["heating"], des["rate"])
+    k = len(des["f"])
+    steps = steps_from_output(des["f"], out, temp_c=des["temp"], t_s=des["t"], sem_g=SEM_G, rng=rng,
+                              duration_s=DWELL_S)
+    steps = replace(steps, sem_counts=np.asarray(steps.sem_counts) * factor)
+    ctx = StepContext(heating=des["heating"], temp_rate=des["rate"],
+                      angles_deg=np.stack([des["a1"], np.zeros(k), np.zeros(k)], axis=1))
+    return discover(steps, ctx)
+
+
+@pytest.mark.parametrize("seed", [88, 118, 158])
+def test_the_best_of_several_nuisance_factors_is_judged_as_the_best_of_several(seed):
+    """Six factors are tried on what remains; under the null the smallest of six p-values falls below
+    0.01 about 5 % of the time (15 of 300 such sessions). In these sessions it does (0.002..0.007), and
+    after Bonferroni over the six it is not significant: no factor is reported, nothing is dropped."""
+    d = _understated(seed)
+    assert not d.gap_closed and d.chi2_per_dof_after > 2.0
+    assert "factor" not in d.unexplained and d.dropped == [], d.unexplained.get("factor")
+    assert [e.name for e in d.effects] == ["bias_tempco"]
+
+
+def test_a_reported_factor_carries_its_bonferroni_p_value_and_the_number_tried():
+    d = _understated(190)  # the best factor's own p-value 6e-4: significant over six
+    f = d.unexplained["factor"]
+    assert f["tried"] == 6 and f["p_value"] < 0.01 and f["p_value"] == pytest.approx(6 * 6e-4, rel=0.1)
+
+
+def test_every_candidate_test_is_calibrated_on_clean_sessions():
+    """The p-values of the candidates' F tests against the baseline + the real bias_tempco are uniform
+    on clean sessions (pooled over 40 sessions of the issue's legs design and its 7 candidates; the
+    jump's, Bonferroni over its times, left out). A test that ignored the wander would fail this."""
+    pvals = []
+    for seed in range(300, 340):
+        d = legs()
+        rng = np.random.default_rng(seed)
+        m = AccelErrorModel.draw(rng)
+        m.t_ref_c = float(np.mean(d["temp"]))
+        out = m.output_g(d["f"], d["temp"], d["t"], d["true_heating"], d["rate"])
+        steps = steps_from_output(d["f"], out, temp_c=d["temp"], t_s=d["t"], sem_g=SEM_G, rng=rng, stability=MPU,
+                                  duration_s=DWELL_S)
+        ctx = StepContext(heating=d["heating"], temp_rate=d["rate"])
+        pvals += [p for n, p in candidate_pvalues(steps, ctx).items() if n != "bias_jump"]
+    pvals = np.array(pvals)
+    assert len(pvals) == 40 * 7
+    assert stats.kstest(pvals, "uniform").pvalue > 1e-3
+    assert 0.02 <= np.mean(pvals < 0.05) <= 0.09 and np.mean(pvals < 0.01) <= 0.03
