@@ -60,24 +60,31 @@ def bias_stability(session) -> BiasStability | None:
     return BiasStability(chip.accel_bias_instability_g, chip.accel_random_walk_g_per_rts, chip.accel_flicker_corner_s)
 
 
-def gyro_bias_stability(session) -> GyroBiasStability | None:
-    """The recorded chip's gyroscope bias characterisation (deg/s), or None (unknown sensor, or a chip
-    the registry gives no gyroscope figures)."""
+#: sensor -> (characterisation, the ChipSpec fields of its flicker floor, random walk and flicker corner)
+STABILITY_FIELDS = {
+    "gyro": (GyroBiasStability, "gyro_bias_instability_dps", "gyro_random_walk_dps_per_rts", "gyro_flicker_corner_s"),
+    "mag": (MagBiasStability, "mag_bias_instability_ut", "mag_random_walk_ut_per_rts", "mag_flicker_corner_s"),
+}
+
+
+def _sensor_stability(session, sensor: str):
+    """The recorded chip's bias characterisation of ``sensor`` (:data:`STABILITY_FIELDS`), or None
+    (unknown sensor, or a chip the registry gives no figures for it)."""
+    kind, floor, walk, corner = STABILITY_FIELDS[sensor]
     chip = recorded_chip(session)
-    if chip is None or chip.gyro_bias_instability_dps is None:
+    if chip is None or getattr(chip, floor) is None:
         return None
-    return GyroBiasStability(chip.gyro_bias_instability_dps, chip.gyro_random_walk_dps_per_rts or 0.0,
-                             chip.gyro_flicker_corner_s or chip.accel_flicker_corner_s)
+    return kind(getattr(chip, floor), getattr(chip, walk) or 0.0, getattr(chip, corner) or chip.accel_flicker_corner_s)
+
+
+def gyro_bias_stability(session) -> GyroBiasStability | None:
+    """The recorded chip's gyroscope bias characterisation (deg/s), or None."""
+    return _sensor_stability(session, "gyro")
 
 
 def mag_bias_stability(session) -> MagBiasStability | None:
-    """The recorded chip's magnetometer offset characterisation (uT), or None (unknown sensor, or a chip
-    the registry gives no magnetometer figures)."""
-    chip = recorded_chip(session)
-    if chip is None or chip.mag_bias_instability_ut is None:
-        return None
-    return MagBiasStability(chip.mag_bias_instability_ut, chip.mag_random_walk_ut_per_rts or 0.0,
-                            chip.mag_flicker_corner_s or chip.accel_flicker_corner_s)
+    """The recorded chip's magnetometer offset characterisation (uT), or None."""
+    return _sensor_stability(session, "mag")
 
 
 def capture_window(t_s: np.ndarray) -> tuple[float, float]:
