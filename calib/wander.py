@@ -54,6 +54,7 @@ magnetometer's uT); :func:`wander_cov_g2` is the accelerometer's, in g^2 (multip
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -125,6 +126,28 @@ def wander_cov(t_mid_s, duration_s, bias_instability: float, random_walk_per_rts
         for tau in flicker_taus_s(flicker_corner_s, tau_min_s, per_decade):
             out = out + var * gauss_markov_cov(start, end, float(tau))
     return out
+
+
+@dataclass(frozen=True)
+class SensorStability:
+    """How far a sensor's bias wanders, as an Allan-variance characterisation states it, in the sensor's
+    own ``unit`` (a gyroscope's deg/s, a magnetometer's uT; docs/sensors.md, "Bias stability").
+
+    bias_instability : Allan deviation floor B of the bias (flicker), ``unit``.
+    random_walk_per_rts : bias random walk K, ``unit``/sqrt(s).
+    flicker_corner_s : longest correlation time of the flicker, s.
+    unit : the unit of the figures ("deg/s", "uT").
+    """
+
+    bias_instability: float
+    random_walk_per_rts: float
+    flicker_corner_s: float
+    unit: str
+
+    def cov(self, t_mid_s, duration_s) -> np.ndarray:
+        """(K, K) covariance of the wander between the means of steps centred at ``t_mid_s`` (s) lasting
+        ``duration_s`` (s), ``unit`` squared (:func:`wander_cov`)."""
+        return wander_cov(t_mid_s, duration_s, self.bias_instability, self.random_walk_per_rts, self.flicker_corner_s)
 
 
 def wander_cov_g2(t_mid_s, duration_s, stability: BiasStability | None, *, tau_min_s: float = TAU_MIN_S,

@@ -1,5 +1,4 @@
-"""Gyroscope inputs: per-step means of the constant-rate steps of a rate-table session, and the
-gyroscope's bias stability (:class:`GyroBiasStability`)."""
+"""Gyroscope inputs: per-step means of the constant-rate steps of a rate-table session."""
 
 from __future__ import annotations
 
@@ -9,28 +8,7 @@ import numpy as np
 
 from calib.affine import check_array, check_times
 from calib.errors import CalibError
-from calib.wander import wander_cov
-
-
-@dataclass(frozen=True)
-class GyroBiasStability:
-    """How far a gyroscope's zero-rate output wanders, as an Allan-variance characterisation states it
-    (docs/sensors.md, "Bias stability").
-
-    bias_instability_dps : Allan deviation floor B of the bias (flicker), deg/s.
-    random_walk_dps_per_rts : bias random walk K, deg/s/sqrt(s).
-    flicker_corner_s : longest correlation time of the flicker, s.
-    """
-
-    bias_instability_dps: float
-    random_walk_dps_per_rts: float
-    flicker_corner_s: float
-
-    def cov_dps2(self, t_mid_s, duration_s) -> np.ndarray:
-        """(K, K) covariance of the wander between the means of steps centred at ``t_mid_s`` (s) lasting
-        ``duration_s`` (s), (deg/s)^2 (:func:`calib.wander.wander_cov`)."""
-        return wander_cov(t_mid_s, duration_s, self.bias_instability_dps, self.random_walk_dps_per_rts,
-                          self.flicker_corner_s)
+from calib.wander import SensorStability
 
 
 @dataclass(frozen=True)
@@ -49,7 +27,7 @@ class RateStepMeans:
     f_mean_g : (K, 3) mean specific force during each step, sensor frame, g, or None.
     t_s : (K,) mid-time of each step's capture, s from session start, or None (unknown).
     duration_s : (K,) how long each step's capture lasted, s, or None (point values in time).
-    bias_stability : the gyroscope's :class:`GyroBiasStability`, or None (unknown: the steps are
+    bias_stability : the gyroscope's :class:`calib.wander.SensorStability` (deg/s), or None (unknown: the steps are
         weighed by their standard errors alone). Used only with ``t_s``.
     """
 
@@ -62,7 +40,7 @@ class RateStepMeans:
     f_mean_g: np.ndarray | None = None
     t_s: np.ndarray | None = None
     duration_s: np.ndarray | None = None
-    bias_stability: GyroBiasStability | None = None
+    bias_stability: SensorStability | None = None
 
     def __post_init__(self) -> None:
         k = len(self.names)
@@ -92,4 +70,4 @@ class RateStepMeans:
         output axis), or None when the stability or the step times are unknown."""
         if self.bias_stability is None or self.t_s is None:
             return None
-        return self.lsb_per_dps**2 * self.bias_stability.cov_dps2(self.t_s, self.duration_s)
+        return self.lsb_per_dps**2 * self.bias_stability.cov(self.t_s, self.duration_s)

@@ -1,5 +1,4 @@
-"""Magnetometer inputs: per-step means of the static steps that have magnetometer readings, and the
-magnetometer's bias stability (:class:`MagBiasStability`)."""
+"""Magnetometer inputs: per-step means of the static steps that have magnetometer readings."""
 
 from __future__ import annotations
 
@@ -8,28 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib.affine import check_array, check_times
-from calib.wander import wander_cov
-
-
-@dataclass(frozen=True)
-class MagBiasStability:
-    """How far a magnetometer's offset wanders, as an Allan-variance characterisation states it
-    (docs/sensors.md, "Bias stability").
-
-    bias_instability_ut : Allan deviation floor B of the offset (flicker), uT.
-    random_walk_ut_per_rts : offset random walk K, uT/sqrt(s).
-    flicker_corner_s : longest correlation time of the flicker, s.
-    """
-
-    bias_instability_ut: float
-    random_walk_ut_per_rts: float
-    flicker_corner_s: float
-
-    def cov_ut2(self, t_mid_s, duration_s) -> np.ndarray:
-        """(K, K) covariance of the wander between the means of steps centred at ``t_mid_s`` (s) lasting
-        ``duration_s`` (s), uT^2 (:func:`calib.wander.wander_cov`)."""
-        return wander_cov(t_mid_s, duration_s, self.bias_instability_ut, self.random_walk_ut_per_rts,
-                          self.flicker_corner_s)
+from calib.wander import SensorStability
 
 
 @dataclass(frozen=True)
@@ -46,7 +24,7 @@ class MagStepMeans:
     n_samples : (K,) samples per step.
     t_s : (K,) mid-time of each step's readings, s from session start, or None (unknown).
     duration_s : (K,) how long each step's readings lasted, s, or None (point values in time).
-    bias_stability : the magnetometer's :class:`MagBiasStability`, or None (unknown: the steps are
+    bias_stability : the magnetometer's :class:`calib.wander.SensorStability` (uT), or None (unknown: the steps are
         weighed by their standard errors alone). Used only with ``t_s``.
     """
 
@@ -57,7 +35,7 @@ class MagStepMeans:
     n_samples: np.ndarray
     t_s: np.ndarray | None = None
     duration_s: np.ndarray | None = None
-    bias_stability: MagBiasStability | None = None
+    bias_stability: SensorStability | None = None
 
     def __post_init__(self) -> None:
         k = len(self.names)
@@ -80,4 +58,4 @@ class MagStepMeans:
         axis), or None when the stability or the step times are unknown."""
         if self.bias_stability is None or self.t_s is None:
             return None
-        return self.bias_stability.cov_ut2(self.t_s, self.duration_s)
+        return self.bias_stability.cov(self.t_s, self.duration_s)

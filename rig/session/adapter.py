@@ -18,10 +18,10 @@ import numpy as np
 
 from calib.accel import BiasStability
 from calib.data import StepMeans
-from calib.gyro import GyroBiasStability, RateStepMeans
-from calib.mag import MagBiasStability
+from calib.gyro import RateStepMeans
 from calib.magnetometer import MagStepMeans
 from calib.uncertainty import step_standard_errors
+from calib.wander import SensorStability
 from drivers.sensors.chips import CHIPS, ChipSpec
 from rig.errors import SessionFormatError
 from rig.planning.kinematics import sensor_to_world
@@ -47,42 +47,51 @@ def recorded_chip(session) -> ChipSpec | None:
     """The registry's spec of the session's sensor (:data:`drivers.sensors.chips.CHIPS`), or None for a
     sensor the registry does not know (imports of other sensors)."""
     info = getattr(session, "info", None)
-    model = getattr(getattr(getattr(info, "rig", None), "sensor", None), "model", None)
+    return chip_of(getattr(getattr(getattr(info, "rig", None), "sensor", None), "model", None))
+
+
+def chip_of(model) -> ChipSpec | None:
+    """The registry's spec of sensor ``model``, or None for a model it does not know."""
     return CHIPS.get(model) if isinstance(model, str) else None
 
 
-def bias_stability(session) -> BiasStability | None:
-    """The recorded chip's accelerometer bias characterisation, or None for a sensor the registry does
-    not know (imports of other sensors: their bias sigmas are the fit's alone)."""
-    chip = recorded_chip(session)
+def accel_stability(chip: ChipSpec | None) -> BiasStability | None:
+    """The accelerometer bias characterisation of ``chip`` (None: None)."""
     if chip is None:
         return None
     return BiasStability(chip.accel_bias_instability_g, chip.accel_random_walk_g_per_rts, chip.accel_flicker_corner_s)
 
 
-#: sensor -> (characterisation, the ChipSpec fields of its flicker floor, random walk and flicker corner)
+def bias_stability(session) -> BiasStability | None:
+    """The recorded chip's accelerometer bias characterisation, or None for a sensor the registry does
+    not know (imports of other sensors: their bias sigmas are the fit's alone)."""
+    return accel_stability(recorded_chip(session))
+
+
+#: sensor -> (unit, the ChipSpec fields of its flicker floor, random walk and flicker corner)
 STABILITY_FIELDS = {
-    "gyro": (GyroBiasStability, "gyro_bias_instability_dps", "gyro_random_walk_dps_per_rts", "gyro_flicker_corner_s"),
-    "mag": (MagBiasStability, "mag_bias_instability_ut", "mag_random_walk_ut_per_rts", "mag_flicker_corner_s"),
+    "gyro": ("deg/s", "gyro_bias_instability_dps", "gyro_random_walk_dps_per_rts", "gyro_flicker_corner_s"),
+    "mag": ("uT", "mag_bias_instability_ut", "mag_random_walk_ut_per_rts", "mag_flicker_corner_s"),
 }
 
 
-def _sensor_stability(session, sensor: str):
+def _sensor_stability(session, sensor: str) -> SensorStability | None:
     """The recorded chip's bias characterisation of ``sensor`` (:data:`STABILITY_FIELDS`), or None
     (unknown sensor, or a chip the registry gives no figures for it)."""
-    kind, floor, walk, corner = STABILITY_FIELDS[sensor]
+    unit, floor, walk, corner = STABILITY_FIELDS[sensor]
     chip = recorded_chip(session)
     if chip is None or getattr(chip, floor) is None:
         return None
-    return kind(getattr(chip, floor), getattr(chip, walk) or 0.0, getattr(chip, corner) or chip.accel_flicker_corner_s)
+    return SensorStability(getattr(chip, floor), getattr(chip, walk) or 0.0,
+                           getattr(chip, corner) or chip.accel_flicker_corner_s, unit)
 
 
-def gyro_bias_stability(session) -> GyroBiasStability | None:
+def gyro_bias_stability(session) -> SensorStability | None:
     """The recorded chip's gyroscope bias characterisation (deg/s), or None."""
     return _sensor_stability(session, "gyro")
 
 
-def mag_bias_stability(session) -> MagBiasStability | None:
+def mag_bias_stability(session) -> SensorStability | None:
     """The recorded chip's magnetometer offset characterisation (uT), or None."""
     return _sensor_stability(session, "mag")
 

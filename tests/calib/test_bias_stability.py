@@ -92,10 +92,10 @@ def test_the_gyro_and_magnetometer_figures_come_from_the_chip_registry_for_simul
         assert cfg.gyro_flicker_band_s[1] == chip.gyro_flicker_corner_s
         assert cfg.mag_flicker_band_s[1] == chip.mag_flicker_corner_s
     gyro, mag = adapter.gyro_bias_stability(session), adapter.mag_bias_stability(session)
-    assert (gyro.bias_instability_dps, gyro.random_walk_dps_per_rts, gyro.flicker_corner_s) == (
-        chip.gyro_bias_instability_dps, chip.gyro_random_walk_dps_per_rts, chip.gyro_flicker_corner_s)
-    assert (mag.bias_instability_ut, mag.random_walk_ut_per_rts, mag.flicker_corner_s) == (
-        chip.mag_bias_instability_ut, chip.mag_random_walk_ut_per_rts, chip.mag_flicker_corner_s)
+    assert (gyro.bias_instability, gyro.random_walk_per_rts, gyro.flicker_corner_s, gyro.unit) == (
+        chip.gyro_bias_instability_dps, chip.gyro_random_walk_dps_per_rts, chip.gyro_flicker_corner_s, "deg/s")
+    assert (mag.bias_instability, mag.random_walk_per_rts, mag.flicker_corner_s, mag.unit) == (
+        chip.mag_bias_instability_ut, chip.mag_random_walk_ut_per_rts, chip.mag_flicker_corner_s, "uT")
     # a chip without a gyroscope or magnetometer has no such figures (and no simulated wander of them)
     adxl = SimpleNamespace(info=SimpleNamespace(rig=SimpleNamespace(sensor=SimpleNamespace(model="ADXL345"))))
     assert adapter.gyro_bias_stability(adxl) is None and adapter.mag_bias_stability(adxl) is None

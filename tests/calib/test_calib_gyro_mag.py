@@ -13,6 +13,7 @@ from scipy.spatial.transform import Rotation
 from calib.errors import CalibError, CalibrationFileError, ObservabilityError
 from calib.gyro import GyroCalibration, RateStepMeans, param_names, solve_gyro
 from calib.magnetometer import MagCalibration, MagStepMeans, sigma_names, solve_mag_ellipsoid, solve_mag_positions
+from calib.wander import SensorStability
 from drivers.sensors.sim.error_model import GyroErrorModel, MagErrorModel
 
 AXES = "xyz"
@@ -400,17 +401,15 @@ def test_step_times_must_match_the_steps_and_durations_be_non_negative():
 def test_the_wander_between_steps_enters_the_gyro_fit_and_the_pair_sigmas():
     """With a stability and step times the fit is GLS with V = diag(sem^2) + lsb^2 W (the bias sigma
     then holds the wander common to the session) and each +/- pair's sigma holds their wander."""
-    from calib.gyro import GyroBiasStability
-
     model = GyroErrorModel.draw(np.random.default_rng(33))
     steps = gyro_steps(model, np.random.default_rng(34))
     k = len(steps)
-    stab = GyroBiasStability(0.002, 2e-4, 5000.0)
+    stab = SensorStability(0.002, 2e-4, 5000.0, "deg/s")
     timed = RateStepMeans(**{**steps.__dict__, "t_s": 100.0 + 108.0 * np.arange(k), "duration_s": np.full(k, 100.0),
                              "bias_stability": stab})
     plain, wandering = solve_gyro(steps), solve_gyro(timed)
     w = timed.wander_counts2()
-    assert w.shape == (k, k) and np.allclose(w, LSB_PER_DPS**2 * stab.cov_dps2(timed.t_s, timed.duration_s))
+    assert w.shape == (k, k) and np.allclose(w, LSB_PER_DPS**2 * stab.cov(timed.t_s, timed.duration_s))
     for a in AXES:
         assert wandering.sigma[f"b_{a}"] > 3 * plain.sigma[f"b_{a}"]
     first = wandering.bias_pairs[0]
