@@ -20,15 +20,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.accel import BiasStability
 from calib.accel.predict import Predictor, describe, plan_dwell, planned_sems, unit_of
 from calib.uncertainty import pooled_vif, step_standard_errors
-from drivers.sensors.chips import CHIPS
 from rig.execution.capture import nominal_dwell_s
 from rig.execution.context import RunError
 from rig.planning.kinematics import AXES
 from rig.planning.targets import move_time_s
 from rig.session import load_session
+from rig.session.adapter import accel_stability, chip_of
 
 #: decisions every BLOCK_S of samples; never less than MIN_DWELL_S at a pose
 BLOCK_S = 0.25
@@ -62,15 +61,6 @@ class Decision:
     eta_s: float
 
 
-def chip_stability(model: str | None) -> BiasStability | None:
-    """The accelerometer bias stability of the registry's chip (the solver's, rig.session.adapter), or None
-    for a chip the registry does not know (the prediction then has no wander)."""
-    chip = CHIPS.get(model) if isinstance(model, str) else None
-    if chip is None:
-        return None
-    return BiasStability(chip.accel_bias_instability_g, chip.accel_random_walk_g_per_rts, chip.accel_flicker_corner_s)
-
-
 class TargetSetup:
     """What a target's planning needs and a run does not change: the goal, its predictor, the static
     steps and the time each costs beyond its dwell on this rig (the preflight uses it alone)."""
@@ -81,7 +71,7 @@ class TargetSetup:
         self.spec = procedure.target
         self.goal = self.spec.goal(procedure.solve.model)
         self.rate = float(procedure.sensor.sample_rate_hz)  # what the sensor is configured to (also before it is)
-        self.predictor = Predictor(self.goal, sensor.accel_lsb_per_g, stability=chip_stability(sensor.model))
+        self.predictor = Predictor(self.goal, sensor.accel_lsb_per_g, stability=accel_stability(chip_of(sensor.model)))  # as the solver's
         self.statics = [s for s in procedure.expanded_steps() if s.kind == "static"]
 
     def timeline(self, start_s: float, steps: list, dwell_s: list) -> tuple[np.ndarray, np.ndarray]:
