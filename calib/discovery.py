@@ -200,19 +200,11 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
     ctx = ctx or StepContext()
     if len(steps) < 2:
         raise CalibError("discover needs at least 2 static steps")
-    temps = None if steps.temp_c is None else np.asarray(steps.temp_c, float)
-    t0 = float(t0_c) if t0_c is not None else (float(np.mean(temps)) if temps is not None else 25.0)
-    t_ref = float(np.mean(steps.t_s))
-    prob = _problem(steps, ctx, t0, t_ref)
     names = list(candidates) if candidates is not None else list(LIBRARY)
     unknown = [n for n in names if n not in LIBRARY]
     if unknown:
         raise CalibError(f"unknown effect(s): {', '.join(unknown)} (known: {', '.join(LIBRARY)})")
-
-    base_fit = prob.fit([])
-    if not prob.pose_free:
-        prob.matrix_g = _matrix_from(base_fit) / prob.lsb
-    observable, unobservable, why, _ = triage(prob, names, false_alarm)
+    prob, t0, t_ref, base_fit, (observable, unobservable, why, _) = _prepared(steps, ctx, names, false_alarm, t0_c)
     fit = _Cache(prob)
     selected, aliases = _select(prob, observable, false_alarm, fit)
     factor, dropped = None, []
@@ -239,14 +231,8 @@ def candidate_pvalues(steps: StepMeans, ctx: StepContext | None = None, model=("
     -------
     dict : candidate -> p-value, for every observable candidate not in ``model``.
     """
-    ctx = ctx or StepContext()
-    temps = None if steps.temp_c is None else np.asarray(steps.temp_c, float)
-    t0 = float(np.mean(temps)) if temps is not None else 25.0
-    prob = _problem(steps, ctx, t0, float(np.mean(steps.t_s)))
-    base_fit = prob.fit([])
-    if not prob.pose_free:
-        prob.matrix_g = _matrix_from(base_fit) / prob.lsb
-    observable = triage(prob, list(LIBRARY), false_alarm)[0]
+    prob, _, _, _, triaged = _prepared(steps, ctx or StepContext(), list(LIBRARY), false_alarm)
+    observable = triaged[0]
     fit = _Cache(prob)
     held = [n for n in model if n in observable]
     cur = fit(held)
@@ -256,6 +242,20 @@ def candidate_pvalues(steps: StepMeans, ctx: StepContext | None = None, model=("
             scan_jump(prob, held)
         out[n] = prob.test(n, cur, fit(held + [n]))[1]
     return out
+
+
+def _prepared(steps: StepMeans, ctx: StepContext, names: list, false_alarm: float, t0_c: float | None = None):
+    """The search's problem for ``steps``, its reference temperature (``t0_c`` or the mean step
+    temperature, C) and time (the mean step time, s), the baseline fit (whose matrix the force effects
+    use) and the triage of candidates ``names`` (:func:`calib.discovery_observe.triage`)."""
+    temps = None if steps.temp_c is None else np.asarray(steps.temp_c, float)
+    t0 = float(t0_c) if t0_c is not None else (float(np.mean(temps)) if temps is not None else 25.0)
+    t_ref = float(np.mean(steps.t_s))
+    prob = _problem(steps, ctx, t0, t_ref)
+    base_fit = prob.fit([])
+    if not prob.pose_free:
+        prob.matrix_g = _matrix_from(base_fit) / prob.lsb
+    return prob, t0, t_ref, base_fit, triage(prob, names, false_alarm)
 
 
 class _Cache:
