@@ -216,9 +216,8 @@ def chamber_temps(t_s: np.ndarray, commands: list, initial_c: float, tau_s: floa
     set-point of :func:`setpoint_segments`, in closed form per segment (with set-point ``S0 + r dt``,
     ``T = S0 + r dt - r tau + (T0 - S0 + r tau) exp(-dt / tau)``), starting at ``initial_c``.
 
-    ``commands``: :class:`ChamberCommand` entries, or ``(t_s, setpoint_c)`` pairs for set-points."""
-    cmds = [c if isinstance(c, ChamberCommand) else ChamberCommand(float(c[0]), float(c[1])) for c in commands]
-    segs = setpoint_segments(cmds, initial_c)
+    ``commands``: :class:`ChamberCommand` entries (:func:`chamber_commands`)."""
+    segs = setpoint_segments(commands, initial_c)
     t = np.asarray(t_s, float)
     out = np.full(len(t), float(initial_c))
     c_now = float(initial_c)

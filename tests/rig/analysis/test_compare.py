@@ -109,7 +109,7 @@ def test_the_chamber_model_is_the_simulators():
     for t_set, c_set in ((5.0, 35.0), (400.0, 20.0), (650.0, 41.0)):
         clock.sleep(t_set - clock.now())
         chamber.set_target_c(c_set)
-        setpoints.append((t_set, c_set))
+        setpoints.append(twin.ChamberCommand(t_set, c_set))
     t = np.linspace(0.0, 1200.0, 500)
     assert np.allclose(twin.chamber_temps(t, setpoints, 27.6, 90.0), chamber.temp_at(t), atol=1e-9)
 
