@@ -13,6 +13,7 @@ import json
 import os
 import socket
 import sys
+import time
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -37,7 +38,7 @@ class SessionLock:
         try:
             fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            holder = _holder(fh)
+            holder = _current_holder(fh)
             fh.close()
             raise SessionLocked(f"{self.path.parent}: being recorded by pid {holder.get('pid', '?')} on "
                                 f"{holder.get('host', '?')} since {holder.get('since', '?')} "
@@ -70,6 +71,38 @@ class SessionLock:
 
     def __exit__(self, *exc) -> None:
         self.release()
+
+
+#: how long a refused run waits for the holder to name itself, s
+HOLDER_WAIT_S = 2.0
+
+
+def _current_holder(fh) -> dict:
+    """The lock holder's record. The holder writes it just after taking the lock, so for a moment the
+    file is empty or still names the previous holder (a killed run): such a record, naming no live
+    process on this host, is read again for up to :data:`HOLDER_WAIT_S` (then returned as it is)."""
+    deadline = time.monotonic() + HOLDER_WAIT_S
+    while True:
+        holder = _holder(fh)
+        if _names_live_process(holder) or time.monotonic() > deadline:
+            return holder
+        time.sleep(0.01)
+
+
+def _names_live_process(holder: dict) -> bool:
+    """Whether ``holder`` names a process that is alive (one on another host is taken as alive)."""
+    pid = holder.get("pid")
+    if not isinstance(pid, int):
+        return False
+    if holder.get("host") != socket.gethostname():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def _holder(fh) -> dict:

@@ -42,3 +42,32 @@ def test_released_lock_can_be_taken_again_in_the_same_process(tmp_path):
         with pytest.raises(SessionLocked):
             SessionLock(tmp_path).acquire()
         assert lock.stale is None
+
+
+def test_a_run_refused_while_the_holder_is_still_writing_its_record_names_the_live_holder(tmp_path):
+    """The holder writes its record just after taking the lock: a run refused in that moment read the
+    previous (killed) holder's record, or an empty one, and said "pid ?" (seen in the concurrent-resume
+    campaign under load). It waits for the live holder to name itself."""
+    import fcntl
+    import socket
+    import threading
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    path = tmp_path / "session.lock"
+    path.write_text(json.dumps({"pid": int(dead.stdout), "host": socket.gethostname(), "command": "killed",
+                                "since": "earlier"}))
+    with open(path, "r+") as fh:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)  # taken; the record not yet rewritten
+
+        def name_itself():
+            fh.seek(0)
+            fh.truncate()
+            fh.write(json.dumps({"pid": os.getpid(), "host": socket.gethostname(), "command": "rig run",
+                                 "since": "now"}))
+            fh.flush()
+
+        timer = threading.Timer(0.3, name_itself)
+        timer.start()
+        with pytest.raises(SessionLocked, match=rf"being recorded by pid {os.getpid()} "):
+            SessionLock(tmp_path).acquire()
+        timer.join()
