@@ -26,12 +26,12 @@ directories instead (each glob match is a session's parent directory, as written
 A false alarm is any effect named other than ``bias_tempco`` (which every drawn sensor has); the
 verdict's false alarms (``gap_closed: false`` on a clean session) are counted separately.
 
-**Calibration of the tests** (``--pvalues``): on the same clean sessions, each candidate's F-test
-p-value against the baseline plus ``bias_tempco`` (:func:`calib.discovery.candidate_pvalues`), which
-is uniform when the test is calibrated: the table gives the counts below 0.001, 0.01 and 0.05 and the
-Kolmogorov-Smirnov p-value against the uniform, and how many sessions Bonferroni's family (the smallest
-p-value times the number of candidates) puts below 0.01 (what forward selection can name: at most
-1 % of sessions).
+**Calibration of the tests** (``--pvalues``): on the same clean sessions, each candidate's p-value
+of the search's test against the baseline plus ``bias_tempco``
+(:func:`calib.discovery.candidate_pvalues`), which is uniform when the test is calibrated: the table
+gives the counts below 0.001, 0.01 and 0.05 and the Kolmogorov-Smirnov p-value against the uniform,
+and how many sessions Bonferroni's family (the smallest p-value times the number of candidates) puts
+below 0.01 (what forward selection can name: at most 1 % of sessions).
 """
 
 from __future__ import annotations
@@ -340,7 +340,7 @@ def main() -> None:
             if inner:
                 paths.setdefault(Path(p).parent.name, []).append(inner[0])
     for seed in range(args.full):
-        for proc in ("tumble26", "thermal", "six_position"):
+        for proc in ("tumble26", "thermal", "six_position", "thermal_ramp"):
             paths.setdefault(proc, []).append(record(tmp, f"{proc}.yaml", 100 + seed))
     if paths:
         print("\nclean full simulated-rig sessions (dlpf noise):")

@@ -11,9 +11,9 @@
    session has the data it needs and its columns add rank to the model without hopeless conditioning;
    every candidate gets its minimum detectable magnitude at the stated false-alarm rate and 80 % power.
 4. **Name** the missing effect from :data:`calib.effects.LIBRARY` by forward stepwise selection with
-   nested-model F tests, Bonferroni over the candidates left (a clean session names a spurious
-   effect with probability at most ``false_alarm``); a backward pass drops what is no longer
-   significant; effects the data cannot tell apart are reported as **aliases**.
+   nested-model tests (:func:`calib.discovery_problem.nested_test`), Bonferroni over the candidates
+   left (a clean session names a spurious effect with probability at most ``false_alarm``); a
+   backward pass drops what is no longer significant; effects the data cannot tell apart are reported as **aliases**.
 5. **Lack of fit** (:mod:`calib.discovery_nuisance`): when the gap stays open, the best generic
    factor model of the residual is kept as nuisance structure, every named effect is re-tested with
    it and those it makes unnecessary are dropped; the factor is reported under ``unexplained``.
@@ -36,7 +36,7 @@ from calib.design import AxisFit, misfit
 from calib.discovery_nuisance import lack_of_fit
 from calib.discovery_observe import FORCE_EFFECTS, missing_data, observability, triage
 from calib.discovery_problem import (COLUMN_TOL, MIN_JUMP_SIDE, TRIANGULAR_COLUMNS, Fit, Problem, RadialProblem,
-                                     f_test, jump_times, scan_jump)
+                                     f_test, jump_times, nested_test, scan_jump)
 from calib.discovery_report import HINTS, localise, summary_lines, unexplained, unexplained_lines
 from calib.effects import LIBRARY
 from calib.errors import CalibError
@@ -45,9 +45,10 @@ from calib.wander import wander_rms_g
 
 __all__ = ["COLUMN_TOL", "FORCE_EFFECTS", "HINTS", "MIN_JUMP_SIDE", "TRIANGULAR_COLUMNS", "Discovery", "FoundEffect",
            "StepContext", "StepRow", "candidate_pvalues", "coverage_problem", "discover", "f_test", "jump_times",
-           "localise", "remaining", "scan_jump", "summary_lines", "unexplained", "unexplained_lines", "verdict"]
+           "localise", "nested_test", "remaining", "scan_jump", "summary_lines", "unexplained", "unexplained_lines",
+           "verdict"]
 
-FORMAT = "rig-discover/3"
+FORMAT = "rig-discover/4"
 TEMP_EFFECTS = ("bias_tempco_quadratic", "bias_tempco_cubic")  # enter only after bias_tempco
 NEEDS = {"bias_tempco": TEMP_EFFECTS}  # bias_tempco stays while a higher order is in
 POLYNOMIAL = ("bias_tempco",) + TEMP_EFFECTS  # the seed's thermal model: preferred among aliases
@@ -218,13 +219,15 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
 
 
 def candidate_pvalues(steps: StepMeans, ctx: StepContext | None = None, model=("bias_tempco",),
-                      false_alarm: float = 0.01) -> dict:
-    """The F-test p-value of adding each observable candidate, alone, to the baseline plus ``model``.
+                      false_alarm: float = 0.01, test: str = "search") -> dict:
+    """The p-value of adding each observable candidate, alone, to the baseline plus ``model``.
 
     A calibration check, not part of the search: on sessions whose truth is the baseline plus
     ``model`` (a clean simulated sensor: its real ``bias_tempco``) each p-value is uniform on [0, 1]
-    when its test is calibrated, so the fraction below ``u`` is ``u``. ``bias_jump``'s p-value is the
-    search's (the best jump time, multiplied by the number of times: conservative, not uniform).
+    when its test is calibrated, so the fraction below ``u`` is ``u``. ``test`` is the search's own
+    (``search``, :func:`calib.discovery_problem.nested_test`), or either of its ingredients alone
+    (``known_noise``: the chi-square drop with V known; ``scatter``: the F test). ``bias_jump``'s
+    p-value is the best jump time's, multiplied by the number of times (conservative, not uniform).
     Effects of ``model`` the session cannot observe are left out of it.
 
     Returns
@@ -240,7 +243,7 @@ def candidate_pvalues(steps: StepMeans, ctx: StepContext | None = None, model=("
     for n in remaining(observable, held):
         if n == "bias_jump":
             scan_jump(prob, held)
-        out[n] = prob.test(n, cur, fit(held + [n]))[1]
+        out[n] = prob.test(n, cur, fit(held + [n]), test)[1]
     return out
 
 
@@ -356,7 +359,8 @@ def _params_of(fit: Fit, name: str, values: np.ndarray, n_params: int) -> tuple[
 
 
 def _found_effects(prob: Problem, final: Fit, sig: np.ndarray, selected: list, prefix: list) -> list:
-    """One :class:`FoundEffect` per selected effect: estimates and 1-sigma, RMS after it (g), its F-test p."""
+    """One :class:`FoundEffect` per selected effect: estimates and 1-sigma, RMS after it (g), the p-value
+    of its nested test."""
     effects = []
     for i, n in enumerate(selected):
         lib = LIBRARY[n]

@@ -8,14 +8,15 @@ level of one grouping of the steps (the ``FACTORS`` table: outer-axis angle, pos
 temperature level, leg), plus a **change point** in time (a bias step per axis, its time searched,
 Bonferroni over the times). A factor is used only when its levels group the steps (2 to K/2 levels).
 
-The factor with the smallest p-value of its F test (added to the named effects) is kept when that
-p-value, multiplied by the number of factors tried (Bonferroni: the best of several factors is
-significant at ``false_alarm`` only then), is below ``false_alarm``; every named effect is then
-re-tested with it in the model (backward elimination, the least significant first, at
-``false_alarm``) and those it makes unnecessary are dropped; an effect whose columns lie wholly inside
-the factor's span (a bias jump at a time-block boundary) adds nothing to it and is dropped too. The
-factor is reported under ``unexplained.factor`` (``p_value`` the Bonferroni-adjusted one, ``tried``
-the number of factors compared); it never enters the calibration.
+The factor with the smallest p-value of its F test (added to the named effects; a factor is tried only
+when the gap is open, when the stated noise itself is in doubt, so its scale is the scatter that
+remains, not that noise) is kept when that p-value, multiplied by the number of factors tried
+(Bonferroni: the best of several factors is significant at ``false_alarm`` only then), is below
+``false_alarm``; every named effect is then re-tested with it in the model (backward elimination, the
+least significant first, at ``false_alarm``) and those it makes unnecessary are dropped; an effect whose
+columns lie wholly inside the factor's span (a bias jump at a time-block boundary) adds nothing to it
+and is dropped too. The factor is reported under ``unexplained.factor`` (``p_value`` the
+Bonferroni-adjusted one, ``tried`` the number of factors compared); it never enters the calibration.
 """
 
 from __future__ import annotations

@@ -10,19 +10,22 @@ steps in time for a jump. Everything else is decided by the candidate's columns 
 - **conditioning**: the variance inflation of each parameter, ``VIF = |c|^2 / |P c|^2`` (P projects
   out the model); above ``MAX_VIF`` the parameter is confounded with the model to the point that
   its estimate means nothing: unobservable, with the VIF said;
-- **minimum detectable magnitude** (MDM) per parameter: the F test of the candidate (q columns) at
-  level ``alpha`` (the false-alarm rate split over the candidates, and over the jump times for
-  ``bias_jump``) reaches power ``POWER`` when its non-centrality ``lambda = theta_j^2 |P c_j|^2``
-  reaches ``lambda*`` (non-central chi-square, q dof); ``MDM_j = sqrt(lambda* / |P c_j|^2)``, in the
-  effect's unit, the parameter acting alone.
+- **minimum detectable magnitude** (MDM) per parameter: the search's test of the candidate (q
+  columns, ``d`` dof left after it; :func:`calib.discovery_problem.nested_test`) at level ``alpha``
+  (the false-alarm rate split over the candidates, and over the jump times for ``bias_jump``) reaches
+  power ``POWER`` when its non-centrality ``lambda = theta_j^2 |P c_j|^2`` reaches ``lambda*``
+  (:func:`critical_noncentrality`); ``MDM_j = sqrt(lambda* / |P c_j|^2)``, in the effect's unit, the
+  parameter acting alone.
 """
 
 from __future__ import annotations
 
-import numpy as np
-from scipy import optimize, stats
+import functools
 
-from calib.discovery_problem import Problem, independent
+import numpy as np
+from scipy import optimize
+
+from calib.discovery_problem import Problem, determined, floored_sf, independent
 from calib.effects import LIBRARY
 
 POWER = 0.8
@@ -52,10 +55,19 @@ def missing_data(name: str, steps, ctx, pose_free: bool, n_jump_times: int) -> s
     return None
 
 
-def critical_noncentrality(q: int, alpha: float, power: float = POWER) -> float:
-    """lambda* with P(chi2_q(lambda*) > chi2_q quantile 1 - alpha) = power."""
-    crit = stats.chi2.isf(alpha, q)
-    return float(optimize.brentq(lambda lam: stats.ncx2.sf(crit, q, lam) - power, 1e-9, 1e6))
+@functools.lru_cache(maxsize=512)
+def critical_value(q: int, dof: int, alpha: float) -> float:
+    """The statistic of :func:`calib.discovery_problem.nested_test` exceeded with probability ``alpha``
+    under the null (``q`` columns, ``dof`` left after them)."""
+    return float(optimize.brentq(lambda t: floored_sf(t, q, dof) - alpha, 1e-9, 1e6))
+
+
+@functools.lru_cache(maxsize=512)
+def critical_noncentrality(q: int, alpha: float, dof: int = 0, power: float = POWER) -> float:
+    """lambda* at which the search's test of ``q`` columns, ``dof`` dof left after them, at level
+    ``alpha`` reaches ``power`` (:func:`calib.discovery_problem.floored_sf` at that non-centrality)."""
+    crit = critical_value(q, dof, alpha)
+    return float(optimize.brentq(lambda lam: floored_sf(crit, q, dof, lam) - power, 1e-9, 1e6))
 
 
 def observability(prob: Problem, name: str, alpha: float, model: list | None = None) -> dict:
@@ -66,7 +78,8 @@ def observability(prob: Problem, name: str, alpha: float, model: list | None = N
     """
     lib = LIBRARY[name]
     g, _ = prob.design(list(model or []))
-    q_basis, _ = np.linalg.qr(prob.whiten(prob.rows(g)))
+    gw = prob.whiten(prob.rows(g))
+    q_basis, _ = np.linalg.qr(gw)
     cw = prob.whiten(prob.rows(prob.cols[name]))
     keep = independent(q_basis, cw)
     norms2 = np.sum(cw ** 2, axis=0)
@@ -76,7 +89,8 @@ def observability(prob: Problem, name: str, alpha: float, model: list | None = N
     n_par = len(lib.params)
     q = int(keep.sum())
     a = alpha / prob.multiplicity.get(name, 1)
-    lam = critical_noncentrality(q, a) if q else np.inf
+    dof = len(cw) - int(determined(gw).sum()) - q  # left after the candidate
+    lam = critical_noncentrality(q, a, dof) if q else np.inf
     mdm = [float(np.sqrt(lam / outside2[i])) if keep[i] else None for i in range(n_par)]
     finite = vif[:n_par][np.isfinite(vif[:n_par])]
     return {"rank": int(keep[:n_par].sum()), "columns": n_par, "max_vif": float(finite.max()) if len(finite) else None,

@@ -4,8 +4,8 @@ stays open, what remains (plain data for the report and the JSON of ``rig discov
 The residuals given are each in its own marginal standard deviation (``r / sqrt(sem^2 + wander_ii)``,
 :meth:`calib.discovery_problem.Problem.marginal`), so a jump stays a step in time and a drift a trend.
 With a bias wander they are correlated between steps, so the p-values of the structure tests here
-(which assume independent residuals) are descriptive; the tests that decide (F tests, the verdict, the
-lack-of-fit factor) use the whitened residuals.
+(which assume independent residuals) are descriptive; the tests that decide (the nested tests, the
+verdict, the lack-of-fit factor) use the whitened residuals.
 """
 
 from __future__ import annotations

@@ -81,4 +81,5 @@ def steps_from_output(f_g, out_g, *, temp_c, t_s, sem_g, rng, lsb_per_g: float =
     return StepMeans(names=tuple(names) if names is not None else tuple(f"step{i + 1}" for i in range(k)),
                      f_nominal_g=np.asarray(f_g, float), mean_counts=noisy * lsb_per_g, sem_counts=sem * lsb_per_g,
                      n_samples=np.full(k, 500), temp_c=None if temp_c is None else np.asarray(temp_c, float),
-                     t_s=np.asarray(t_s, float), lsb_per_g=lsb_per_g, bias_stability=stability)
+                     t_s=np.asarray(t_s, float), lsb_per_g=lsb_per_g, bias_stability=stability,
+                     duration_s=None if duration_s is None else np.full(k, duration_s, float))
