@@ -18,6 +18,8 @@ import pytest
 from scipy import stats
 
 from calib.discovery import StepContext, candidate_pvalues, discover
+from calib.discovery_observe import critical_noncentrality, critical_value
+from calib.discovery_problem import floored_sf
 from calib.effects import heating_state
 from calib.synthetic import steps_from_output
 from drivers.sensors.sim.error_model import AccelErrorModel
@@ -154,3 +156,19 @@ def test_the_search_test_is_calibrated_at_a_six_position_sessions_few_dof():
         p = np.array(p)
         assert len(p) == 150 and stats.kstest(p, "uniform").pvalue > 1e-3, key
         assert np.sum(p < 0.05) <= 17, key  # binomial(150, 0.05): P(>= 18) = 6e-4
+
+
+@pytest.mark.parametrize("q, dof", [(2, 7), (3, 60)])
+def test_the_nested_tests_null_tail_and_power_are_those_of_its_statistic(q, dof):
+    """T = (drop / q) / max(1, R / dof) with the drop chi-square on q and the residual R on dof, drawn
+    200 000 times: T exceeds the critical value at level 0.01 in 1 % of draws, and with the drop
+    non-central at the MDM's lambda* in 80 %; its p-value is uniform."""
+    rng = np.random.default_rng(q * 100 + dof)
+    r = rng.chisquare(dof, 200_000)
+    t0 = rng.chisquare(q, 200_000) / q / np.maximum(1.0, r / dof)
+    assert np.mean(t0 > critical_value(q, dof, 0.01)) == pytest.approx(0.01, abs=0.0007)
+    lam = critical_noncentrality(q, 0.01, dof)
+    t1 = rng.noncentral_chisquare(q, lam, 200_000) / q / np.maximum(1.0, r / dof)
+    assert np.mean(t1 > critical_value(q, dof, 0.01)) == pytest.approx(0.8, abs=0.005)
+    p = np.array([floored_sf(t, q, dof) for t in t0[:2000]])
+    assert stats.kstest(p, "uniform").pvalue > 1e-3
