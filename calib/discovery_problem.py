@@ -30,6 +30,7 @@ import numpy as np
 from scipy import linalg, special, stats
 
 from calib.accel.inputs import StepMeans
+from calib.design import misfit
 from calib.effects import LIBRARY, EffectInputs
 from calib.frames import AXES
 from calib.magnitude import fit_magnitude
@@ -338,21 +339,31 @@ class RadialProblem(Problem):
 def f_test(small: Fit, big: Fit) -> tuple[float, float]:
     """Nested-model F statistic and p-value (``big`` adds columns to ``small``): the chi-square drop
     per added column against the residual mean square of ``big`` (V known up to a common factor)."""
-    q = small.dof - big.dof
-    if q <= 0 or big.dof <= 0:
+    added = _drop(small, big)
+    if added is None or big.dof == 0:
         return 0.0, 1.0
-    f = max(small.rss - big.rss, 0.0) / q / (big.rss / big.dof)
+    q, per_column = added
+    f = per_column / (big.rss / big.dof)
     return float(f), float(stats.f.sf(f, q, big.dof))
+
+
+def _drop(small: Fit, big: Fit) -> tuple[int, float] | None:
+    """The number ``q`` of columns ``big`` adds to ``small`` and the chi-square drop per added column
+    (negative drops, from rounding, count as 0); None when ``big`` adds none."""
+    q = small.dof - big.dof
+    if q <= 0 or big.dof < 0:
+        return None
+    return q, max(small.rss - big.rss, 0.0) / q
 
 
 def known_noise_test(small: Fit, big: Fit) -> tuple[float, float]:
     """The chi-square drop per added column and its p-value with V known: the drop is chi-square on
     the ``q`` added columns under the null (the whitened residual is N(0, I))."""
-    q = small.dof - big.dof
-    if q <= 0 or big.dof < 0:
+    added = _drop(small, big)
+    if added is None:
         return 0.0, 1.0
-    drop = max(small.rss - big.rss, 0.0)
-    return float(drop / q), float(stats.chi2.sf(drop, q))
+    q, per_column = added
+    return float(per_column), float(stats.chi2.sf(per_column * q, q))
 
 
 def nested_test(small: Fit, big: Fit) -> tuple[float, float]:
@@ -366,12 +377,12 @@ def nested_test(small: Fit, big: Fit) -> tuple[float, float]:
     statistic) is referred to the F distribution, whose tail is the larger for every ``t`` (the F
     test is this statistic's tail when V is understated by any factor). Returns (t, p).
     """
-    q = small.dof - big.dof
-    if q <= 0 or big.dof < 0:
+    added = _drop(small, big)
+    if added is None:
         return 0.0, 1.0
-    s2 = big.rss / big.dof if big.dof else 1.0
-    t = max(small.rss - big.rss, 0.0) / q / max(1.0, s2)
-    if big.dof and stats.chi2.sf(big.rss, big.dof) < SCATTER_LEVEL:
+    q, per_column = added
+    t = per_column / max(1.0, big.rss / big.dof if big.dof else 1.0)
+    if misfit(big.rss, big.dof, SCATTER_LEVEL)[0]:
         return float(t), float(stats.f.sf(t, q, big.dof))
     return float(t), floored_sf(t, q, big.dof)
 
