@@ -17,13 +17,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from calib.discovery import StepContext, candidate_pvalues, discover
+from calib.discovery import candidate_pvalues, discover
 from calib.discovery_observe import critical_noncentrality, critical_value
 from calib.discovery_problem import floored_sf
 from calib.effects import heating_state
-from calib.synthetic import steps_from_output
-from drivers.sensors.sim.error_model import AccelErrorModel
-from test_discovery_matrix import DWELL_S, FACES, MPU, SEM_G, legs, run, tumble
+from test_discovery_matrix import FACES, SEM_G, legs, run, session, tumble
 
 
 def thermal(levels=(27.6, 32.6, 37.6, 42.6, 47.6, 52.6)):
@@ -52,18 +50,8 @@ def test_a_clean_thermal_session_whose_wander_looks_like_a_drift_names_the_real_
 def _understated(seed, factor=0.6):
     """A clean tumble session of white noise whose stated standard errors are ``factor`` x the true
     ones: the gap is open (chi2/dof ~ 1 / factor^2) but what remains has no structure at all."""
-    des = tumble()
-    rng = np.random.default_rng(seed)
-    m = AccelErrorModel.draw(rng)
-    m.t_ref_c = float(np.mean(des["temp"]))
-    out = m.output_g(des["f"], des["temp"], des["t"], des["heating"], des["rate"])
-    k = len(des["f"])
-    steps = steps_from_output(des["f"], out, temp_c=des["temp"], t_s=des["t"], sem_g=SEM_G, rng=rng,
-                              duration_s=DWELL_S)
-    steps = replace(steps, sem_counts=np.asarray(steps.sem_counts) * factor)
-    ctx = StepContext(heating=des["heating"], temp_rate=des["rate"],
-                      angles_deg=np.stack([des["a1"], np.zeros(k), np.zeros(k)], axis=1))
-    return discover(steps, ctx)
+    steps, ctx, _ = session(tumble(), seed, stability=None)
+    return discover(replace(steps, sem_counts=np.asarray(steps.sem_counts) * factor), ctx)
 
 
 @pytest.mark.parametrize("seed", [88, 118, 158])
@@ -89,14 +77,7 @@ def test_every_candidate_test_is_calibrated_on_clean_sessions():
     jump's, Bonferroni over its times, left out). A test that ignored the wander would fail this."""
     pvals = []
     for seed in range(300, 340):
-        d = legs()
-        rng = np.random.default_rng(seed)
-        m = AccelErrorModel.draw(rng)
-        m.t_ref_c = float(np.mean(d["temp"]))
-        out = m.output_g(d["f"], d["temp"], d["t"], d["true_heating"], d["rate"])
-        steps = steps_from_output(d["f"], out, temp_c=d["temp"], t_s=d["t"], sem_g=SEM_G, rng=rng, stability=MPU,
-                                  duration_s=DWELL_S)
-        ctx = StepContext(heating=d["heating"], temp_rate=d["rate"])
+        steps, ctx, _ = session(legs(), seed)
         pvals += [p for n, p in candidate_pvalues(steps, ctx).items() if n != "bias_jump"]
     pvals = np.array(pvals)
     assert len(pvals) == 40 * 7
@@ -114,14 +95,8 @@ def six_position():
 
 
 def _six_session(seed):
-    d = six_position()
-    rng = np.random.default_rng(seed)
-    m = AccelErrorModel.draw(rng)
-    m.t_ref_c = float(np.mean(d["temp"]))
-    out = m.output_g(d["f"], d["temp"], d["t"], d["heating"], d["rate"])
-    steps = steps_from_output(d["f"], out, temp_c=d["temp"], t_s=d["t"], sem_g=SEM_G / np.sqrt(2), rng=rng,
-                              stability=MPU, duration_s=10.0)
-    return steps, StepContext(heating=d["heating"], temp_rate=d["rate"])
+    steps, ctx, _ = session(six_position(), seed, sem_g=SEM_G / np.sqrt(2), duration_s=10.0)
+    return steps, ctx
 
 
 @pytest.mark.parametrize("seed, effect", [(23, "scale_nonlinearity"), (206, "bias_tempco")])

@@ -68,8 +68,9 @@ def legs():
 DESIGNS = {"tumble": tumble, "ramps": ramps, "legs": legs}
 
 
-def run(design: dict, seed: int, stability=MPU, outside=None, **hidden):
-    """Discover on step means of a drawn sensor with ``hidden`` error-model fields set (g units)."""
+def session(design: dict, seed: int, stability=MPU, outside=None, sem_g=SEM_G, duration_s=DWELL_S, **hidden):
+    """Step means and context of a drawn sensor with ``hidden`` error-model fields set (g units) on
+    ``design``, each step ``duration_s`` long with standard error ``sem_g`` (g); and the sensor."""
     rng = np.random.default_rng(seed)
     m = AccelErrorModel.draw(rng)
     m.t_ref_c = float(np.mean(design["temp"]))  # centred like the search (t0 = mean step temperature)
@@ -80,10 +81,16 @@ def run(design: dict, seed: int, stability=MPU, outside=None, **hidden):
     if outside is not None:
         out = out + outside(design)
     k = len(design["f"])
-    steps = steps_from_output(design["f"], out, temp_c=design["temp"], t_s=design["t"], sem_g=SEM_G, rng=rng,
-                              stability=stability, duration_s=DWELL_S)
+    steps = steps_from_output(design["f"], out, temp_c=design["temp"], t_s=design["t"], sem_g=sem_g, rng=rng,
+                              stability=stability, duration_s=duration_s)
     ctx = StepContext(heating=design["heating"], temp_rate=design["rate"],
                       angles_deg=np.stack([design["a1"], np.zeros(k), np.zeros(k)], axis=1))
+    return steps, ctx, m
+
+
+def run(design: dict, seed: int, stability=MPU, outside=None, **hidden):
+    """Discover on step means of a drawn sensor with ``hidden`` error-model fields set (g units)."""
+    steps, ctx, m = session(design, seed, stability, outside, **hidden)
     return discover(steps, ctx), m
 
 
