@@ -36,8 +36,10 @@ def attach_sensors(rig: Rig, model: str, bus, address: int | None) -> None:
         rig.magnetometer = Ak8975(bus, clock=rig.clock)
 
 
-def open_hardware_rig(rig_file, *, seed: int | None = None, time_scale: float | None = None) -> Rig:
-    """Open the rig a ``kind: hardware`` rig file describes (``seed`` and ``time_scale`` do not apply)."""
+def open_hardware_rig(rig_file, *, seed: int | None = None, time_scale: float | None = None,
+                      clock: str | None = None) -> Rig:
+    """Open the rig a ``kind: hardware`` rig file describes (``seed``, ``time_scale`` and ``clock`` do not
+    apply: hardware keeps wall time)."""
     clock = MonotonicClock()
     axes = open_stages(rig_file.axes, clock)
     rig = Rig(kind="hardware", clock=clock, axes=axes, sensor=None, turntable="standa-8smc",

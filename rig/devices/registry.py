@@ -38,6 +38,8 @@ def open_rig(kind: str, spec, **options) -> Rig:
     return opener(spec, **options)
 
 
-def open_rig_file(rig_file, *, seed: int | None = None, time_scale: float | None = None) -> Rig:
-    """Open the rig a loaded rig file describes (its ``kind`` chooses the opener)."""
-    return open_rig(rig_file.kind, rig_file, seed=seed, time_scale=time_scale)
+def open_rig_file(rig_file, *, seed: int | None = None, time_scale: float | None = None,
+                  clock: str | None = None) -> Rig:
+    """Open the rig a loaded rig file describes (its ``kind`` chooses the opener). ``time_scale`` and
+    ``clock`` ("elastic" or "strict", docs/simulated-rig.md) override a simulated rig's own."""
+    return open_rig(rig_file.kind, rig_file, seed=seed, time_scale=time_scale, clock=clock)

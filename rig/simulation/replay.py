@@ -143,7 +143,8 @@ class ReplayChamber:
         self.target_c = float(target_c)
 
 
-def open_replay_rig(session, *, seed: int | None = None, time_scale: float | None = None) -> Rig:
+def open_replay_rig(session, *, seed: int | None = None, time_scale: float | None = None,
+                    clock: str | None = None) -> Rig:
     """A rig that serves ``session`` (a loaded ``rig.session`` Session) in virtual time."""
     clock = VirtualClock()
     emulators = [ControllerEmulator(0x7E00 + i, clock=clock) for i in range(3)]

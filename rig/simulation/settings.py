@@ -24,6 +24,11 @@ from rig.config.schema import Strict, choice, fail, flag, number, validate_plain
 from rig.config.sections import register_section
 from rig.simulation.world import ChamberConfig, FieldConfig, RingingConfig
 
+#: how a time-scaled simulated clock treats a reader that falls behind (docs/simulated-rig.md, "Clocks")
+CLOCKS = ("elastic", "strict")
+#: how the runner reaches the emulated controllers: pseudo-terminals, or in process (``ximcsim://``)
+TRANSPORTS = ("pty", "memory")
+
 #: Canonical names of hidden effects a rig file may switch on, and how each
 #: maps onto the sensor error model (field, shape) or the world model.
 EFFECT_FIELDS: dict[str, str] = {
@@ -175,6 +180,10 @@ class SimSection(Strict):
     """The ``sim:`` section of a ``kind: sim`` rig file (docs/rig-file.md, docs/simulated-rig.md)."""
 
     time_scale: number(ge=0, le=1e6, description="1 real time, K times faster, 0 virtual time") = 1.0
+    clock: choice(CLOCKS, description="elastic: simulated time waits for a late reader (no lost samples); "
+                  "strict: it keeps K x wall time and a late reader loses samples, as on hardware") = "elastic"
+    transport: choice(TRANSPORTS, description="pty: the controllers on pseudo-terminals (serial ports); "
+                      "memory: in process (ximcsim:// URLs), same protocol bytes, no threads") = "pty"
     sensor: Optional[dict] = None  # reserved, ignored
     chamber: ChamberSection = ChamberSection()
     ringing: RingingSection = RingingSection()
@@ -258,6 +267,8 @@ class SimSettings:
     """The ``sim:`` section of a rig file, validated."""
 
     time_scale: float = 1.0  # 0 = virtual time
+    clock: str = "elastic"  # CLOCKS: how a time-scaled clock treats a late reader
+    transport: str = "pty"  # TRANSPORTS: how the runner reaches the emulated controllers
     chamber: ChamberConfig = dataclasses.field(default_factory=ChamberConfig)
     ringing: RingingConfig = dataclasses.field(default_factory=RingingConfig)
     magnetic_field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
@@ -274,7 +285,7 @@ class SimSettings:
         """From a ``sim:`` mapping (or an already validated :class:`SimSection`); errors name ``where``."""
         s = m if isinstance(m, SimSection) else validate_plain(SimSection, dict(m or {}), where)
         given = lambda model: model.model_dump(exclude_unset=True)  # noqa: E731 - the keys the file set
-        return cls(time_scale=s.time_scale, chamber=ChamberConfig(**s.chamber.model_dump()),
+        return cls(time_scale=s.time_scale, clock=s.clock, transport=s.transport, chamber=ChamberConfig(**s.chamber.model_dump()),
                    ringing=RingingConfig(**s.ringing.model_dump()),
                    magnetic_field=FieldConfig(**s.field.model_dump()),
                    table_tilt_deg=(float(s.table_tilt_deg[0]), float(s.table_tilt_deg[1])),

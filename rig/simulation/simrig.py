@@ -15,7 +15,7 @@ import dataclasses
 
 import numpy as np
 
-from drivers.clock import MonotonicClock, VirtualClock
+from drivers.clock import ElasticClock, MonotonicClock, VirtualClock
 from drivers.sensors.chips import SENSOR_MODELS, chip_spec
 from drivers.sensors.sim.adxl345 import Adxl345Model
 from drivers.sensors.sim.bus import SimulatedI2CBus
@@ -51,7 +51,7 @@ class SimulatedRig:
         self.settings = settings
         self.seed = int(seed)
         self.sensor_model = sensor_model
-        self.clock = VirtualClock() if settings.time_scale == 0 else MonotonicClock(settings.time_scale)
+        self.clock = make_clock(settings)
         rng = np.random.default_rng(self.seed)
         self.accel_errors = self._draw_accel_errors(rng)
         chip = chip_spec(sensor_model)
@@ -147,8 +147,20 @@ class SimulatedRig:
             "field": dataclasses.asdict(self.settings.magnetic_field),
             "effects": {k: _plain(v) for k, v in self.settings.effects.items()},
             "time_scale": self.settings.time_scale,
+            "clock": self.settings.clock if self.settings.time_scale else "virtual",
             **({"noise": self.chip.noise.to_dict()} if self.settings.noise else {}),
         }
+
+
+#: sim.clock -> the clock of a time-scaled simulated world (time scale 0 is always virtual time)
+SCALED_CLOCKS = {"elastic": ElasticClock, "strict": MonotonicClock}
+
+
+def make_clock(settings: SimSettings):
+    """The simulated world's clock: virtual time at time scale 0, else ``SCALED_CLOCKS[settings.clock]``."""
+    if settings.time_scale == 0:
+        return VirtualClock()
+    return SCALED_CLOCKS[settings.clock](settings.time_scale)
 
 
 def _broadcast_like(value, like, name):

@@ -143,52 +143,86 @@ def _rate(hz: float) -> str:
 
 
 def rig_clock(sim: SimulatedRig, where: str | None) -> Clock:
-    """The rig's clock: virtual time as it is, a time-scaled clock as a :class:`ScaledClock`."""
-    if sim.settings.time_scale == 0:
+    """The rig's clock: virtual time and an elastic clock (which waits for a late reader, so this machine
+    always keeps up) as they are, a strict time-scaled clock as a :class:`ScaledClock`."""
+    if sim.settings.time_scale == 0 or sim.settings.clock == "elastic":
         return sim.clock
     return ScaledClock(sim.clock, where, functools.partial(keeps_up_with, sim.settings, sim.seed, sim.sensor_address))
 
 
-def start_simulated_rig(rig_file, *, seed: int, time_scale: float | None = None) -> SimulatedRig:
-    """Start the simulated world a rig file describes (its ``sim:`` and ``faults:`` sections)."""
+def start_simulated_rig(rig_file, *, seed: int, time_scale: float | None = None, clock: str | None = None,
+                        start: bool = True) -> SimulatedRig:
+    """The simulated world a rig file describes (its ``sim:`` and ``faults:`` sections), its emulators
+    started on pseudo-terminals unless ``start`` is false; ``time_scale`` and ``clock`` override the file's."""
     settings = SimSettings.from_mapping(rig_file.sim, f"{rig_file.path}: sim")
     if time_scale is not None:
         settings.time_scale = float(time_scale)
+    if clock is not None:
+        settings.clock = clock
     faults = rig_file.faults or {}
     sim = SimulatedRig(settings, seed=seed, sensor_model=rig_file.sensor.model,
                        sensor_address=rig_file.sensor.address,
                        axis_signs=[rig_file.axes[n].sign for n in AXES],
                        home_offsets_deg=[rig_file.axes[n].home_offset_deg for n in AXES],
                        ximc_faults=faults.get("ximc"), sensor_faults=faults.get("sensor"))
-    sim.start()
+    if start:
+        sim.start()
     return sim
 
 
-def open_simulated_rig(rig_file, *, seed: int | None = None, time_scale: float | None = None) -> Rig:
-    """Open a ``kind: sim`` rig file: start the simulated world, then drive it like hardware."""
+def open_simulated_rig(rig_file, *, seed: int | None = None, time_scale: float | None = None,
+                       clock: str | None = None) -> Rig:
+    """Open a ``kind: sim`` rig file: start the simulated world, then drive it like hardware (through the
+    stage driver, over pseudo-terminals or, with ``sim.transport: memory``, in process)."""
     seed = 0 if seed is None else int(seed)
-    sim = start_simulated_rig(rig_file, seed=seed, time_scale=time_scale)
-    clock = rig_clock(sim, str(rig_file.path) if time_scale is None else None)
+    sim = start_simulated_rig(rig_file, seed=seed, time_scale=time_scale, clock=clock, start=False)
+    rig_clock_ = rig_clock(sim, str(rig_file.path) if time_scale is None else None)
     try:
-        axes_config = {n: rig_file.axes[n].with_port(sim.ports[n], sim.emulators[i].serial_number)
+        ports, closers = TRANSPORTS[sim.settings.transport](sim)
+        axes_config = {n: rig_file.axes[n].with_port(ports[n], sim.emulators[i].serial_number)
                        for i, n in enumerate(AXES)}
         axes = open_stages(axes_config, sim.clock)
     except Exception:
         sim.stop()
         raise
     field = sim.settings.magnetic_field
-    rig = Rig(kind="sim", clock=clock, axes=axes, sensor=None, turntable="sim:8smc5-emulator",
+    turntable = "sim:8smc5-emulator" + ("-in-memory" if sim.settings.transport == "memory" else "")
+    rig = Rig(kind="sim", clock=rig_clock_, axes=axes, sensor=None, turntable=turntable,
               home_policy=rig_file.home_policy, chamber=sim.chamber, seed=seed, rig_file=str(rig_file.path),
               site_field={"field_ut": float(field.magnitude_ut), "inclination_deg": float(field.inclination_deg),
                           "declination_deg": float(field.declination_deg)},
               attachments={"sim_truth.yaml": yaml.safe_dump(sim.truth(), sort_keys=False)})
     rig.closers.append(sim.stop)
+    rig.closers.extend(closers)
     try:
         attach_sensors(rig, rig_file.sensor.model, sim.bus, sim.sensor_address)
     except Exception:
         rig.close()
         raise
     return rig
+
+
+def _pty_transport(sim: SimulatedRig):
+    """The emulators on pseudo-terminals (their serving threads started): axis -> device path."""
+    return sim.start(), []
+
+
+def _memory_transport(sim: SimulatedRig):
+    """The emulators in process: axis -> ``ximcsim://`` URL, and what detaches them. The wire's own faults
+    (answer latency, a vanishing port) need a wire: refused here, one line."""
+    for n, emu in zip(AXES, sim.emulators):
+        f = emu.faults
+        wire = [k for k, on in (("latency_s", f.latency_s > 0), ("vanish_at_s", f.vanish_at_s is not None)) if on]
+        if wire:
+            raise RigInputError(None, None, f"faults.ximc.{n}.{wire[0]}",
+                                "a fault of the serial line needs sim.transport: pty (got memory)")
+    names = {n: f"sim-{id(sim):x}-{n}" for n in AXES}
+    ports = {n: attach(names[n], sim.emulators[i].controller) for i, n in enumerate(AXES)}
+    return ports, [lambda name=name: detach(name) for name in names.values()]
+
+
+#: sim.transport -> how the runner reaches the emulated controllers: (axis -> port, closers)
+TRANSPORTS = {"pty": _pty_transport, "memory": _memory_transport}
 
 
 def publish_bus(sim: SimulatedRig, name: str = "sim") -> None:

@@ -38,7 +38,7 @@ def new_session_id(procedure_name: str, seed: int | None) -> str:
 
 def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, out_dir="sessions",
                   seed: int | None = None, resume_dir=None, ui: Operator | None = None,
-                  time_scale: float | None = None, solve: bool = True,
+                  time_scale: float | None = None, clock: str | None = None, solve: bool = True,
                   options: EngineOptions = EngineOptions()) -> RunResult:
     """Run (or resume) a procedure; return where the session is and how it ended.
 
@@ -48,11 +48,11 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     operator = ui or SilentOperator()
     if resume_dir is not None:
         return _resume(resume_dir, rig_spec=rig_spec, seed=seed, operator=operator, time_scale=time_scale,
-                       solve=solve, options=options)
+                       clock=clock, solve=solve, options=options)
     procedure = load_procedure(procedure_path)
     rig_file = load_rig_file(resolve_rig(rig_spec))
     seed = 0 if seed is None else seed
-    rig = open_rig_file(rig_file, seed=seed, time_scale=time_scale)
+    rig = open_rig_file(rig_file, seed=seed, time_scale=time_scale, clock=clock)
     lock = SessionLock(None)
     try:
         new = NewSession(Path(out_dir), new_session_id(procedure.name, seed), Path(procedure_path).read_text(),
@@ -96,7 +96,7 @@ def format_duration(seconds: float) -> str:
     return f"{int(seconds // 3600)} h {int(seconds % 3600 // 60):02d} min"
 
 
-def _resume(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, solve: bool,
+def _resume(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, clock, solve: bool,
             options: EngineOptions) -> RunResult:
     """Continue an interrupted session: lock it first (a second resume touches nothing)."""
     SessionManifest.load(resume_dir)  # a directory that is not a session is refused before it is locked
@@ -105,17 +105,17 @@ def _resume(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, solve
             operator.warn(f"took over the lock of pid {lock.stale.get('pid', '?')} on {lock.stale.get('host', '?')}, "
                           "which is no longer running")
         return _resume_locked(resume_dir, rig_spec=rig_spec, seed=seed, operator=operator, time_scale=time_scale,
-                              solve=solve, options=options)
+                              clock=clock, solve=solve, options=options)
 
 
-def _resume_locked(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, solve: bool,
+def _resume_locked(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, clock, solve: bool,
                    options: EngineOptions) -> RunResult:
     """Open the rig, refuse it if it is not the one recorded, then reopen the session and go on."""
     recorded, _ = SessionManifest.load(resume_dir)  # read only: nothing is touched before the checks
     procedure = load_procedure_text(recorded.procedure.text or "", recorded.procedure.file or "<session>")
     rig_path = resolve_rig(recorded.rig.rig_file if rig_spec is None else rig_spec)
     rig_file = load_rig_file(rig_path)
-    rig = open_rig_file(rig_file, seed=recorded.seed if seed is None else seed, time_scale=time_scale)
+    rig = open_rig_file(rig_file, seed=recorded.seed if seed is None else seed, time_scale=time_scale, clock=clock)
     try:
         configure_devices(procedure, rig)
         differ = identity.differences(recorded, rig, file_sha256(rig_path))

@@ -1,4 +1,5 @@
-"""``rig run --time-scale K`` on a machine that cannot keep up (issue #13 item 3).
+"""``rig run --time-scale K`` on a machine that cannot keep up (issue #13 item 3; issue #26: the strict clock
+keeps this behaviour, the elastic default never loses a sample).
 
 A time scale clearly beyond what this machine keeps up with is refused before a session exists (one
 line, exit 2, the figure it does keep up with and what to use); a run whose simulated clock outruns
@@ -43,7 +44,7 @@ def _fast(tmp_path):
 
 def test_a_time_scale_the_machine_cannot_keep_up_with_is_refused_before_a_session_exists(tmp_path, capsys):
     out = tmp_path / "sessions"
-    assert main(["run", str(_fast(tmp_path)), "--time-scale", "1000", "--out", str(out), "--quiet"]) == 2
+    assert main(["run", str(_fast(tmp_path)), "--time-scale", "1000", "--strict", "--out", str(out), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and re.match(r"^rig run: --time-scale 1000: " + KEEPS_UP, err[0]), err
     assert not out.exists() or not any(out.iterdir())
@@ -51,7 +52,7 @@ def test_a_time_scale_the_machine_cannot_keep_up_with_is_refused_before_a_sessio
 
 def test_a_rig_files_time_scale_is_refused_naming_the_file(tmp_path, capsys):
     rig = tmp_path / "rig.yaml"
-    rig.write_text((RIGS / "sim.yaml").read_text().replace("time_scale: 10", "time_scale: 1000"))
+    rig.write_text((RIGS / "sim.yaml").read_text().replace("time_scale: 10", "time_scale: 1000\n  clock: strict"))
     out = tmp_path / "sessions"
     assert main(["run", str(_fast(tmp_path)), "--rig", str(rig), "--out", str(out), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -62,7 +63,7 @@ def test_a_rig_files_time_scale_is_refused_naming_the_file(tmp_path, capsys):
 def test_a_run_that_loses_samples_to_the_clock_stops_then_resumes_slower_without_a_hole(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(simulated, "keeps_up_with", lambda *args: 1e9)  # measured fast; busy once running
     out = tmp_path / "sessions"
-    assert main(["run", str(_fast(tmp_path)), "--time-scale", "1000", "--out", str(out), "--seed", "2",
+    assert main(["run", str(_fast(tmp_path)), "--time-scale", "1000", "--strict", "--out", str(out), "--seed", "2",
                  "--quiet"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     (d,) = list(out.iterdir())
@@ -84,4 +85,20 @@ def test_a_run_that_loses_samples_to_the_clock_stops_then_resumes_slower_without
     assert s.manifest["status"] == "complete"
     assert [st["status"] for st in s.manifest["steps"]] == ["complete"] * 6
     assert [len(s.step_samples(i)["t_s"]) for i in range(6)] == [1000] * 6
+    assert (d / "calibration.yaml").is_file()
+
+
+def test_on_the_default_elastic_clock_the_same_time_scale_completes_with_every_sample(tmp_path, capsys):
+    # the scale refused above, and the machine far too slow for it: simulated time waits for the reader
+    out = tmp_path / "sessions"
+    assert main(["run", str(_fast(tmp_path)), "--time-scale", "1000", "--out", str(out), "--seed", "2",
+                 "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "overflow" not in err and "outran" not in err, err
+    (d,) = list(out.iterdir())
+    s = load_session(d)
+    assert [st["status"] for st in s.manifest["steps"]] == ["complete"] * 6
+    for i in range(6):
+        t = s.step_samples(i)["t_s"]
+        assert len(t) == 1000 and abs(max(t[1:] - t[:-1]) - 1e-3) < 1e-6  # contiguous: no sample lost
     assert (d / "calibration.yaml").is_file()

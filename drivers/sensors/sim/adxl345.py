@@ -107,6 +107,7 @@ class Adxl345Model(I2CDevice):
             self.overruns += 1
 
     def read_registers(self, register: int, length: int) -> bytes:
+        self.sampler.freeze(self)
         self._catch_up()
         out = bytearray()
         popped = None
@@ -130,9 +131,16 @@ class Adxl345Model(I2CDevice):
                 out.append(self.regs[r])
             else:
                 out.append(0)
+        self._pace()
         return bytes(out)
 
+    def _pace(self) -> None:
+        """An elastic clock waits for the host before this FIFO would overflow (:meth:`LazySampler.pace`)."""
+        running = self.regs[FIFO_CTL] >> 6
+        self.sampler.pace(self, FIFO_DEPTH - len(self.fifo) if running else None)
+
     def write_registers(self, register: int, data: bytes) -> None:
+        self.sampler.freeze(self)
         self._catch_up()
         for i, v in enumerate(data):
             r = register + i
@@ -149,3 +157,4 @@ class Adxl345Model(I2CDevice):
                 self.sampler.restart(self.rate_hz(), self.rate_hz() / 2)
             if r == FIFO_CTL and (v >> 6) == 0:
                 self.fifo.clear()
+        self._pace()

@@ -89,6 +89,7 @@ class Mpu9150Model(I2CDevice):
         self.faults.check_access()
 
     def read_registers(self, register: int, length: int) -> bytes:
+        self.sampler.freeze(self)
         self._catch_up()
         out = bytearray()
         reg = register
@@ -105,12 +106,21 @@ class Mpu9150Model(I2CDevice):
             else:
                 out.append(self.regs[reg & 0x7F])
             reg += 1
+        self._pace()
         return bytes(out)
 
     def write_registers(self, register: int, data: bytes) -> None:
+        self.sampler.freeze(self)
         self._catch_up()
         for i, v in enumerate(data):
             self._write(register + i, v)
+        self._pace()
+
+    def _pace(self) -> None:
+        """An elastic clock waits for the host before this FIFO would overflow (:meth:`LazySampler.pace`)."""
+        size = self._sample_bytes()
+        running = self.regs[USER_CTRL] & 0x40 and size
+        self.sampler.pace(self, (FIFO_SIZE - len(self.fifo)) // size if running else None)
 
     def _write(self, reg: int, v: int) -> None:
         if reg == PWR_MGMT_1:

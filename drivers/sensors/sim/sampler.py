@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from drivers.clock import ElasticClock
 from drivers.sensors.sim.error_model import AccelErrorModel, HysteresisState
 from drivers.sensors.sim.noise import NoiseConfig, NoiseProcess, own_stream
 
@@ -56,6 +57,25 @@ class LazySampler:
 
     def stop(self) -> None:
         self.running = False
+
+    def freeze(self, owner: object) -> None:
+        """Stop an elastic clock for the length of one register access by ``owner`` (the access then
+        paces it: :meth:`pace`): the room left in the FIFO is counted at the time it is read, never after
+        time has moved on (at a large time scale, microseconds of this machine's time are samples)."""
+        if isinstance(self.clock, ElasticClock):
+            self.clock.hold_now(owner)
+
+    def pace(self, owner: object, free_samples: int | None) -> None:
+        """Let an elastic clock (:class:`~drivers.clock.ElasticClock`) run only until ``free_samples`` more
+        samples are due (the room left in ``owner``'s FIFO: it fills, never overflows, however late its
+        reader is); ``None`` (no FIFO running) lifts ``owner``'s hold. A clock that keeps its own pace
+        (wall time, virtual time) is not held: there a late reader loses samples, as on hardware."""
+        if not isinstance(self.clock, ElasticClock):
+            return
+        if free_samples is None or not self.running:
+            self.clock.release(owner)
+        else:
+            self.clock.hold(owner, self.t_start + (self.next_k + max(free_samples, 0) - 1) / self.rate_hz)
 
     def _temp_rate(self, t: np.ndarray, h: float = 0.5) -> np.ndarray:
         """True dT/dt (C/s) of the physics' sensor temperature (central difference over +-h s)."""

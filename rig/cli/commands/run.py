@@ -23,6 +23,9 @@ def add_parser(sub) -> None:
     r.add_argument("--resume", metavar="DIR", default=None, help="continue an interrupted session")
     r.add_argument("--time-scale", type=float, default=None,
                    help="simulated rig: clock speed-up (0 = virtual time, as fast as possible)")
+    r.add_argument("--strict", action="store_true",
+                   help="simulated rig: keep the time scale even when this machine falls behind (samples are "
+                        "then lost, as on hardware); default: simulated time waits for the reader")
     r.add_argument("--yes", action="store_true", help="confirm every operator prompt")
     r.add_argument("--quiet", action="store_true", help="print only warnings and the result")
 
@@ -41,7 +44,8 @@ def run(args) -> int:
     ui = ConsoleUI(assume_yes=args.yes, quiet=args.quiet)
     try:
         result = run_procedure(args.procedure, rig_spec=args.rig, out_dir=args.out, seed=args.seed,
-                               resume_dir=args.resume, ui=ui, time_scale=args.time_scale)
+                               resume_dir=args.resume, ui=ui, time_scale=args.time_scale,
+                               clock="strict" if args.strict else None)
     except RunAborted as exc:
         ui.close()
         where = getattr(exc, "session_dir", None)

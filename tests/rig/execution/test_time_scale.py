@@ -49,7 +49,7 @@ def make_rig(request):
     rigs = []
 
     def make(time_scale: float, seed: int = 1):
-        sim = SimulatedRig(SimSettings(time_scale=time_scale), seed=seed)
+        sim = SimulatedRig(SimSettings(time_scale=time_scale, clock="strict"), seed=seed)
         rig = open_in_process_rig(sim, name=f"{request.node.name}-{len(rigs)}")
         rigs.append(rig)
         return sim, rig
