@@ -38,7 +38,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import lfilter
 
 from drivers.sensors.chips import CHIPS
 
@@ -138,6 +137,7 @@ def _first_order(x_prev, dt: np.ndarray, tau: float, sigma, n: np.ndarray) -> np
         return x0[None, :]
     p = phi[1:]
     if p.max() - p.min() <= 1e-9 * p.max():  # a uniform grid (np.allclose costs more than the filter)
+        from scipy.signal import lfilter  # deferred: 0.4-0.9 s to import; only when noise is drawn
         rest, _ = lfilter([1.0], [1.0, -p[0]], e[1:], axis=0, zi=(p[0] * x0)[None, :])
         return np.vstack([x0[None, :], rest])
     out = np.empty_like(e)
