@@ -1,4 +1,5 @@
-"""What every command shares: exit codes, the usage error, JSON and calibration formatting."""
+"""What every command shares: exit codes and the usage error (from :mod:`rig.cli.codes`), JSON and
+calibration formatting, the end of every solve."""
 
 from __future__ import annotations
 
@@ -8,15 +9,9 @@ import numpy as np
 
 from calib.gyro import GyroCalibration
 from calib.magnetometer import MagCalibration
+from rig.cli.codes import EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, UsageError  # noqa: F401 - the commands import them from here
 from rig.lab import record_calibration
 from rig.lab.acceptance import as_lines, judge
-
-#: exit codes (contract: docs/cli.md); 3: the calibration was written but failed the procedure's accept: limits
-EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_REJECTED = 0, 1, 2, 3
-
-
-class UsageError(Exception):
-    """Bad command-line input (exit 2)."""
 
 
 def record_in_history(command: str, session_dir, calibration_path, verdict: str | None = None) -> None:

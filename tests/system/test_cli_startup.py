@@ -1,0 +1,82 @@
+"""Fast command start (issue 26): ``rig --help``, ``rig --version`` and ``rig solve`` import only what they use.
+
+Each case runs the command in a fresh interpreter (a subprocess: only a fresh interpreter shows what a
+command imports) and lists the packages it loaded that it must not: the simulator and scipy.signal (its
+noise filters), matplotlib, and for ``--help`` / ``--version`` anything numeric at all. The timings are
+measured by ``benchmarks/bench_startup.py``, not here.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from rig.session import SessionWriter
+
+from conftest import PROCEDURES, REPO
+
+#: what no command that opens no rig and draws no plot may import
+NEVER = ("rig.simulation", "drivers.ximc.sim", "drivers.sensors.sim", "scipy.signal", "matplotlib")
+#: what ``rig --help`` and ``rig --version`` must not import either: the parser needs none of it
+NOT_FOR_HELP = NEVER + ("numpy", "scipy", "pandas", "pydantic", "calib", "drivers", "rig.session", "rig.workflow")
+
+#: runs ``rig ARGS`` in this interpreter, then prints the loaded modules among the packages given
+PROBE = """
+import json, sys
+from rig.cli.main import main
+code = main(sys.argv[2:])
+names = json.loads(sys.argv[1])
+print(json.dumps({"code": code, "loaded": sorted({n for n in names for m in list(sys.modules)
+                                                  if m == n or m.startswith(n + ".")})}))
+"""
+
+
+def imported_by(args: list[str], names: tuple[str, ...]) -> tuple[int, list[str]]:
+    """(exit code, which of ``names`` were imported) of ``rig ARGS`` in a fresh interpreter."""
+    proc = subprocess.run([sys.executable, "-c", PROBE, json.dumps(names), *args], cwd=REPO, capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    return result["code"], result["loaded"]
+
+
+@pytest.mark.parametrize("option", ["--help", "--version"])
+def test_help_and_version_import_no_command_and_nothing_numeric(option):
+    assert imported_by([option], NOT_FOR_HELP) == (0, [])
+
+
+def test_a_commands_help_imports_that_command_only():
+    code, loaded = imported_by(["export", "--help"], NEVER + ("rig.cli.commands.solve", "rig.cli.commands.run"))
+    assert (code, loaded) == (0, [])
+
+
+@pytest.fixture
+def six_position_session(tmp_path):
+    """A six-position session as ``rig run`` writes it (the shipped procedure), written directly: no simulator."""
+    faces = [[0, 0, 1], [1, 0, 0], [0, 0, -1], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]
+    text = (PROCEDURES / "six_position.yaml").read_text()
+    manifest = {"procedure": {"name": "six_position", "file": "procedures/six_position.yaml", "text": text},
+                "software": {"name": "rig", "version": "test"},
+                "rig": {"sensor": {"model": "MPU-9150", "address": 104, "serial": "T1", "accel_lsb_per_g": 8192.0,
+                                   "sample_rate_hz": 100.0, "has_temperature": True}},
+                "steps": [{"index": i, "name": f"p{i}", "kind": "static", "angles_deg": None, "f_nominal": f,
+                           "status": "pending"} for i, f in enumerate(faces)]}
+    writer = SessionWriter.create(tmp_path, "six", manifest)
+    rng = np.random.default_rng(3)
+    for i, f in enumerate(faces):
+        counts = np.round(np.array(f) * 8200 + [60, -40, 110] + rng.normal(0, 25, (300, 3))).astype(int)
+        writer.append_samples(i, i * 10 + np.arange(300) * 0.01, counts, temp_c=np.full(300, 25.0))
+        writer.complete_step(i, {"n_samples": 300})
+    writer.set_status("complete")
+    return tmp_path / "six"
+
+
+def test_rig_solve_imports_neither_the_simulator_nor_scipy_signal_nor_matplotlib(six_position_session, tmp_path):
+    code, loaded = imported_by(["solve", str(six_position_session), "-o", str(tmp_path / "cal.yaml")],
+                               NEVER + ("rig.workflow", "rig.cli.commands.run", "rig.cli.commands.discover"))
+    assert (code, loaded) == (0, [])
+    assert (tmp_path / "cal.yaml").is_file()
