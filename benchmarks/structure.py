@@ -26,6 +26,7 @@ MAX_FUNCTION_LINES = 60
 DEFERRED: tuple[tuple[str, str, str], ...] = (
     ("matplotlib", "", "a plot one command draws on request"),
     ("scipy.signal", "drivers.sensors.sim.noise", "the noise filter, only when a simulated sensor draws noise"),
+    ("rig.simulation", "rig.workflow.kinds", "the sim and replay rig kinds, only when such a rig is opened"),
     ("rig.cli.commands", "rig.cli.commands", "a command's module, only when that command is given"),
     ("rig.cli.failures", "rig.cli.main", "every layer's error types (calib, pandas), once a command runs"),
 )

@@ -2,8 +2,10 @@
 
 ``hardware`` is provided here (:mod:`rig.devices.hardware`); the simulated rig (``sim``) and the
 replay of a recorded session (``replay``) register themselves when :mod:`rig.simulation` is
-imported, which only the composition roots do (the ``rig`` command, the workflows, tests). Runtime
-code asks for a kind by name and never imports a simulator.
+imported, which only the composition roots do (the workflows, ``rig sim``, tests). The workflows
+register both kinds ahead (:mod:`rig.workflow.kinds`) with openers that import the simulator when such
+a rig is opened, so a command that opens none never loads it. Runtime code asks for a kind by name and
+never imports a simulator.
 """
 
 from __future__ import annotations

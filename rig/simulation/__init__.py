@@ -1,7 +1,9 @@
 """The simulated rig and the replay rig: rig kinds ``sim`` and ``replay``.
 
 Importing this package registers both kinds with ``rig.devices.registry``; only composition roots
-(the ``rig`` command, the workflows, tests and benchmarks) import it.
+import it: the workflows, when a simulated or replay rig is opened (:mod:`rig.workflow.kinds`), ``rig
+sim``, tests and benchmarks. Importing it loads the whole simulated world; the ``rig`` command never
+imports it to start.
 """
 
 from rig.simulation import settings as _settings  # noqa: F401 - registers the sim: and faults: sections

@@ -6,12 +6,12 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from calib.errors import CalibError
-import rig.simulation  # noqa: F401 - provides the "replay" rig kind
 from rig.config.procedure import load_procedure_text
 from rig.devices import open_rig
 from rig.errors import RigInputError
 from rig.execution.operator import Operator, SilentOperator
 from rig.session import load_session
+from rig.workflow import kinds  # noqa: F401 - registers the "replay" rig kind (the simulator loads when it opens)
 from rig.workflow.lifecycle import NewSession, RunResult, execute, finish, start_session
 
 

@@ -6,7 +6,6 @@ import secrets
 from datetime import datetime, timezone
 from pathlib import Path
 
-import rig.simulation  # noqa: F401 - provides the "sim" and "replay" rig kinds
 from rig.config.procedure import load_procedure, load_procedure_text
 from rig.config.rigfile import load_rig_file
 from rig.devices import open_rig_file
@@ -18,6 +17,7 @@ from rig.session.lock import SessionLock
 from rig.errors import RigInputError
 from rig.session import SessionManifest, SessionWriter
 from rig.workflow import identity
+from rig.workflow import kinds  # noqa: F401 - registers the "sim" rig kind (the simulator loads when it opens)
 from rig.workflow.lifecycle import (NewSession, RunResult, configure_devices, execute, file_sha256, finish,
                                     start_session)
 

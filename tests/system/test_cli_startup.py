@@ -2,12 +2,14 @@
 
 Each case runs the command in a fresh interpreter (a subprocess: only a fresh interpreter shows what a
 command imports) and lists the packages it loaded that it must not: the simulator and scipy.signal (its
-noise filters), matplotlib, and for ``--help`` / ``--version`` anything numeric at all. The timings are
-measured by ``benchmarks/bench_startup.py``, not here.
+noise filters), matplotlib, and for ``--help`` / ``--version`` anything numeric at all. The command
+table that ``rig --help`` is built from agrees with the command modules. The timings are measured by
+``benchmarks/bench_startup.py``, not here.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import subprocess
 import sys
@@ -15,6 +17,7 @@ import sys
 import numpy as np
 import pytest
 
+from rig.cli.commands import COMMANDS, load
 from rig.session import SessionWriter
 
 from conftest import PROCEDURES, REPO
@@ -80,3 +83,20 @@ def test_rig_solve_imports_neither_the_simulator_nor_scipy_signal_nor_matplotlib
                                NEVER + ("rig.workflow", "rig.cli.commands.run", "rig.cli.commands.discover"))
     assert (code, loaded) == (0, [])
     assert (tmp_path / "cal.yaml").is_file()
+
+
+def test_the_command_table_lists_every_command_module_with_the_help_line_its_parser_gives():
+    for name, line in COMMANDS.items():
+        sub = argparse.ArgumentParser().add_subparsers()
+        load(name).add_parser(sub)
+        assert [(a.dest, a.help) for a in sub._choices_actions] == [(name, line)]
+    modules = {p.stem for p in (REPO / "rig" / "cli" / "commands").glob("*.py")} - {"__init__"}
+    assert {load(name).__name__.rsplit(".", 1)[1] for name in COMMANDS} == modules
+
+
+def test_the_workflows_register_the_sim_and_replay_kinds_without_importing_the_simulator():
+    code = ("import sys, rig.workflow.run, rig.workflow.replay; from rig.devices.registry import RIG_KINDS; "
+            "print(sorted(RIG_KINDS), RIG_KINDS['sim'].__module__, any(m.startswith('rig.simulation') for m in "
+            "sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["['hardware',", "'replay',", "'sim']", "rig.workflow.kinds", "False"]
