@@ -18,8 +18,12 @@ SIX_FACES_STEPS = "".join(f'  - pose: "{face}"\n' for face in ("+Z up", "+X up",
 
 def pytest_configure(config):
     """Every solve records into a calibration history (docs/history.md): the tests' go into a
-    database of their own, never the user's (subprocesses inherit the variable)."""
+    database of their own, never the user's (subprocesses inherit the variable). Simulated rigs whose
+    rig file does not choose run their controllers in process (``sim.transport: memory``: the same
+    protocol bytes through the same Stage driver, no pseudo-terminal threads); the tests whose point is
+    the pseudo-terminal say ``transport: pty`` or start emulators themselves."""
     os.environ["RIG_HISTORY"] = str(Path(tempfile.mkdtemp(prefix="rig-test-history-")) / "history.sqlite")
+    os.environ["RIG_SIM_TRANSPORT"] = "memory"
 
 
 @pytest.fixture(scope="session")

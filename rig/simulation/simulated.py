@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 import math
+import os
 import time
 
 import yaml
@@ -159,6 +161,8 @@ def start_simulated_rig(rig_file, *, seed: int, time_scale: float | None = None,
         settings.time_scale = float(time_scale)
     if clock is not None:
         settings.clock = clock
+    if "transport" not in (rig_file.sim or {}):
+        settings.transport = default_transport()
     faults = rig_file.faults or {}
     sim = SimulatedRig(settings, seed=seed, sensor_model=rig_file.sensor.model,
                        sensor_address=rig_file.sensor.address,
@@ -202,9 +206,25 @@ def open_simulated_rig(rig_file, *, seed: int | None = None, time_scale: float |
     return rig
 
 
+#: the environment variable that chooses ``sim.transport`` for a rig file that does not (the tests set memory)
+TRANSPORT_ENV = "RIG_SIM_TRANSPORT"
+
+
+def default_transport() -> str:
+    """``sim.transport`` when the rig file does not say: ``$RIG_SIM_TRANSPORT``, else ``pty``."""
+    value = os.environ.get(TRANSPORT_ENV) or "pty"
+    if value not in TRANSPORTS:
+        raise RigInputError(None, None, TRANSPORT_ENV, f"expected one of {', '.join(TRANSPORTS)}, got {value!r}")
+    return value
+
+
 def _pty_transport(sim: SimulatedRig):
     """The emulators on pseudo-terminals (their serving threads started): axis -> device path."""
     return sim.start(), []
+
+
+#: numbers the in-process rigs of this program, so that two open at once never share a ``ximcsim://`` name
+_MEMORY_RIGS = itertools.count(1)
 
 
 def _memory_transport(sim: SimulatedRig):
@@ -216,7 +236,8 @@ def _memory_transport(sim: SimulatedRig):
         if wire:
             raise RigInputError(None, None, f"faults.ximc.{n}.{wire[0]}",
                                 "a fault of the serial line needs sim.transport: pty (got memory)")
-    names = {n: f"sim-{id(sim):x}-{n}" for n in AXES}
+    rig_no = next(_MEMORY_RIGS)
+    names = {n: f"sim{rig_no}-{n}" for n in AXES}
     ports = {n: attach(names[n], sim.emulators[i].controller) for i, n in enumerate(AXES)}
     return ports, [lambda name=name: detach(name) for name in names.values()]
 

@@ -40,7 +40,14 @@ def run(args) -> int:
         raise UsageError(f"--seed: expected an integer from 0 to {2**32 - 1}, got {args.seed}")
     if args.time_scale is not None and not (math.isfinite(args.time_scale) and 0 <= args.time_scale <= 1000):
         raise UsageError(f"--time-scale: expected 0 (virtual time) or a speed-up from 0 to 1000, got {args.time_scale:g}")
-    stop_on_signals()
+    restore = stop_on_signals()
+    try:
+        return _run_and_report(args)
+    finally:
+        restore()
+
+
+def _run_and_report(args) -> int:
     ui = ConsoleUI(assume_yes=args.yes, quiet=args.quiet)
     try:
         result = run_procedure(args.procedure, rig_spec=args.rig, out_dir=args.out, seed=args.seed,
@@ -73,11 +80,20 @@ def run(args) -> int:
     return code
 
 
-def stop_on_signals() -> None:
+def stop_on_signals():
     """Ctrl-C (SIGINT) and SIGTERM stop the motors and abort the run, even when the shell that started
     us ignores SIGINT (a background job does): the turntable must stop whoever asks. A second
-    Ctrl-C while the run is stopping does not cut the cleanup short (motors, session status)."""
+    Ctrl-C while the run is stopping does not cut the cleanup short (motors, session status).
+
+    Returns what to call once the run is over: it puts the previous handlers back, unless a signal
+    stopped the run; then the program is exiting on its behalf, and further ones are ignored (Python
+    drops its own handlers while it exits, and a Ctrl-C then would kill it without its exit code)."""
     stopping = []
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+    def restore() -> None:
+        for sig, handler in previous.items():
+            signal.signal(sig, signal.SIG_IGN if stopping else handler)
 
     def interrupt(signum, frame):
         if stopping:
@@ -88,3 +104,4 @@ def stop_on_signals() -> None:
 
     signal.signal(signal.SIGINT, interrupt)
     signal.signal(signal.SIGTERM, interrupt)
+    return restore
