@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sqlite3
 
 import pytest
 
@@ -12,12 +13,22 @@ from conftest import PROCEDURES
 
 
 @pytest.fixture(scope="module")
-def session(tmp_path_factory):
+def recorded(tmp_path_factory):
+    """A six-position session (seed 3, virtual time) and the calibration history its run recorded into
+    (``history``: that run's entry only). Read only: copy them to change them."""
     out = tmp_path_factory.mktemp("lab")
-    assert main(["run", str(PROCEDURES / "six_position.yaml"), "--seed", "3", "--time-scale", "0", "--out", str(out),
-                 "--quiet"]) == 0
-    (s,) = list(out.iterdir())
-    return s
+    db = out / "run-history.sqlite"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("RIG_HISTORY", str(db))
+        assert main(["run", str(PROCEDURES / "six_position.yaml"), "--seed", "3", "--time-scale", "0", "--out",
+                     str(out / "sessions"), "--quiet"]) == 0
+    (s,) = list((out / "sessions").iterdir())
+    return {"session": s, "history": db}
+
+
+@pytest.fixture
+def session(recorded):
+    return recorded["session"]
 
 
 def test_history_record_list_show_json_plot(session, tmp_path, capsys, monkeypatch):
@@ -66,16 +77,12 @@ def test_export_bad_input(tmp_path, capsys):
     assert main(["export", str(tmp_path / "none.yaml"), "--to", "nope"]) == 2
 
 
-def test_every_run_and_solve_is_recorded_in_the_history(tmp_path, monkeypatch, capsys):
-    from rig.cli import main
-    from conftest import REPO as repo
-
+def test_every_run_and_solve_is_recorded_in_the_history(recorded, tmp_path, monkeypatch, capsys):
     db = tmp_path / "h.sqlite"
+    with sqlite3.connect(recorded["history"]) as src, sqlite3.connect(db) as dst:
+        src.backup(dst)  # what the module's run recorded (its write-ahead log included)
     monkeypatch.setenv("RIG_HISTORY", str(db))
-    assert main(["run", str(repo / "procedures" / "six_position.yaml"), "--seed", "8", "--time-scale", "0",
-                 "--out", str(tmp_path / "s"), "--quiet"]) == 0
-    (session,) = (tmp_path / "s").iterdir()
-    assert main(["solve", str(session), "-o", str(tmp_path / "again.yaml")]) == 0
+    assert main(["solve", str(recorded["session"]), "-o", str(tmp_path / "again.yaml")]) == 0
     capsys.readouterr()
     assert main(["history", "--json"]) == 0
     listing = json.loads(capsys.readouterr().out)

@@ -33,9 +33,12 @@ def test_refused_with_one_line_and_no_session(tmp_path, capsys, case, model, ste
 
 
 def test_evaluate_refuses_a_calibration_of_another_range(tmp_path, capsys):
-    six = str(REPO / "procedures" / "six_position.yaml")
-    assert main(["run", six, "--seed", "1", "--time-scale", "0", "--out", str(tmp_path / "a"), "--quiet"]) == 0
-    other = (REPO / "procedures" / "six_position.yaml").read_text().replace("accel_range_g: 4", "accel_range_g: 8")
+    # the shipped six positions with 1 s dwells: the ranges, not the samples, are what is refused (issue 26)
+    text = (REPO / "procedures" / "six_position.yaml").read_text().replace("dwell: {seconds: 10}", "dwell: {seconds: 1}")
+    six = tmp_path / "six4.yaml"
+    six.write_text(text)
+    assert main(["run", str(six), "--seed", "1", "--time-scale", "0", "--out", str(tmp_path / "a"), "--quiet"]) == 0
+    other = text.replace("accel_range_g: 4", "accel_range_g: 8")
     (tmp_path / "six8.yaml").write_text(other)
     assert main(["run", str(tmp_path / "six8.yaml"), "--seed", "1", "--time-scale", "0", "--out",
                  str(tmp_path / "b"), "--quiet"]) == 0

@@ -20,8 +20,12 @@ def self_test_on(monkeypatch):
 
 
 def test_a_good_chip_passes_and_the_result_is_recorded(tmp_path):
-    assert main(["run", SIX, "--seed", "4", "--time-scale", "0", "--out", str(tmp_path), "--quiet"]) == 0
-    (session,) = tmp_path.iterdir()
+    # the self-test runs when the session starts: 1 s dwells instead of 10 s test the same (issue 26)
+    six = tmp_path / "six_position.yaml"
+    six.write_text((REPO / "procedures" / "six_position.yaml").read_text().replace("dwell: {seconds: 10}",
+                                                                                   "dwell: {seconds: 1}"))
+    assert main(["run", str(six), "--seed", "4", "--time-scale", "0", "--out", str(tmp_path / "s"), "--quiet"]) == 0
+    (session,) = (tmp_path / "s").iterdir()
     result = yaml.safe_load((session / "session.yaml").read_text())["rig"]["sensor"]["self_test"]
     assert result["passed"] is True and len(result["axes"]) == 6
 
