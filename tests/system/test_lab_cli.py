@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sqlite3
+from contextlib import closing
 
 import pytest
 
@@ -79,7 +80,7 @@ def test_export_bad_input(tmp_path, capsys):
 
 def test_every_run_and_solve_is_recorded_in_the_history(recorded, tmp_path, monkeypatch, capsys):
     db = tmp_path / "h.sqlite"
-    with sqlite3.connect(recorded["history"]) as src, sqlite3.connect(db) as dst:
+    with closing(sqlite3.connect(recorded["history"])) as src, closing(sqlite3.connect(db)) as dst:
         src.backup(dst)  # what the module's run recorded (its write-ahead log included)
     monkeypatch.setenv("RIG_HISTORY", str(db))
     assert main(["solve", str(recorded["session"]), "-o", str(tmp_path / "again.yaml")]) == 0
