@@ -1,10 +1,19 @@
-"""Nothing lost, nothing silent: turntable and sensor faults, kill -9 and Ctrl-C, on the simulated rig."""
+"""Nothing lost, nothing silent: turntable and sensor faults, kill -9 and Ctrl-C, on the simulated rig.
+
+kill -9 and Ctrl-C need a run in another process (``_spawn``); everything else, the resumes after them
+included, runs in this process. The signalled runs go at ``SIGNALLED_TIME_SCALE``: the elastic simulated
+clock never loses a sample at any scale, so the scale only sets how long the test waits for the steps the
+signal must come after (issue 26). One complete six-position session (``complete_six``, seed 21) serves as
+the uninterrupted reference of the kill -9 tests, the complete session a resume must refuse (a copy) and
+the complete session without a coverage section.
+"""
 
 from __future__ import annotations
 
 import json
 import re
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -22,6 +31,9 @@ from rig.session import load_session
 from conftest import PROCEDURES, REPO, RIGS
 
 SIX = str(PROCEDURES / "six_position.yaml")
+#: time scale of the runs that are killed or interrupted (a step of six_position.yaml, ~13 s of rig time,
+#: takes under a second of wall time: the signal still lands in the middle of the run)
+SIGNALLED_TIME_SCALE = "16"
 
 
 def _rig_file(tmp_path: Path, extra: str, time_scale: float = 0) -> Path:
@@ -35,6 +47,14 @@ def _only_session(root: Path) -> Path:
     dirs = [d for d in root.iterdir() if d.is_dir()]
     assert len(dirs) == 1
     return dirs[0]
+
+
+@pytest.fixture(scope="module")
+def complete_six(tmp_path_factory) -> Path:
+    """An uninterrupted six-position session of seed 21 (virtual time); read only: copy it to change it."""
+    out = tmp_path_factory.mktemp("complete")
+    assert main(["run", SIX, "--out", str(out), "--seed", "21", "--time-scale", "0", "--quiet"]) == 0
+    return _only_session(out)
 
 
 def test_a_stalled_stage_stops_everything_and_says_which_axis_port_and_command(tmp_path, capsys):
@@ -126,9 +146,9 @@ def _wait_for_steps(root: Path, n: int, proc, timeout_s: float = 60) -> Path:
 
 
 @pytest.mark.parametrize("after_steps", [1, 3])
-def test_kill_9_then_resume_keeps_every_step_once_and_solves(tmp_path, after_steps):
+def test_kill_9_then_resume_keeps_every_step_once_and_solves(tmp_path, after_steps, complete_six):
     out = tmp_path / "s"
-    proc = _spawn(["run", SIX, "--out", str(out), "--seed", "21", "--time-scale", "4", "--quiet"])
+    proc = _spawn(["run", SIX, "--out", str(out), "--seed", "21", "--time-scale", SIGNALLED_TIME_SCALE, "--quiet"])
     d = _wait_for_steps(out, after_steps, proc)
     proc.kill()
     proc.wait()
@@ -144,8 +164,7 @@ def test_kill_9_then_resume_keeps_every_step_once_and_solves(tmp_path, after_ste
     events = [json.loads(x)["kind"] for x in (d / "events.jsonl").read_text().splitlines()]
     assert "resume" in events
     cal = calfile.read(d / "calibration.yaml").accelerometer
-    assert main(["run", SIX, "--out", str(tmp_path / "ref"), "--seed", "21", "--time-scale", "0", "--quiet"]) == 0
-    ref = calfile.read(_only_session(tmp_path / "ref") / "calibration.yaml").accelerometer
+    ref = calfile.read(complete_six / "calibration.yaml").accelerometer  # the same sensor, never interrupted
     sig = np.hypot(cal.sigma["scale_counts_per_g"], ref.sigma["scale_counts_per_g"])
     assert np.all(np.abs(np.asarray(cal.scale_counts_per_g) - ref.scale_counts_per_g) < 5 * sig)
 
@@ -153,7 +172,7 @@ def test_kill_9_then_resume_keeps_every_step_once_and_solves(tmp_path, after_ste
 @pytest.mark.parametrize("how", ["ctrl-c", "ctrl-c, started with SIGINT ignored", "sigterm"])
 def test_ctrl_c_stops_promptly_marks_aborted_and_the_run_resumes(tmp_path, how):
     out = tmp_path / "s"
-    proc = _spawn(["run", SIX, "--out", str(out), "--seed", "5", "--time-scale", "4", "--quiet"],
+    proc = _spawn(["run", SIX, "--out", str(out), "--seed", "5", "--time-scale", SIGNALLED_TIME_SCALE, "--quiet"],
                   ignore_sigint="ignored" in how)
     d = _wait_for_steps(out, 1, proc)
     t0 = time.monotonic()
@@ -175,16 +194,16 @@ def test_ctrl_c_stops_promptly_marks_aborted_and_the_run_resumes(tmp_path, how):
     assert yaml.safe_load((d / "session.yaml").read_text())["status"] == "complete"
 
 
-def test_resuming_a_complete_session_is_refused(tmp_path, capsys):
-    assert main(["run", SIX, "--out", str(tmp_path), "--time-scale", "0", "--quiet"]) == 0
-    d = _only_session(tmp_path)
+def test_resuming_a_complete_session_is_refused(tmp_path, capsys, complete_six):
+    d = tmp_path / complete_six.name
+    shutil.copytree(complete_six, d)
     assert main(["run", "--resume", str(d), "--time-scale", "0"]) == 2
     assert "already complete" in capsys.readouterr().err
 
 
 def test_a_resume_on_another_sensor_or_rig_file_is_refused_before_anything_is_touched(tmp_path, capsys):
     out = tmp_path / "s"
-    proc = _spawn(["run", SIX, "--out", str(out), "--seed", "21", "--time-scale", "4", "--quiet"])
+    proc = _spawn(["run", SIX, "--out", str(out), "--seed", "21", "--time-scale", SIGNALLED_TIME_SCALE, "--quiet"])
     d = _wait_for_steps(out, 1, proc)
     proc.kill()
     proc.wait()
@@ -205,7 +224,7 @@ def test_a_second_ctrl_c_does_not_cut_the_cleanup_short(tmp_path):
     closed, only says "please wait": the session is still closed as aborted and resumable, and the
     last line is the real resume command."""
     out = tmp_path / "s"
-    proc = _spawn(["run", SIX, "--out", str(out), "--seed", "5", "--time-scale", "4", "--quiet"])
+    proc = _spawn(["run", SIX, "--out", str(out), "--seed", "5", "--time-scale", SIGNALLED_TIME_SCALE, "--quiet"])
     d = _wait_for_steps(out, 1, proc)
     proc.send_signal(signal.SIGINT)
     for _ in range(3):
@@ -222,7 +241,7 @@ def test_a_second_ctrl_c_does_not_cut_the_cleanup_short(tmp_path):
     assert yaml.safe_load((d / "session.yaml").read_text())["status"] == "complete"
 
 
-def test_solving_an_incomplete_session_says_so_and_the_calibration_file_records_it(tmp_path, capsys):
+def test_solving_an_incomplete_session_says_so_and_the_calibration_file_records_it(tmp_path, capsys, complete_six):
     rig = _rig_file(tmp_path, "faults:\n  sensor: {dead_after_s: 130}\n")
     assert main(["run", str(PROCEDURES / "twelve_position.yaml"), "--rig", str(rig), "--out", str(tmp_path / "s"),
                  "--quiet"]) == 1
@@ -239,5 +258,4 @@ def test_solving_an_incomplete_session_says_so_and_the_calibration_file_records_
     assert cov["steps_recorded"] == 12 - len(pending) - sum(
         s["status"] == "failed" for s in yaml.safe_load((d / "session.yaml").read_text())["steps"])
     # a complete session writes no coverage section
-    assert main(["run", SIX, "--out", str(tmp_path / "ok"), "--time-scale", "0", "--quiet"]) == 0
-    assert calfile.read(_only_session(tmp_path / "ok") / "calibration.yaml").coverage is None
+    assert calfile.read(complete_six / "calibration.yaml").coverage is None
