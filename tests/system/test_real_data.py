@@ -7,8 +7,6 @@ and come from the reported sigmas or from the golden answers' own precision.
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -16,11 +14,10 @@ import pytest
 from calib import calfile, solve
 from calib.redundancy import pair_biases
 from rig.analysis.discover import discover_session
+from rig.cli import main
 from rig.errors import RigInputError
 from rig.importers.recordings import import_recording
 from rig.session import load_session
-
-from conftest import REPO
 
 G_IMUCAL = 9.81  # imucal's expected_g
 
@@ -123,11 +120,11 @@ def test_discover_on_the_imucal_session_reports_what_it_finds(imported):
     assert d.rms_before_g > 5e-3
 
 
-def test_rig_import_cli_and_bad_sources(datasets, tmp_path):
-    ok = subprocess.run([sys.executable, "-m", "rig.cli", "import", "--from", "imu_tk",
-                         str(datasets / "imu_tk-xsens" / "xsens_acc.txt"), "-o", str(tmp_path)], cwd=REPO,
-                        capture_output=True, text=True)
-    assert ok.returncode == 0 and "--method magnitude" in ok.stdout, ok.stderr
+def test_rig_import_cli_and_bad_sources(datasets, tmp_path, capsys):
+    """``rig import`` in this process (the command line's main()): exit codes and what it prints."""
+    code = main(["import", "--from", "imu_tk", str(datasets / "imu_tk-xsens" / "xsens_acc.txt"), "-o", str(tmp_path)])
+    ok = capsys.readouterr()
+    assert code == 0 and "--method magnitude" in ok.out, ok.err
     bad = tmp_path / "bad.csv"
     cases = [
         ("imucal", "part,samples,acc_x\nx_p,1,2\n", "missing acc_y"),
@@ -140,14 +137,13 @@ def test_rig_import_cli_and_bad_sources(datasets, tmp_path):
     ]
     for source, text, expected in cases:
         bad.write_text(text)
-        proc = subprocess.run([sys.executable, "-m", "rig.cli", "import", "--from", source, str(bad), "-o",
-                               str(tmp_path / "out")], cwd=REPO, capture_output=True, text=True)
-        assert proc.returncode == 2, (source, proc.stderr)
-        assert expected in proc.stderr and "bad.csv" in proc.stderr, (source, proc.stderr)
-        assert len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
-    missing = subprocess.run([sys.executable, "-m", "rig.cli", "import", "--from", "csv", "/no/such.csv"],
-                             cwd=REPO, capture_output=True, text=True)
-    assert missing.returncode == 2 and "no such file" in missing.stderr
+        code = main(["import", "--from", source, str(bad), "-o", str(tmp_path / "out")])
+        stderr = capsys.readouterr().err
+        assert code == 2, (source, stderr)
+        assert expected in stderr and "bad.csv" in stderr, (source, stderr)
+        assert len(stderr.strip().splitlines()) == 1 and "Traceback" not in stderr
+    code = main(["import", "--from", "csv", "/no/such.csv"])
+    assert code == 2 and "no such file" in capsys.readouterr().err
 
 
 def test_generic_csv_with_pose_labels_round_trips(tmp_path):
