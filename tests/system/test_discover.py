@@ -2,16 +2,17 @@
 
 Each hidden effect is switched on in a rig file's ``sim.effects`` (the workflow is never told
 which); the shipped ``tumble26.yaml`` procedure runs on the simulated rig in virtual time, with the
-realistic ``dlpf`` noise (DLPF-filtered white noise, flicker and random walk of the bias).
+realistic ``dlpf`` noise (DLPF-filtered white noise, flicker and random walk of the bias). The ``rig``
+commands run in this process (``rig.cli.main``, the command line's own entry point, without an
+interpreter's start-up per command).
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
-import os
-import subprocess
-import sys
-from concurrent.futures import ThreadPoolExecutor
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -21,8 +22,9 @@ import yaml
 from calib import calfile
 from calib.effects import LIBRARY
 from rig.analysis.discover import discover_session
+from rig.cli import main
 
-from conftest import PROCEDURES, REPO, RIGS
+from conftest import PROCEDURES, RIGS
 
 SEED = 5
 #: effect -> (value in the rig file, truth of the estimate in the effect's reported unit)
@@ -50,26 +52,38 @@ def _rig_file(tmp: Path, name: str, effects: dict | None) -> Path:
     return path
 
 
+def _rig(*args) -> tuple[int, str, str]:
+    """``rig ARGS`` in this process (the command line's main()): (exit code, stdout, stderr)."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in args])
+    return code, out.getvalue(), err.getvalue()
+
+
 def _run(tmp: Path, name: str, procedure: str, effects: dict | None) -> Path:
     rig = _rig_file(tmp, name, effects)
     out = tmp / name
-    proc = subprocess.run([sys.executable, "-m", "rig.cli", "run", str(PROCEDURES / procedure), "--rig", str(rig),
-                           "--out", str(out), "--seed", str(SEED), "--quiet"], cwd=REPO, capture_output=True,
-                          text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr
+    code, _, err = _rig("run", PROCEDURES / procedure, "--rig", rig, "--out", out, "--seed", SEED, "--quiet")
+    assert code == 0, err
     return next(out.iterdir())
 
 
 @pytest.fixture(scope="module")
 def sessions(tmp_path_factory) -> dict[str, Path]:
-    """One tumble26 session per hidden effect, a clean one, and a clean six-position one (run in parallel)."""
+    """One tumble26 session per hidden effect, a clean one, and a clean six-position one (one after the
+    other in this process: the test workers run modules side by side)."""
     tmp = tmp_path_factory.mktemp("discover")
     jobs = {name: ("tumble26.yaml", {name: value}) for name, (value, _) in HIDDEN.items()}
     jobs["clean"] = ("tumble26.yaml", None)
     jobs["six_clean"] = ("six_position.yaml", None)
-    with ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2)) as pool:
-        futures = {name: pool.submit(_run, tmp, name, proc, eff) for name, (proc, eff) in jobs.items()}
-        return {name: f.result() for name, f in futures.items()}
+    return {name: _run(tmp, name, proc, eff) for name, (proc, eff) in jobs.items()}
+
+
+@pytest.fixture(scope="module")
+def discovered():
+    """``discover_session`` of a session, computed once per session for the module's tests (they only
+    read it)."""
+    return cache(discover_session)
 
 
 def _truth(session: Path) -> dict:
@@ -77,8 +91,8 @@ def _truth(session: Path) -> dict:
 
 
 @pytest.mark.parametrize("effect", list(HIDDEN))
-def test_a_hidden_effect_is_named_estimated_within_3_sigma_and_the_gap_closes(sessions, effect):
-    _, d = discover_session(sessions[effect])
+def test_a_hidden_effect_is_named_estimated_within_3_sigma_and_the_gap_closes(sessions, discovered, effect):
+    _, d = discovered(sessions[effect])
     named = [e.name for e in d.effects]
     assert effect in named, f"{effect} hidden, named {named}"
     assert set(named) <= {effect, "bias_tempco"}, f"{effect} hidden, named {named}"
@@ -95,8 +109,8 @@ def test_a_hidden_effect_is_named_estimated_within_3_sigma_and_the_gap_closes(se
     assert all(b < a for a, b in zip(rms, rms[1:]))
 
 
-def test_a_clean_session_names_only_the_bias_tempco_the_sensor_really_has(sessions):
-    _, d = discover_session(sessions["clean"])
+def test_a_clean_session_names_only_the_bias_tempco_the_sensor_really_has(sessions, discovered):
+    _, d = discovered(sessions["clean"])
     assert [e.name for e in d.effects] == ["bias_tempco"]
     truth = np.array(_truth(sessions["clean"])["accelerometer"]["bias_tempco_g_per_c"])
     e = d.effects[0]
@@ -108,19 +122,19 @@ def test_a_clean_session_names_only_the_bias_tempco_the_sensor_really_has(sessio
     assert d.gap_closed and d.to_json()["gap_closed"] is True
 
 
-def test_bias_tempco_estimates_match_the_simulator_in_every_session(sessions):
+def test_bias_tempco_estimates_match_the_simulator_in_every_session(sessions, discovered):
     for name in HIDDEN:
         if name in ("scale_tempco", "bias_tempco_quadratic"):
             continue  # these shift the linear term at t0 != the simulator's t_ref
-        _, d = discover_session(sessions[name])
+        _, d = discovered(sessions[name])
         e = next(e for e in d.effects if e.name == "bias_tempco")
         truth = np.array(_truth(sessions[name])["accelerometer"]["bias_tempco_g_per_c"])
         assert np.all(np.abs(np.array(e.estimate) - truth) < 4 * np.array(e.sigma)), name
 
 
-def test_a_six_position_session_reports_what_it_cannot_observe_and_names_nothing(sessions):
-    _, d = discover_session(sessions["six_clean"])
-    _, tumble = discover_session(sessions["clean"])
+def test_a_six_position_session_reports_what_it_cannot_observe_and_names_nothing(sessions, discovered):
+    _, d = discovered(sessions["six_clean"])
+    _, tumble = discovered(sessions["clean"])
     assert d.effects == []
     for name in ("thermal_hysteresis", "cross_axis_nonlinearity"):  # no rank beyond the model
         assert name in d.unobservable, (name, d.unobservable)
@@ -133,8 +147,8 @@ def test_a_six_position_session_reports_what_it_cannot_observe_and_names_nothing
         assert np.all(six > 100 * t26), (name, six, t26)
 
 
-def test_the_localisation_reports_heating_and_cooling_legs_separately(sessions):
-    _, d = discover_session(sessions["thermal_hysteresis"])
+def test_the_localisation_reports_heating_and_cooling_legs_separately(sessions, discovered):
+    _, d = discovered(sessions["thermal_hysteresis"])
     assert set(d.where["by_leg"]) >= {"heating", "cooling"}
     assert d.where["cells"] > 0
 
@@ -142,10 +156,9 @@ def test_the_localisation_reports_heating_and_cooling_legs_separately(sessions):
 def test_the_cli_report_json_plot_and_augmented_calibration(sessions, tmp_path):
     s = sessions["scale_tempco"]
     png, cal_path = tmp_path / "res.png", tmp_path / "cal.yaml"
-    proc = subprocess.run([sys.executable, "-m", "rig.cli", "discover", str(s), "--json", "--plot", str(png),
-                           "-o", str(cal_path)], cwd=REPO, capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr
-    doc = json.loads(proc.stdout)
+    code, stdout, stderr = _rig("discover", s, "--json", "--plot", png, "-o", cal_path)
+    assert code == 0, stderr
+    doc = json.loads(stdout)
     for key in ("rms_before_g", "rms_after_g", "effects", "aliases", "unobservable", "steps"):
         assert key in doc
     assert {"name", "axes", "estimate", "sigma", "unit", "rms_after_g"} <= set(doc["effects"][0])
@@ -164,13 +177,12 @@ def test_the_cli_report_json_plot_and_augmented_calibration(sessions, tmp_path):
         err[label] = float(np.sqrt(np.mean((f - means.f_nominal_g) ** 2)))
     assert err["augmented"] < 0.5 * err["plain"], err
     # the text report states the gap
-    text = subprocess.run([sys.executable, "-m", "rig.cli", "discover", str(s)], cwd=REPO, capture_output=True,
-                          text=True)
-    assert text.returncode == 0 and "scale_tempco" in text.stdout and "gap:" in text.stdout
+    code, text, _ = _rig("discover", s)
+    assert code == 0 and "scale_tempco" in text and "gap:" in text
 
 
-def test_apply_of_an_augmented_calibration_inverts_its_own_forward_model(sessions, tmp_path):
-    _, d = discover_session(sessions["thermal_hysteresis"])
+def test_apply_of_an_augmented_calibration_inverts_its_own_forward_model(sessions, discovered):
+    _, d = discovered(sessions["thermal_hysteresis"])
     cal = d.calibration
     rng = np.random.default_rng(1)
     f = rng.normal(size=(50, 3))
@@ -187,17 +199,17 @@ def test_apply_of_an_augmented_calibration_inverts_its_own_forward_model(session
 ])
 def test_bad_inputs_get_one_line_and_exit_2(sessions, args, expected):
     args = [str(sessions["clean"]) if a == "SESSION" else a for a in args]
-    proc = subprocess.run([sys.executable, "-m", "rig.cli", *args], cwd=REPO, capture_output=True, text=True)
-    assert proc.returncode == 2
-    assert expected in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
-    assert "Traceback" not in proc.stderr
+    code, _, stderr = _rig(*args)
+    assert code == 2
+    assert expected in stderr and len(stderr.strip().splitlines()) == 1
+    assert "Traceback" not in stderr
 
 
 def test_an_effect_entry_that_does_not_fit_the_library_is_refused_on_load(sessions, tmp_path):
     s = sessions["scale_tempco"]
     out = tmp_path / "cal.yaml"
-    subprocess.run([sys.executable, "-m", "rig.cli", "discover", str(s), "-o", str(out)], cwd=REPO,
-                   capture_output=True, check=True)
+    code, _, stderr = _rig("discover", s, "-o", out)
+    assert code == 0, stderr
     doc = yaml.safe_load(out.read_text())
     doc["accelerometer"]["effects"][0]["estimate"] = [1.0, 2.0]
     out.write_text(yaml.safe_dump(doc))
