@@ -5,17 +5,15 @@ runs tumble26 with its cooling legs moved to 31 and 24 C. ``thermal_gradient`` i
 level (tests/calib/test_discovery_verdict.py): tumble26 takes its steps after the chamber settles,
 so the step rates are ~1e-3 C/s and the within-step slope of the temperature samples is too noisy
 (~6e-4 C/s) to determine it. An effect outside the library (a bias in sin a1) is injected by editing
-a clean session's samples.
+a clean session's samples. The sessions are recorded by ``rig run`` in this process (``rig.cli.main``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
-import os
+import io
 import shutil
-import subprocess
-import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -23,8 +21,9 @@ import pytest
 import yaml
 
 from rig.analysis.discover import discover_session, format_report
+from rig.cli import main
 
-from conftest import PROCEDURES, REPO, RIGS
+from conftest import PROCEDURES, RIGS
 
 SEED = 5
 CUBIC = 2e-6  # g/C^3
@@ -43,9 +42,10 @@ def _run(tmp: Path, name: str, procedure: Path, effects: dict | None, errors: di
     rig = tmp / f"{name}.yaml"
     rig.write_text(yaml.safe_dump(doc))
     out = tmp / name
-    proc = subprocess.run([sys.executable, "-m", "rig.cli", "run", str(procedure), "--rig", str(rig), "--out", str(out),
-                           "--seed", str(SEED), "--quiet"], cwd=REPO, capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        code = main(["run", str(procedure), "--rig", str(rig), "--out", str(out), "--seed", str(SEED), "--quiet"])
+    assert code == 0, err.getvalue()
     return next(out.iterdir())
 
 
@@ -68,9 +68,8 @@ def sessions(tmp_path_factory) -> dict[str, Path]:
     # the simulator's cubic is centred on t_ref_c; centred on the session's mean temperature (the search's
     # t0) it is a pure cubic plus linear terms only, so nothing but the cubic and bias_tempco is expected
     errors = {"bias_tempco_cubic": {"t_ref_c": T0_5T}}
-    with ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2)) as pool:
-        futures = {n: pool.submit(_run, tmp, n, p, e, errors.get(n)) for n, (p, e) in jobs.items()}
-        out = {n: f.result() for n, f in futures.items()}
+    # one after the other, in this process (the test workers run modules side by side)
+    out = {n: _run(tmp, n, p, e, errors.get(n)) for n, (p, e) in jobs.items()}
     out["outside"] = _add_sin_a1_bias(out["clean"], tmp / "outside", 2e-3)
     return out
 
