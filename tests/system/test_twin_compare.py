@@ -6,7 +6,8 @@ re-simulated, step by step and axis by axis.
 The twin of the conventional model (the seed's model with its thermal bias: discover restricted to
 ``bias_tempco``) must disagree with the measured session where the hidden effect acts; the twin of
 the full discovery (the named effect included) must agree at the noise level. ``thermal.yaml`` with
-short dwells, in virtual time, with the simulator's ``dlpf`` noise model.
+short dwells, in virtual time, with the simulator's ``dlpf`` noise model. Every ``rig`` command runs in
+this process (``rig.cli.main``, the command line's own entry point).
 """
 
 from __future__ import annotations
@@ -16,9 +17,6 @@ import io
 import json
 import re
 import shutil
-import subprocess
-import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -33,19 +31,12 @@ from rig.config.rigfile import load_rig_file
 from rig.session import load_session
 from rig.simulation.settings import SimSettings
 
-from conftest import PROCEDURES, REPO, RIGS
+from conftest import PROCEDURES, RIGS
 
 SEED = 5
 JUMP_T_S = 1500.0  # inside the chamber's wait between the 42.6 C and 47.6 C legs
 HIDDEN = {"scale_tempco": {"scale_tempco": 2e-4},
           "bias_jump": {"bias_jump": [2e-3, -1.5e-3, 2.5e-3], "bias_jump_t_s": JUMP_T_S}}
-
-
-def _cli(*args, expect: int = 0) -> subprocess.CompletedProcess:
-    proc = subprocess.run([sys.executable, "-m", "rig.cli", *map(str, args)], cwd=REPO, capture_output=True,
-                          text=True, timeout=300)
-    assert proc.returncode == expect, proc.stderr[-2000:]
-    return proc
 
 
 def _rig(*args, expect: int = 0) -> tuple[str, str]:
@@ -78,7 +69,7 @@ def _rig_file(tmp: Path, name: str, effects: dict) -> Path:
 
 
 def _run(procedure, rig, out: Path, seed: int) -> Path:
-    _cli("run", procedure, "--rig", rig, "--out", out, "--seed", seed, "--quiet")
+    _rig("run", procedure, "--rig", rig, "--out", out, "--seed", seed, "--quiet")
     return next(out.iterdir())
 
 
@@ -92,19 +83,17 @@ def _twin_run(twin: dict, out: Path) -> Path:
 @pytest.fixture(scope="module")
 def loop(tmp_path_factory) -> dict:
     """Per hidden effect: the measured session, the twins (full: the CLI; baseline: bias_tempco only) and
-    one re-simulated session on each."""
+    one re-simulated session on each (one after the other: the test workers run modules side by side)."""
     tmp = tmp_path_factory.mktemp("twin")
     proc = _procedure(tmp)
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        measured = dict(zip(HIDDEN, pool.map(
-            lambda n: _run(proc, _rig_file(tmp, n, HIDDEN[n]), tmp / f"{n}-measured", SEED), HIDDEN)))
-        twins = {}
-        for name, session in measured.items():
-            full = json.loads(_rig("discover", session, "--json", "--twin", tmp / f"{name}-twin.yaml")[0])
-            _, base = twin_of_session(session, tmp / f"{name}-baseline-twin.yaml", candidates=["bias_tempco"])
-            twins[name] = {"full": full, "baseline": base}
-        jobs = [(name, kind) for name in HIDDEN for kind in ("full", "baseline")]
-        runs = dict(zip(jobs, pool.map(lambda j: _twin_run(twins[j[0]][j[1]], tmp / f"{j[0]}-{j[1]}-run"), jobs)))
+    measured = {n: _run(proc, _rig_file(tmp, n, HIDDEN[n]), tmp / f"{n}-measured", SEED) for n in HIDDEN}
+    twins = {}
+    for name, session in measured.items():
+        full = json.loads(_rig("discover", session, "--json", "--twin", tmp / f"{name}-twin.yaml")[0])
+        _, base = twin_of_session(session, tmp / f"{name}-baseline-twin.yaml", candidates=["bias_tempco"])
+        twins[name] = {"full": full, "baseline": base}
+    jobs = [(name, kind) for name in HIDDEN for kind in ("full", "baseline")]
+    runs = {j: _twin_run(twins[j[0]][j[1]], tmp / f"{j[0]}-{j[1]}-run") for j in jobs}
     return {"tmp": tmp, "measured": measured, "twins": twins, "runs": runs}
 
 
