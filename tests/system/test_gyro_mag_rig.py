@@ -1,16 +1,16 @@
 """Gyroscope rate-table and magnetometer calibration on the simulated rig, end to end.
 
 The shipped procedures run in virtual time; the recovered parameters are compared with the
-simulator's hidden truth (``sim_truth.yaml``) within the reported sigmas.
+simulator's hidden truth (``sim_truth.yaml``) within the reported sigmas. The ``rig`` commands run in
+this process (``rig.cli.main``, the command line's own entry point).
 """
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-from concurrent.futures import ThreadPoolExecutor
+import contextlib
+import io
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -21,8 +21,9 @@ from calib.accel.inputs import FLICKER_FLOOR, flicker_mean_factor
 from calib.gyro import GyroCalibration
 from calib.magnetometer import MagCalibration
 from drivers.sensors.sim.noise import NoiseConfig
+from rig.cli import main
 
-from conftest import PROCEDURES, REPO, RIGS
+from conftest import PROCEDURES, RIGS
 
 SHORT_GYRO = """format: rig-procedure/1
 name: gyro_short
@@ -50,10 +51,23 @@ def _rig(tmp: Path, name: str, sim_extra: dict | None = None, axes_extra: dict |
     return p
 
 
-def _run(tmp: Path, name: str, procedure: Path, rig: Path, seed: int = 4) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "rig.cli", "run", str(procedure), "--rig", str(rig), "--out",
-                           str(tmp / name), "--seed", str(seed), "--quiet"], cwd=REPO, capture_output=True,
-                          text=True, timeout=900)
+class Result(NamedTuple):
+    """What a ``rig`` command gave: its exit code and what it printed."""
+    returncode: int
+    stdout: str
+    stderr: str
+
+
+def _cli(*args) -> Result:
+    """``rig ARGS`` in this process (the command line's main())."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in args])
+    return Result(code, out.getvalue(), err.getvalue())
+
+
+def _run(tmp: Path, name: str, procedure: Path, rig: Path, seed: int = 4) -> Result:
+    return _cli("run", procedure, "--rig", rig, "--out", tmp / name, "--seed", seed, "--quiet")
 
 
 @pytest.fixture(scope="module")
@@ -65,13 +79,11 @@ def runs(tmp_path_factory) -> dict[str, Path]:
     default = _rig(tmp, "default")
     jobs = {"gyro": (PROCEDURES / "gyro_rates.yaml", no_gsens), "mag8": (PROCEDURES / "mag_eight_position.yaml", default),
             "magtumble": (PROCEDURES / "mag_tumble.yaml", default), "short": (short, default)}
-    with ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2)) as pool:
-        futs = {k: pool.submit(_run, tmp, k, p, r) for k, (p, r) in jobs.items()}
-        out = {}
-        for k, f in futs.items():
-            proc = f.result()
-            assert proc.returncode == 0, (k, proc.stderr)
-            out[k] = next((tmp / k).iterdir())
+    out = {}
+    for k, (p, r) in jobs.items():  # one after the other (the test workers run modules side by side)
+        proc = _run(tmp, k, p, r)
+        assert proc.returncode == 0, (k, proc.stderr)
+        out[k] = next((tmp / k).iterdir())
     out["tmp"] = tmp
     return out
 
@@ -181,8 +193,7 @@ def test_the_ellipsoid_from_a_tumble_recovers_the_hard_iron_and_the_field_magnit
 def test_rate_and_magnetometer_sessions_replay_to_identical_sections(runs, tmp_path):
     for key in ("short", "mag8"):
         s = runs[key]
-        proc = subprocess.run([sys.executable, "-m", "rig.cli", "replay", str(s), "--out", str(tmp_path / key)],
-                              cwd=REPO, capture_output=True, text=True, timeout=600)
+        proc = _cli("replay", s, "--out", tmp_path / key)
         assert proc.returncode == 0, proc.stderr
         r = next((tmp_path / key).iterdir())
         a, b = calfile.read(s / "calibration.yaml"), calfile.read(r / "calibration.yaml")
@@ -193,14 +204,13 @@ def test_rate_and_magnetometer_sessions_replay_to_identical_sections(runs, tmp_p
 def test_apply_writes_calibrated_rates_and_fields(runs, tmp_path):
     s = runs["short"]
     out = tmp_path / "applied.csv"
-    proc = subprocess.run([sys.executable, "-m", "rig.cli", "apply", str(s / "calibration.yaml"), str(s), "-o",
-                           str(out)], cwd=REPO, capture_output=True, text=True)
+    proc = _cli("apply", s / "calibration.yaml", s, "-o", out)
     assert proc.returncode == 0, proc.stderr
     header = out.read_text().splitlines()[0].split(",")
     assert header[-3:] == ["wx_dps", "wy_dps", "wz_dps"]
 
 
-def _bad(tmp: Path, text: str, rig: Path | None = None) -> subprocess.CompletedProcess:
+def _bad(tmp: Path, text: str, rig: Path | None = None) -> Result:
     p = tmp / "bad.yaml"
     p.write_text(text)
     rig = rig or _rig(tmp, "plain")
