@@ -1,9 +1,10 @@
 """procedures/six_position_rapid.yaml end to end, through the `rig` command, on the simulated rig.
 
-The shipped accuracy-targeted procedure runs from the CLI (emulated controllers on pseudo-terminals,
-the simulated MPU-9150 over the simulated I2C bus, virtual time), shows its prediction against the
-target while it captures, ends with the verdict, takes a fraction of the seed procedure's rig time,
-and a replay of its recording stops every pose where the run stopped.
+The shipped accuracy-targeted procedure runs from the CLI (``rig.cli.main`` in this process; the emulated
+controllers in process too, the tests' ``sim.transport: memory``; the simulated MPU-9150 over the
+simulated I2C bus, virtual time), shows its prediction against the target while it captures, ends with
+the verdict, takes a fraction of the seed procedure's rig time, and a replay of its recording stops
+every pose where the run stopped.
 """
 
 from __future__ import annotations
