@@ -11,7 +11,10 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 PROCEDURES = REPO / "procedures"
 RIGS = REPO / "rigs"
-DATASETS = REPO.parent / "shared" / "datasets"
+#: the real recordings of other projects (../shared/datasets beside the checkout; $RIG_DATASETS elsewhere)
+DATASETS = Path(os.environ.get("RIG_DATASETS") or REPO.parent / "shared" / "datasets")
+#: the reason every test skipped for want of the datasets gives (counted once at the end of the run)
+NO_DATASETS = f"shared datasets not found at {DATASETS}"
 #: the seed's six faces as the ``steps:`` of a procedure written in a test
 SIX_FACES_STEPS = "".join(f'  - pose: "{face}"\n' for face in ("+Z up", "+X up", "-Z up", "-X up", "+Y up", "-Y up"))
 
@@ -34,8 +37,20 @@ def repo() -> Path:
 @pytest.fixture(scope="session")
 def datasets() -> Path:
     if not DATASETS.is_dir():
-        pytest.skip(f"shared datasets not found at {DATASETS} (CI has ../shared beside the checkout)")
+        pytest.skip(NO_DATASETS)
     return DATASETS
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Say once, at the end, which tests skipped for want of the shared datasets and how to get them."""
+    skipped = [r for r in terminalreporter.stats.get("skipped", [])
+               if isinstance(r.longrepr, tuple) and NO_DATASETS in str(r.longrepr[2])]
+    if skipped:
+        names = sorted({r.nodeid.split("::")[0] for r in skipped})
+        terminalreporter.write_line(
+            f"{len(skipped)} tests skipped: {NO_DATASETS} (in {', '.join(names)}). They read other projects' "
+            "recordings (../shared/datasets/README.md, with their licences): put that folder beside the checkout as "
+            "../shared/datasets, or point RIG_DATASETS at it.", yellow=True)
 
 
 @pytest.fixture(scope="session")

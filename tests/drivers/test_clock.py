@@ -16,6 +16,8 @@ from drivers.sensors.sim.error_model import AccelErrorModel
 from drivers.sensors.sim.mpu9150 import Mpu9150Model
 from drivers.sensors.sim.physics import StaticPhysics
 
+pytestmark = pytest.mark.realtime  # the elastic and strict clocks are measured against wall time
+
 
 def test_an_unheld_elastic_clock_keeps_its_time_scale():
     clock = ElasticClock(time_scale=100)

@@ -17,12 +17,15 @@ from __future__ import annotations
 import json
 import re
 
+import pytest
 import yaml
 
 from conftest import RIGS, SIX_FACES_STEPS
 from rig.cli import main
 from rig.session import load_session
 from rig.simulation import simulated
+
+pytestmark = pytest.mark.realtime  # time-scaled clocks, strict and elastic, against this machine's pace
 
 FAST = """format: rig-procedure/1
 name: fast

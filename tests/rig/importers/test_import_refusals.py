@@ -8,7 +8,7 @@ import pytest
 
 from rig.cli import main
 
-from conftest import DATASETS
+from conftest import DATASETS, NO_DATASETS
 
 HEAD = "# units: g\nt_s,ax,ay,az,label\n"
 
@@ -30,7 +30,7 @@ def test_impossible_csv_imports_are_refused(tmp_path, capsys, body, expected):
 def test_a_gyroscope_file_imported_as_accelerometer_data_is_not_solved(tmp_path, capsys):
     gyro = DATASETS / "imu_tk-xsens" / "xsens_gyro.txt"
     if not gyro.is_file():
-        pytest.skip("shared datasets not found")
+        pytest.skip(NO_DATASETS)
     assert main(["import", "--from", "imu_tk", str(gyro), "-o", str(tmp_path), "--id", "g"]) == 0
     out = capsys.readouterr().out
     assert "rig solve" not in out  # the import suggests no solve that would not work

@@ -27,8 +27,9 @@ def _moves_and_reads(rig) -> None:
     assert rig.describe()["sensor"]["model"] == "MPU-9150"
 
 
-@pytest.mark.parametrize("transport,port,kind", [("pty", "/dev/", "sim:8smc5-emulator"),
-                                                 ("memory", "ximcsim://", "sim:8smc5-emulator-in-memory")])
+@pytest.mark.parametrize("transport,port,kind", [
+    pytest.param("pty", "/dev/", "sim:8smc5-emulator", marks=pytest.mark.pty),
+    ("memory", "ximcsim://", "sim:8smc5-emulator-in-memory")])
 def test_either_transport_drives_the_same_controllers_through_the_stage_driver(tmp_path, transport, port, kind):
     rig = open_rig_file(_rig_file(tmp_path, f"  transport: {transport}\n"), seed=1)
     try:

@@ -1,0 +1,78 @@
+"""The test suite as CI runs it (issue 26: `bash .ci/run` under 6 minutes on the 2-core machine).
+
+Clones the committed HEAD into a temporary directory (a fresh checkout: no .venv, nothing cached), runs
+``bash .ci/run`` there with ``CI=true``, and reports the wall time of the whole run (setup, the package rules,
+the tests), the test counts and the slowest tests (pytest's ``--durations``, passed through PYTEST_ADDOPTS so
+the command run is exactly .ci/run's).
+
+Usage: python benchmarks/bench_suite.py [--durations 10] [--tests-only]
+  --tests-only  run only the README's test command in this checkout (no clone, no setup)
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shlex
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def readme_test_command() -> str:
+    """The README's test command (the second newcomer command), without its `bash setup.sh &&` prefix."""
+    text = (REPO / "README.md").read_text()
+    commands = re.findall(r"```bash\n(.*?)\n```", text, re.S)
+    return commands[1].split("&&", 1)[1].strip()
+
+
+def run_tests(cwd: Path, durations: int) -> tuple[float, str]:
+    cmd = shlex.split(readme_test_command()) + [f"--durations={durations}", "-p", "no:cacheprovider"]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, env={**os.environ, "CI": "true"})
+    return time.perf_counter() - t0, proc.stdout + proc.stderr
+
+
+def summarise(wall_s: float, output: str, what: str) -> None:
+    final = [line for line in output.splitlines() if re.search(r"\d+ (passed|failed)", line)]
+    print(f"{what}: {wall_s:.0f} s wall ({wall_s / 60:.1f} min); {final[-1].strip('= ') if final else 'no summary'}")
+    m = re.search(r"=+ slowest \d+ durations =+\n(.*?)\n(?:=|\n)", output, re.S)
+    if m:
+        print("slowest:")
+        for line in m.group(1).splitlines():
+            print("  " + line)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--durations", type=int, default=10)
+    ap.add_argument("--tests-only", action="store_true")
+    args = ap.parse_args()
+    print(f"machine: {os.cpu_count()} cores; load average {os.getloadavg()[0]:.1f} at start")
+    if args.tests_only:
+        wall, out = run_tests(REPO, args.durations)
+        summarise(wall, out, "README test command")
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        clone = Path(tmp) / "main"
+        subprocess.run(["git", "clone", "-q", str(REPO), str(clone)], check=True)
+        shared = REPO.parent / "shared"
+        if shared.is_dir() and not (Path(tmp) / "shared").exists():
+            os.symlink(shared, Path(tmp) / "shared")  # CI has ../shared beside the checkout
+        t0 = time.perf_counter()
+        proc = subprocess.run(["bash", ".ci/run"], cwd=clone, capture_output=True, text=True,
+                              env={**os.environ, "CI": "true", "PYTEST_ADDOPTS": f"--durations={args.durations}"})
+        wall = time.perf_counter() - t0
+        print(f"bash .ci/run exit {proc.returncode}")
+        summarise(wall, proc.stdout + proc.stderr, "fresh clone, bash .ci/run (setup, rules, tests)")
+        if proc.returncode:
+            print(proc.stdout[-3000:] + proc.stderr[-3000:], file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
