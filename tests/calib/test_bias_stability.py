@@ -67,6 +67,7 @@ def test_the_adapter_takes_the_chip_registry_s_figures_and_none_for_unknown_sens
         sensor=SimpleNamespace(model="Xsens MTi"))))) is None
 
 
+@pytest.mark.slow
 def test_on_the_simulator_s_wandering_bias_the_reported_bias_sigma_holds():
     """Step-level Monte Carlo of benchmarks/bench_uncertainty.py (100 Hz, 44 Hz filter, dlpf noise):
     observed scatter of the bias about the long-run truth / median reported sigma near 1 (it is

@@ -159,6 +159,7 @@ def test_estimator_is_efficient_against_the_cramer_rao_bound():
     assert rms / np.sqrt(crb[0, 0]) <= 1.1
 
 
+@pytest.mark.slow
 def test_a_clean_session_keeps_its_noise_sigmas_unless_the_whole_session_misfits():
     """The Birge rescale is decided on the session's chi2 over all axes (calib.design.session_rule):
     clean sessions are rescaled at its 1 % level, not at 1 % per axis (about 3 % of them)."""

@@ -71,6 +71,7 @@ def test_a_reported_factor_carries_its_bonferroni_p_value_and_the_number_tried()
     assert f["tried"] == 6 and f["p_value"] < 0.01 and f["p_value"] == pytest.approx(6 * 6e-4, rel=0.1)
 
 
+@pytest.mark.slow
 def test_every_candidate_test_is_calibrated_on_clean_sessions():
     """The p-values of the candidates' tests against the baseline + the real bias_tempco are uniform
     on clean sessions (pooled over 40 sessions of the issue's legs design and its 7 candidates; the
@@ -115,6 +116,7 @@ def test_a_chance_drop_against_the_small_scatter_of_seven_dof_is_not_named(seed,
     assert d.effects == [] and d.gap_closed, [e.name for e in d.effects]
 
 
+@pytest.mark.slow
 def test_the_search_test_is_calibrated_at_a_six_position_sessions_few_dof():
     """Over 150 clean six-position sessions, each candidate's p-values against the baseline alone are
     uniform for the search's test (its reference distribution is exact at 6-7 dof, not only

@@ -169,6 +169,7 @@ def test_the_issue_design_observes_hysteresis_and_reports_its_detectable_magnitu
     assert all(0 < x < 1.5e-3 for x in mdm), mdm  # the 1.5 mg of the hidden-effect cell is detectable
 
 
+@pytest.mark.slow
 def test_the_bias_wander_is_not_taken_for_an_effect_over_twenty_clean_sessions():
     """The false-alarm target (1 %) under realistic noise: a search that treated the step means as
     independent names a bias_drift or a jump in most of these sessions and calls the gap open."""

@@ -17,6 +17,7 @@ from __future__ import annotations
 import sys
 
 import numpy as np
+import pytest
 
 from calib.gyro import param_names
 from rig.session import adapter
@@ -35,6 +36,7 @@ def _within_band(r: dict) -> np.ndarray:
     return (ratio > 0.8) & (ratio < 1.25)
 
 
+@pytest.mark.slow
 def test_on_the_simulator_s_wandering_gyro_bias_the_rate_table_sigmas_hold():
     r = bench.gyro_rate_table(SESSIONS)
     assert np.all(_within_band(r["with"])), dict(zip(param_names(), r["with"]["ratio"].round(2)))
@@ -45,6 +47,7 @@ def test_on_the_simulator_s_wandering_gyro_bias_the_rate_table_sigmas_hold():
     assert np.all(old["ratio"][:3] > 3.0) and np.all(old["ratio"][3:] < 0.7) and old["chi2"] > 10.0, old
 
 
+@pytest.mark.slow
 def test_on_the_simulator_s_wandering_offset_the_eight_position_sigmas_hold():
     r = bench.mag_eight_positions(SESSIONS)
     assert np.all(_within_band(r["with"])), r["with"]["ratio"].round(2)
@@ -53,6 +56,7 @@ def test_on_the_simulator_s_wandering_offset_the_eight_position_sigmas_hold():
     assert r["without"]["chi2"] > 4.0 and np.all(r["without"]["ratio"][:3] > 2.0), r["without"]
 
 
+@pytest.mark.slow
 def test_on_the_simulator_s_wandering_offset_the_ellipsoid_sigmas_hold():
     r = bench.mag_ellipsoid(SESSIONS)
     assert np.sum(np.isfinite(r["with"]["ratio"])) == 9  # B and A's upper triangle

@@ -41,6 +41,7 @@ def true_max_error_deg(cal, m, b, f_verify) -> float:
     return float(max(np.abs(er).max(), np.abs(ep).max()))
 
 
+@pytest.mark.slow
 def test_the_predicted_95_percent_bound_holds_for_95_percent_of_simulated_calibrations():
     rng = np.random.default_rng(16)
     sem = np.tile(2.4 / np.sqrt([[3.75], [2.0], [1.25], [2.0], [0.75], [0.5]]), (1, 3))  # uneven dwell, counts
