@@ -7,23 +7,41 @@ a change of results is intended (and say so in the commit)::
 
 Each scenario is a list of ``rig`` commands; its outputs (calibration files, discover JSON,
 evaluation JSON) are stored here with the run-dependent fields (creation time, session id, paths)
-removed by :func:`normalise`.
+removed by :func:`normalise`, and with the Python, numpy and scipy that produced them
+(``_recorded_with``: the comparison names both sides' versions when a number differs).
+
+The commands run in this process (``rig.cli.main``), as the tests run them: a subprocess per command
+proved nothing more (virtual time, seeded draws: the same numbers bit for bit) and cost an
+interpreter start and the numeric imports twenty-five times (issue 26). The recording uses a
+calibration history of its own, never the user's.
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
-import subprocess
+import os
+import platform
 import sys
 import tempfile
 from pathlib import Path
 
+import numpy as np
+import scipy
 import yaml
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[2]
+if str(REPO) not in sys.path:  # run as a script: the checkout's packages
+    sys.path.insert(0, str(REPO))
+
+from rig.cli import main as rig_main  # noqa: E402 - after the checkout is on the path
+
 DATASETS = REPO.parent / "shared" / "datasets"
 SEED = 3
+#: the key of every golden file that says what recorded it (not an output: never compared)
+META = "_recorded_with"
 
 #: procedures run on the simulated rig in virtual time (name -> extra options)
 RUNS = ["six_position", "twelve_position", "thermal", "verify_seed_table", "tumble26", "gyro_rates",
@@ -41,12 +59,20 @@ VOLATILE = {"created", "session", "calibration", "session_dir", "path"}
 
 
 def rig(*args: str) -> str:
-    """Run ``rig ARGS`` and return its standard output (raise on a non-zero exit)."""
-    proc = subprocess.run([sys.executable, "-m", "rig.cli", *args], capture_output=True, text=True,
-                          cwd=REPO, timeout=900)
-    if proc.returncode != 0:
-        raise RuntimeError(f"rig {' '.join(args)} -> {proc.returncode}: {proc.stderr.strip()}")
-    return proc.stdout
+    """Run ``rig ARGS`` in this process and return its standard output (raise on a non-zero exit)."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = rig_main([str(a) for a in args])
+    if code != 0:
+        raise RuntimeError(f"rig {' '.join(map(str, args))} -> {code}: {err.getvalue().strip()}")
+    return out.getvalue()
+
+
+def recorded_with() -> dict[str, str]:
+    """What produced the numbers: Python, numpy, scipy, the BLAS numpy was built with, the machine."""
+    blas = np.show_config(mode="dicts").get("Build Dependencies", {}).get("blas", {})
+    return {"python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__,
+            "blas": f"{blas.get('name', '?')} {blas.get('version', '?')}", "machine": platform.machine()}
 
 
 def normalise(obj):
@@ -63,26 +89,33 @@ def session_dir(out: Path, procedure: str) -> Path:
     return found
 
 
-def record_runs(out: Path) -> dict[str, object]:
+def record_runs(out: Path, names: list[str] = RUNS) -> dict[str, object]:
+    """The runs of ``names`` (of :data:`RUNS`) and what is derived from them: the replay and the evaluation
+    of six_position (the evaluation also needs verify_seed_table), the re-solves of :data:`SOLVES` whose
+    session was recorded, the discover output of tumble26."""
     golden: dict[str, object] = {}
-    for name in RUNS:
+    for name in names:
         rig("run", str(REPO / "procedures" / f"{name}.yaml"), "--seed", str(SEED), "--time-scale", "0",
             "--out", str(out), "--quiet", "--yes")
         calibration = session_dir(out, name) / "calibration.yaml"
         if calibration.exists():  # verify_seed_table has no solve
             golden[f"run_{name}"] = yaml.safe_load(calibration.read_text())
-    six = session_dir(out, "six_position")
-    rig("replay", str(six), "--out", str(out / "replayed"))
-    (replayed,) = sorted((out / "replayed").glob("*"))
-    golden["replay_six_position"] = yaml.safe_load((replayed / "calibration.yaml").read_text())
+    if "six_position" in names:
+        six = session_dir(out, "six_position")
+        rig("replay", str(six), "--out", str(out / "replayed"))
+        (replayed,) = sorted((out / "replayed").glob("*"))
+        golden["replay_six_position"] = yaml.safe_load((replayed / "calibration.yaml").read_text())
     for name, procedure, options in SOLVES:
-        target = out / f"{name}.yaml"
-        rig("solve", str(session_dir(out, procedure)), "-o", str(target), *options)
-        golden[f"solve_{name}"] = yaml.safe_load(target.read_text())
-    golden["discover_tumble26"] = json.loads(rig("discover", str(session_dir(out, "tumble26")), "--json"))
-    verify = session_dir(out, "verify_seed_table")
-    golden["evaluate_verify_seed_table"] = json.loads(
-        rig("evaluate", str(six / "calibration.yaml"), str(verify), "--json"))
+        if procedure in names:
+            target = out / f"{name}.yaml"
+            rig("solve", str(session_dir(out, procedure)), "-o", str(target), *options)
+            golden[f"solve_{name}"] = yaml.safe_load(target.read_text())
+    if "tumble26" in names:
+        golden["discover_tumble26"] = json.loads(rig("discover", str(session_dir(out, "tumble26")), "--json"))
+    if "six_position" in names and "verify_seed_table" in names:
+        six, verify = session_dir(out, "six_position"), session_dir(out, "verify_seed_table")
+        golden["evaluate_verify_seed_table"] = json.loads(
+            rig("evaluate", str(six / "calibration.yaml"), str(verify), "--json"))
     return golden
 
 
@@ -100,12 +133,29 @@ def record_imports(out: Path) -> dict[str, object]:
     return golden
 
 
+def record_all(out: Path, runs: list[str] = RUNS, imports: bool = True) -> dict[str, object]:
+    """The golden outputs (normalised) of ``runs`` (:func:`record_runs`) and, with ``imports``, of the
+    imported recordings, produced under ``out`` with a calibration history of its own."""
+    previous = os.environ.get("RIG_HISTORY")
+    os.environ["RIG_HISTORY"] = str(out / "history.sqlite")
+    try:
+        golden = record_runs(out / "runs", runs)
+        if imports:
+            golden.update(record_imports(out / "imports"))
+    finally:
+        if previous is None:
+            os.environ.pop("RIG_HISTORY", None)
+        else:
+            os.environ["RIG_HISTORY"] = previous
+    return {name: normalise(value) for name, value in golden.items()}
+
+
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
-        golden = record_runs(Path(tmp) / "runs")
-        golden.update(record_imports(Path(tmp) / "imports"))
+        golden = record_all(Path(tmp))
+    meta = recorded_with()
     for name, content in golden.items():
-        (HERE / f"{name}.json").write_text(json.dumps(normalise(content), indent=1, sort_keys=True) + "\n")
+        (HERE / f"{name}.json").write_text(json.dumps({META: meta, **content}, indent=1, sort_keys=True) + "\n")
         print(f"recorded {name}")
 
 
