@@ -180,11 +180,13 @@ def test_representative_bad_inputs_are_refused_with_one_line(ws):
     assert not bad, "\n".join(bad)
 
 
+@pytest.mark.realtime
 def test_kill_9_then_resume_keeps_every_step_exactly_once(ws, tmp_path):
     c = bench.signal_trial(tmp_path, 0, signal.SIGKILL, 9.0, ws.ref)
     assert c.result["category"] == "correct", (c.result, c.command())
 
 
+@pytest.mark.realtime
 def test_concurrent_resumes_one_proceeds_the_other_names_the_holder(ws, tmp_path):
     c = bench.concurrent_resume_trial(tmp_path, 0, 8.0, ws.ref)
     assert c.result["category"] == "correct", (c.result, c.command())

@@ -12,6 +12,7 @@ from rig.execution.operator import OperatorAbsent, StepProgress
 import pytest
 
 
+@pytest.mark.pty
 def test_rig_sim_starts_controllers_libximc_can_open_and_shows_the_sensor(capsys):
     assert main(["sim", "--once", "--time-scale", "5"]) == 0
     out = capsys.readouterr().out.splitlines()

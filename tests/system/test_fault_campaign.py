@@ -43,6 +43,7 @@ def _session(root: Path) -> Path:
     return d
 
 
+@pytest.mark.pty
 def test_200_ms_answer_latency_is_tolerated():
     clock = VirtualClock()
     emu = ControllerEmulator(5, clock=clock, faults=XimcFaults(latency_s=0.2))

@@ -145,6 +145,7 @@ def _wait_for_steps(root: Path, n: int, proc, timeout_s: float = 60) -> Path:
     raise AssertionError("run did not get that far")
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize("after_steps", [1, 3])
 def test_kill_9_then_resume_keeps_every_step_once_and_solves(tmp_path, after_steps, complete_six):
     out = tmp_path / "s"
@@ -169,6 +170,7 @@ def test_kill_9_then_resume_keeps_every_step_once_and_solves(tmp_path, after_ste
     assert np.all(np.abs(np.asarray(cal.scale_counts_per_g) - ref.scale_counts_per_g) < 5 * sig)
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize("how", ["ctrl-c", "ctrl-c, started with SIGINT ignored", "sigterm"])
 def test_ctrl_c_stops_promptly_marks_aborted_and_the_run_resumes(tmp_path, how):
     out = tmp_path / "s"
@@ -201,6 +203,7 @@ def test_resuming_a_complete_session_is_refused(tmp_path, capsys, complete_six):
     assert "already complete" in capsys.readouterr().err
 
 
+@pytest.mark.realtime
 def test_a_resume_on_another_sensor_or_rig_file_is_refused_before_anything_is_touched(tmp_path, capsys):
     out = tmp_path / "s"
     proc = _spawn(["run", SIX, "--out", str(out), "--seed", "21", "--time-scale", SIGNALLED_TIME_SCALE, "--quiet"])
@@ -219,6 +222,7 @@ def test_a_resume_on_another_sensor_or_rig_file_is_refused_before_anything_is_to
     assert main(["run", "--resume", str(d), "--time-scale", "0", "--quiet"]) == 0  # the same rig still resumes
 
 
+@pytest.mark.realtime
 def test_a_second_ctrl_c_does_not_cut_the_cleanup_short(tmp_path):
     """Technicians press Ctrl-C twice. The second one, while the motors stop and the session is
     closed, only says "please wait": the session is still closed as aborted and resumable, and the

@@ -19,7 +19,7 @@ except Exception as exc:  # noqa: BLE001 - any failure to load the vendor librar
 else:
     REASON = ""
 
-pytestmark = pytest.mark.skipif(ximc is None, reason=REASON or "libximc missing")
+pytestmark = [pytest.mark.skipif(ximc is None, reason=REASON or "libximc missing"), pytest.mark.pty]
 
 
 @pytest.fixture
