@@ -38,9 +38,10 @@ _spec.loader.exec_module(record)
 #:     Jacobian), 1.2e-7 (evaluate: an angle of 0.0025 deg from arccos of its cosine; 2 ulp of the cosine),
 #:     2e-8 (discover residuals of 1e-8 g), everything else <= 1e-9, most numbers <= 1e-12;
 #:   numpy 2.2.6 / scipy 1.15.3 and numpy 1.26.4 / scipy 1.13.1: the same, up to 4.6e-7 (mag_tumble), except
-#:     the magnitude method (import_imu_tk and its discover output): sigmas 1.1e-3, residuals 8e-5 apart.
-#:     That is not rounding: scipy's least_squares stops elsewhere. Those versions fail the comparison,
-#:     which names both sides' versions; re-record there or pin scipy.
+#:     the magnitude method (import_imu_tk and its discover output): sigmas 1.1e-3, residuals 8e-5 apart
+#:     (numpy 2.4.6 with scipy 1.15.3 too). That is not rounding: the solutions agree to 3e-9, but the
+#:     covariance comes from the finite-difference Jacobian least_squares returns, which scipy changed.
+#:     Those versions fail the comparison, which names both sides' versions; re-record there or pin scipy.
 #:   The golden files (recorded on another machine) against this one: up to 1.2e-7.
 #: 2e-6 is 6x the largest rounding difference measured with one numpy/scipy and 4x across versions, and
 #: a fifth of a 1e-5 relative change of one solved parameter, which fails the comparison.
