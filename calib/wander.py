@@ -89,11 +89,20 @@ def _self(x: np.ndarray) -> np.ndarray:
 def gauss_markov_cov(start_s, end_s, tau_s: float) -> np.ndarray:
     """(K, K) covariance of window means of a unit-variance Gauss-Markov process of time constant
     ``tau_s`` (s); windows ``[start_s[i], end_s[i]]`` (s) must not overlap one another."""
+    return gauss_markov_covs(start_s, end_s, np.array([float(tau_s)]))[0]
+
+
+def gauss_markov_covs(start_s, end_s, taus_s: np.ndarray) -> np.ndarray:
+    """(N, K, K): :func:`gauss_markov_cov` for each of the N time constants ``taus_s`` at once (one set of
+    array operations for all of them: the flicker's nodes of :func:`wander_cov`)."""
     a, b = np.asarray(start_s, float), np.asarray(end_s, float)
-    d = (b - a) / tau_s
-    gap = np.maximum(np.maximum(a[None, :] - b[:, None], a[:, None] - b[None, :]), 0.0) / tau_s
-    cov = np.exp(-gap) * _h(d)[:, None] * _h(d)[None, :]
-    np.fill_diagonal(cov, _self(d))
+    tau = np.asarray(taus_s, float)[:, None]
+    d = (b - a)[None, :] / tau  # (N, K)
+    gap = np.maximum(np.maximum(a[None, :] - b[:, None], a[:, None] - b[None, :]), 0.0)
+    h = _h(d)
+    cov = np.exp(-(gap[None, :, :] / tau[:, :, None])) * h[:, :, None] * h[:, None, :]
+    k = len(a)
+    cov.reshape(len(tau), k * k)[:, ::k + 1] = _self(d)  # the diagonals
     return cov
 
 
@@ -123,8 +132,8 @@ def wander_cov(t_mid_s, duration_s, bias_instability: float, random_walk_per_rts
     coeff = float(bias_instability) / FLICKER_FLOOR
     if coeff > 0 and flicker_corner_s > 0:
         var = coeff**2 * (math.log(10) / per_decade) / (2 * math.pi)  # per node
-        for tau in flicker_taus_s(flicker_corner_s, tau_min_s, per_decade):
-            out = out + var * gauss_markov_cov(start, end, float(tau))
+        for cov in gauss_markov_covs(start, end, flicker_taus_s(flicker_corner_s, tau_min_s, per_decade)):
+            out = out + var * cov  # node by node, in order (the sum as it always was)
     return out
 
 

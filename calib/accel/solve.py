@@ -160,10 +160,11 @@ def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> A
     designs = {a: lm.design(a, x) for a in AXES}
     check_model({a: (designs[a], lm.names(a), lm.terms[a]) for a in AXES})
     wander = steps.bias_stability is not None
+    w_counts2 = wander_counts2(steps) if wander else None  # the same wander for the three axes: computed once
     fits = {}
     for j, a in enumerate(AXES):
         y, sem = steps.mean_counts[:, j], steps.sem_counts[:, j]
-        fits[a] = (solve_gls(designs[a], y, wander_covariance(steps, sem), lm.names(a)) if wander
+        fits[a] = (solve_gls(designs[a], y, wander_covariance(steps, sem, w_counts2), lm.names(a)) if wander
                    else solve_wls(designs[a], y, sem, lm.names(a)))
     fits = session_rule(fits)
     if wander:  # the wander is in the fit's covariance already: not added to the bias sigma again
@@ -171,7 +172,7 @@ def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> A
     return assemble(steps, model, fits, order, x.t0_c, method, effects=ramp_effects(fits, steps.lsb_per_g, x.t0_c))
 
 
-def wander_covariance(steps: StepMeans, sem_counts: np.ndarray) -> np.ndarray:
+def wander_covariance(steps: StepMeans, sem_counts: np.ndarray, w_counts2: np.ndarray | None = None) -> np.ndarray:
     """Covariance (K, K) of the step means of one axis, counts^2: each step's own standard error on the
     diagonal plus the chip's bias wander between the steps' capture windows
     (:func:`calib.wander.wander_cov_g2`: flicker and random walk of
@@ -180,9 +181,19 @@ def wander_covariance(steps: StepMeans, sem_counts: np.ndarray) -> np.ndarray:
     Over a session the wander is common to steps close in time and differs between distant ones: a
     six-position run sees it mostly as one offset of all its biases (what the bias-stability term
     used to add), a thermal run also as slopes that alias into the temperature coefficients. Weighing
-    the steps with this covariance makes both sigmas honest (docs/methods.md, "Step uncertainty")."""
-    w = wander_cov_g2(np.asarray(steps.t_s, float), steps.duration_s, steps.bias_stability)
-    return np.diag(np.asarray(sem_counts, float) ** 2) + float(steps.lsb_per_g) ** 2 * w
+    the steps with this covariance makes both sigmas honest (docs/methods.md, "Step uncertainty").
+
+    ``w_counts2``: the wander part, :func:`wander_counts2` of the same steps, when the caller has it
+    already (it is the same for every output axis)."""
+    w = wander_counts2(steps) if w_counts2 is None else w_counts2
+    return np.diag(np.asarray(sem_counts, float) ** 2) + w
+
+
+def wander_counts2(steps: StepMeans) -> np.ndarray:
+    """The wander part of :func:`wander_covariance`, counts^2: ``lsb_per_g^2`` times
+    :func:`calib.wander.wander_cov_g2` over the steps' capture windows (the same for every output axis)."""
+    return float(steps.lsb_per_g) ** 2 * wander_cov_g2(np.asarray(steps.t_s, float), steps.duration_s,
+                                                       steps.bias_stability)
 
 
 def assemble(steps: StepMeans, model: str, fits: dict, order: int, t0_c: float, method: str,
