@@ -56,14 +56,18 @@ class MonotonicClock:
 class VirtualClock:
     """Simulated time that advances only when somebody sleeps.
 
-    ``sleep(dt)`` advances the shared time by ``dt`` at once (and yields the
-    GIL briefly so emulator threads can answer). Thread-safe. Used for the
-    simulated rig in tests and benchmarks: a 10 s dwell costs no wall time.
+    ``sleep(dt)`` advances the shared time by ``dt`` at once (and, while
+    ``yields`` is true, yields the GIL briefly so emulator threads serving
+    pseudo-terminals can answer; with no such threads, as when the emulated
+    controllers run in process, the yield only loses the CPU on a busy machine).
+    Thread-safe. Used for the simulated rig in tests and benchmarks: a 10 s
+    dwell costs no wall time.
     """
 
-    def __init__(self, start_s: float = 0.0) -> None:
+    def __init__(self, start_s: float = 0.0, *, yields: bool = True) -> None:
         self._t = float(start_s)
         self._lock = threading.Lock()
+        self.yields = yields
 
     def now(self) -> float:
         with self._lock:
@@ -73,7 +77,8 @@ class VirtualClock:
         if dt_s > 0:
             with self._lock:
                 self._t += float(dt_s)
-        time.sleep(0)
+        if self.yields:
+            time.sleep(0)
 
     def advance(self, dt_s: float) -> None:
         """Advance time without yielding (for simulators and tests)."""

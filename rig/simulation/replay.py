@@ -22,6 +22,7 @@ from rig.devices.registry import register_rig_kind
 from rig.devices.rig import Rig
 from rig.planning.kinematics import AXES
 from rig.session import MAG_COUNTS_PER_UT
+from rig.simulation.simulated import TRANSPORTS, default_transport
 
 #: the replay table moves fast and has no limits: the recording already proved the poses legal
 REPLAY_AXIS = AxisConfig(port=None, speed_deg_s=MAX_SPEED_DEG_S, accel_deg_s2=200.0, soft_limits_deg=(-36000.0, 36000.0),
@@ -145,24 +146,27 @@ class ReplayChamber:
 
 def open_replay_rig(session, *, seed: int | None = None, time_scale: float | None = None,
                     clock: str | None = None) -> Rig:
-    """A rig that serves ``session`` (a loaded ``rig.session`` Session) in virtual time."""
-    clock = VirtualClock()
-    emulators = [ControllerEmulator(0x7E00 + i, clock=clock) for i in range(3)]
+    """A rig that serves ``session`` (a loaded ``rig.session`` Session) in virtual time, its emulated
+    controllers reached as ``$RIG_SIM_TRANSPORT`` says (pseudo-terminals by default; ``time_scale`` and
+    ``clock`` do not apply: a replay has no time of its own to keep)."""
+    vclock = VirtualClock()
+    emulators = [ControllerEmulator(0x7E00 + i, clock=vclock) for i in range(3)]
+    closers = [e.stop for e in emulators]
     try:
-        ports = {n: e.start() for n, e in zip(AXES, emulators)}
+        ports, closers = TRANSPORTS[default_transport()](emulators, vclock)
         axes = open_stages({n: _replay_axis(ports[n], emulators[i].serial_number) for i, n in enumerate(AXES)},
-                           clock)
+                           vclock)
     except Exception:
-        for e in emulators:
-            e.stop()
+        for close in closers:
+            close()
         raise
-    sensor = ReplaySensor(session, clock)
+    sensor = ReplaySensor(session, vclock)
     mag = ReplayMagnetometer(session) if "mag_counts" in session.samples else None
-    rig = Rig(kind="replay", clock=clock, axes=axes, sensor=sensor, turntable="replay:8smc5-emulator",
+    rig = Rig(kind="replay", clock=vclock, axes=axes, sensor=sensor, turntable="replay:8smc5-emulator",
               home_policy="zero", chamber=ReplayChamber(), magnetometer=mag,
               site_field=session.info.rig.site.model_dump() if session.info.rig.site else None,
               settle="none", step_listeners=[sensor.seek_step] + ([mag.seek_step] if mag is not None else []))
-    rig.closers.extend(e.stop for e in emulators)
+    rig.closers.extend(closers)
     return rig
 
 

@@ -12,7 +12,7 @@ import time
 
 import yaml
 
-from drivers.clock import Clock, MonotonicClock
+from drivers.clock import Clock, MonotonicClock, VirtualClock
 from drivers.sensors import open_sensor
 from drivers.ximc.sim.protocol_ximcsim import attach, detach
 from rig.config.rigfile import AxisConfig
@@ -181,12 +181,16 @@ def open_simulated_rig(rig_file, *, seed: int | None = None, time_scale: float |
     seed = 0 if seed is None else int(seed)
     sim = start_simulated_rig(rig_file, seed=seed, time_scale=time_scale, clock=clock, start=False)
     rig_clock_ = rig_clock(sim, str(rig_file.path) if time_scale is None else None)
+    closers: list = []
     try:
-        ports, closers = TRANSPORTS[sim.settings.transport](sim)
+        ports, closers = TRANSPORTS[sim.settings.transport](sim.emulators, sim.clock)
+        sim.ports = dict(ports)
         axes_config = {n: rig_file.axes[n].with_port(ports[n], sim.emulators[i].serial_number)
                        for i, n in enumerate(AXES)}
         axes = open_stages(axes_config, sim.clock)
     except Exception:
+        for close in closers:
+            close()
         sim.stop()
         raise
     field = sim.settings.magnetic_field
@@ -218,31 +222,35 @@ def default_transport() -> str:
     return value
 
 
-def _pty_transport(sim: SimulatedRig):
-    """The emulators on pseudo-terminals (their serving threads started): axis -> device path."""
-    return sim.start(), []
+def _pty_transport(emulators, clock) -> tuple[dict[str, str], list]:
+    """The emulators on pseudo-terminals (their serving threads started): axis -> device path, and what
+    stops them."""
+    ports = {n: emu.start() for n, emu in zip(AXES, emulators)}
+    return ports, [emu.stop for emu in emulators]
 
 
 #: numbers the in-process rigs of this program, so that two open at once never share a ``ximcsim://`` name
 _MEMORY_RIGS = itertools.count(1)
 
 
-def _memory_transport(sim: SimulatedRig):
+def _memory_transport(emulators, clock) -> tuple[dict[str, str], list]:
     """The emulators in process: axis -> ``ximcsim://`` URL, and what detaches them. The wire's own faults
     (answer latency, a vanishing port) need a wire: refused here, one line."""
-    for n, emu in zip(AXES, sim.emulators):
+    for n, emu in zip(AXES, emulators):
         f = emu.faults
         wire = [k for k, on in (("latency_s", f.latency_s > 0), ("vanish_at_s", f.vanish_at_s is not None)) if on]
         if wire:
             raise RigInputError(None, None, f"faults.ximc.{n}.{wire[0]}",
                                 "a fault of the serial line needs sim.transport: pty (got memory)")
+    if isinstance(clock, VirtualClock):
+        clock.yields = False  # no emulator thread to yield to
     rig_no = next(_MEMORY_RIGS)
     names = {n: f"sim{rig_no}-{n}" for n in AXES}
-    ports = {n: attach(names[n], sim.emulators[i].controller) for i, n in enumerate(AXES)}
+    ports = {n: attach(names[n], emu.controller) for n, emu in zip(AXES, emulators)}
     return ports, [lambda name=name: detach(name) for name in names.values()]
 
 
-#: sim.transport -> how the runner reaches the emulated controllers: (axis -> port, closers)
+#: sim.transport -> how the runner reaches emulated controllers: (emulators, clock) -> (axis -> port, closers)
 TRANSPORTS = {"pty": _pty_transport, "memory": _memory_transport}
 
 
