@@ -20,11 +20,11 @@
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 
 import numpy as np
 
+from calib.accel.combinations import choose_subsets, subset_average_maps
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration, FitSummary, ThermalModel
 from calib.design import (AXES, AxisFit, Inputs, LinearModel, Term, check_model, check_rank, const_term, force_term,
@@ -34,6 +34,8 @@ from calib.magnitude import fit_magnitude
 from calib.wander import wander_cov_g2
 
 THERMAL_AUTO_MIN_SPAN_C = 2.0
+#: ``method="combinations"`` averages every pose subset up to this many, else this many drawn at random
+COMBINATIONS_MAX_SUBSETS = 32768
 #: the window ``apply`` takes a sample series' temperature rate over for the thermal-gradient term, s
 RAMP_RATE_WINDOW_S = 10.0
 
@@ -309,12 +311,16 @@ def solve_flip(steps: StepMeans, *, thermal="off", tol: float = 0.05) -> AccelCa
 
 
 def solve_combinations(steps: StepMeans, *, model: str = "triangular", thermal="auto",
-                       t0_c: float | None = None, max_subsets: int = 20000) -> AccelCalibration:
+                       t0_c: float | None = None, max_subsets: int = COMBINATIONS_MAX_SUBSETS,
+                       seed: int = 0) -> AccelCalibration:
     """Average of the exactly-determined solutions over C(m, N) pose subsets.
 
-    N is the largest parameter count of any axis; subsets whose design is singular
-    on some axis are skipped. The average is a fixed linear map of the step means,
-    so its covariance is exact: cov = A diag(sem^2) A^T.
+    N is the largest parameter count of any axis; subsets whose design is singular on some axis
+    are skipped. Every subset is evaluated when there are at most ``max_subsets``; beyond that,
+    ``max_subsets`` of them drawn at random (seeded by ``seed``: the same steps give the same
+    numbers), and the method's name says so with the largest sampling error in sigmas
+    (docs/methods.md, "Peers"). The average is a fixed linear map of the step means, so its
+    covariance is exact: cov = A diag(sem^2) A^T.
     """
     lm, x, order = _model_with_thermal(steps, model, thermal, t0_c)
     k = len(steps)
@@ -323,40 +329,32 @@ def solve_combinations(steps: StepMeans, *, model: str = "triangular", thermal="
         raise ObservabilityError(f"combinations need at least {n} poses, the session has {k}")
     designs = {a: lm.design(a, x) for a in AXES}
     check_model({a: (designs[a], lm.names(a), lm.terms[a]) for a in AXES})
-    maps = {a: np.zeros((designs[a].shape[1], k)) for a in AXES}
-    count = 0
-    for subset in itertools.combinations(range(k), n):
-        idx = list(subset)
-        local = {}
-        ok = True
-        for a in AXES:
-            g = designs[a][idx]
-            p = g.shape[1]
-            sv = np.linalg.svd(g, compute_uv=False)
-            if sv[-1] < 1e-9 * sv[0] or len(sv) < p:
-                ok = False
-                break
-            local[a] = np.linalg.pinv(g)  # exact solution (least squares when N > P for this axis)
-        if not ok:
-            continue
-        for a in AXES:
-            maps[a][:, idx] += local[a]
-        count += 1
-        if count >= max_subsets:
-            break
-    if count == 0:
+    subsets, total, sampled = choose_subsets(k, n, max_subsets, seed)
+    avg = subset_average_maps([designs[a] for a in AXES], subsets, total, sampled,
+                              [steps.mean_counts[:, j] for j in range(3)])
+    if avg.count == 0:
         raise ObservabilityError("no subset of the poses determines the model exactly")
     fits = {}
     for j, a in enumerate(AXES):
-        amap = maps[a] / count
+        amap = avg.maps[j]
         y = steps.mean_counts[:, j]
         params = amap @ y
         cov = amap @ np.diag(steps.sem_counts[:, j] ** 2) @ amap.T
         res = y - designs[a] @ params
         chi2 = float(np.sum((res / steps.sem_counts[:, j]) ** 2))
         fits[a] = AxisFit(lm.names(a), params, cov, cov, res, chi2, k - len(params), False)
-    return assemble(steps, model, fits, order, x.t0_c, f"combinations({count} subsets of {n})",
+    return assemble(steps, model, fits, order, x.t0_c, combinations_label(avg, n, fits),
                     effects=ramp_effects(fits, steps.lsb_per_g, x.t0_c))
+
+
+def combinations_label(avg, n: int, fits: dict) -> str:
+    """The method's name in the fit summary: how many subsets of how many, and for a random sample
+    of them its largest sampling error in units of the parameter's sigma."""
+    if not avg.sampled:
+        return f"combinations({avg.count} subsets of {n})"
+    ratio = max(float(np.max(se / np.sqrt(np.diag(fits[a].cov)))) for se, a in zip(avg.sampling_se, AXES))
+    return (f"combinations({avg.count} subsets of {n}, a random sample of the {avg.total}; "
+            f"sampling error up to {ratio:.2g} sigma)")
 
 
 def solve_batch(mean_counts: np.ndarray, f_nominal_g: np.ndarray, model: str = "triangular") -> dict:
