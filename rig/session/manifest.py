@@ -9,6 +9,8 @@ model does not know are kept (forward compatible): ``model_extra`` holds them an
 
 from __future__ import annotations
 
+import copy
+import functools
 import hashlib
 import math
 import re
@@ -16,10 +18,12 @@ from datetime import date, datetime, timezone
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
+import yaml
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+from yaml.cyaml import CParser
 
 from rig import __version__
-from rig.config.yamlload import load_located, read_source
+from rig.config.yamlload import MAX_DEPTH, MAX_INT_DIGITS, load_located, read_source
 from rig.errors import RigInputError, SessionFormatError
 
 FORMAT = "rig-session/1"
@@ -34,6 +38,130 @@ SOFTWARE_NAME = "rig-calibration"
 #: keys a manifest on disk must have (a new one gets defaults for created, status and software)
 REQUIRED = ("id", "created", "status", "procedure", "rig", "software", "steps")
 
+
+# -- reading the manifest's YAML fast ------------------------------------------------------------------
+# ``rig.config.yamlload.load_located`` (pure-Python scanner, located values, every hostile-YAML guard) is
+# the one YAML reader; a session.yaml is read on every solve and it took most of the solve's time. The
+# manifest needs no line marks, so :func:`load_yaml` takes libyaml's events (``yaml.cyaml.CParser``: the
+# scanner and parser in C, one event at a time, nothing recursive) and builds the plain values itself,
+# for the documents ``yaml.safe_dump`` writes: printable text, mappings, lists and scalars, no anchors,
+# aliases or tags, no duplicate keys, at most ``MAX_DEPTH`` deep, integers of at most ``MAX_INT_DIGITS``
+# digits. Anything else (or anything libyaml refuses) goes to ``load_located``, whose value or one-line
+# error is then the answer: the fast path only ever answers what ``load_located`` answers the same
+# (tests/rig/session/test_manifest_yaml.py).
+
+_INT, _FLOAT, _STR = "tag:yaml.org,2002:int", "tag:yaml.org,2002:float", "tag:yaml.org,2002:str"
+_RESOLVERS = yaml.SafeLoader.yaml_implicit_resolvers
+_SIMPLE_INT = re.compile(r"[-+]?(?:0|[1-9][0-9]*)\Z")
+_SIMPLE_FLOAT = re.compile(r"[-+]?[0-9][0-9.eE+-]*\Z")
+#: where a plain scalar in a flow collection ends at one of these, libyaml and PyYAML differ
+_FLOW_INDICATORS = re.compile(r"[?:#,\[\]{}]")
+#: the fast path reads newlines and printable characters only (no tabs, carriage returns, control characters,
+#: byte-order marks or the Unicode line and paragraph separators: libyaml and PyYAML differ on some of them)
+_NOT_PLAIN_TEXT = re.compile("[^\n\x20-\x7e\xa0-\u2027\u202a-\ud7ff\ue000-\ufefe\uff00-\ufffd]")
+
+
+class _NotPlain(Exception):
+    """The document is not one the fast path reads: ``load_located`` decides."""
+
+
+def load_yaml(text: str, path: str):
+    """The plain value of YAML ``text`` (dict, list, str, int, float, bool, None), as
+    :func:`rig.config.yamlload.load_located` gives it (and its errors, naming ``path``), faster."""
+    try:
+        return _load_plain(text)
+    except (_NotPlain, yaml.YAMLError, ValueError, TypeError, RecursionError, MemoryError):
+        return load_located(text, path)[0]
+
+
+def _load_plain(text: str):
+    """``text``'s value by the fast path (:class:`_NotPlain` or libyaml's error when it does not read it)."""
+    if _NOT_PLAIN_TEXT.search(text):
+        raise _NotPlain
+    parser = CParser(text)
+    constructor = yaml.SafeLoader("")  # scalar constructors of the tags other than int, float and str
+    try:
+        return _build_events(parser, constructor)
+    finally:
+        parser.dispose()
+
+
+def _build_events(parser, constructor):
+    """The single document's value from the parser's events (:class:`_NotPlain` for anything else)."""
+    stack: list = []  # [container, pending key or _NO_KEY, flow style]
+    root = _NO_KEY
+    seen: dict = {}  # (text, plain) -> value: keys and repeated values resolved once (all immutable)
+    flows = 0  # flow collections open
+    while True:
+        event = parser.get_event()
+        kind = type(event)
+        if kind is yaml.ScalarEvent:
+            if event.anchor is not None or event.tag is not None or len(stack) >= MAX_DEPTH or (
+                    flows and event.implicit[0] and _FLOW_INDICATORS.search(event.value)):
+                raise _NotPlain
+            memo = (event.value, event.implicit[0])
+            value = seen[memo] if memo in seen else seen.setdefault(memo, _scalar(event, constructor))
+        elif kind is yaml.MappingStartEvent or kind is yaml.SequenceStartEvent:
+            if event.anchor is not None or event.tag is not None or len(stack) >= MAX_DEPTH:
+                raise _NotPlain
+            stack.append([{} if kind is yaml.MappingStartEvent else [], _NO_KEY, bool(event.flow_style)])
+            flows += stack[-1][2]
+            continue
+        elif kind is yaml.MappingEndEvent or kind is yaml.SequenceEndEvent:
+            value, _, flow = stack.pop()
+            flows -= flow
+        elif kind is yaml.StreamEndEvent:
+            return None if root is _NO_KEY else root
+        elif kind is yaml.StreamStartEvent or kind is yaml.DocumentEndEvent:
+            continue
+        elif kind is yaml.DocumentStartEvent:
+            if root is not _NO_KEY or event.explicit or event.version or event.tags:
+                raise _NotPlain  # a second document, directives: load_located decides
+            continue
+        else:  # an alias
+            raise _NotPlain
+        if not stack:
+            root = value
+        else:
+            _add(stack[-1], value)
+
+
+_NO_KEY = object()
+
+
+def _add(top: list, value) -> None:
+    """Put ``value`` into the open container ``top`` ([container, pending key, flow style])."""
+    container = top[0]
+    if isinstance(container, list):
+        container.append(value)
+    elif top[1] is _NO_KEY:
+        if isinstance(value, (dict, list)) or value in container:
+            raise _NotPlain  # a key that is a collection, a duplicate key
+        top[1] = value
+    else:
+        container[top[1]] = value
+        top[1] = _NO_KEY
+
+
+def _scalar(event, constructor):
+    """A scalar's value as SafeLoader resolves and constructs it (int, float and str directly)."""
+    value = event.value
+    tag = _STR
+    if event.implicit[0]:
+        for tag_, regexp in _RESOLVERS.get(value[:1], []) + _RESOLVERS.get(None, []):
+            if regexp.match(value):
+                tag = tag_
+                break
+    if tag is _STR or tag == _STR:
+        return value
+    if tag == _INT:
+        if len(value.replace("_", "").lstrip("+-")) > MAX_INT_DIGITS:
+            raise _NotPlain
+        if _SIMPLE_INT.match(value):
+            return int(value)
+    elif tag == _FLOAT and _SIMPLE_FLOAT.match(value):
+        return float(value)
+    return constructor.construct_object(yaml.ScalarNode(tag, value, event.start_mark, event.end_mark), deep=True)
 
 
 def utc_now() -> str:
@@ -122,14 +250,21 @@ class ProcedureInfo(_Section):
         return spec if isinstance(spec, dict) else None
 
     def value(self, key: str):
-        """A top-level value of the recorded procedure (``report: true``), or None."""
+        """A top-level value of the recorded procedure (``report: true``), or None (a copy: the text is
+        parsed once per text)."""
         if not self.text:
             return None
         try:  # the recorded procedure was validated when it ran: hostile YAML here means tampering
-            doc, _ = load_located(self.text, "session.yaml: procedure.text")
+            doc = _procedure_document(self.text)
         except RigInputError as exc:
             raise SessionFormatError(None, None, "procedure.text", exc.message) from None
-        return doc.get(key) if isinstance(doc, dict) else None
+        return copy.deepcopy(doc.get(key)) if isinstance(doc, dict) else None
+
+
+@functools.lru_cache(maxsize=8)
+def _procedure_document(text: str):
+    """A recorded procedure's text parsed (once per text: a solve asks for several of its sections)."""
+    return load_yaml(text, "session.yaml: procedure.text")
 
 
 class SoftwareInfo(_Section):
@@ -333,7 +468,7 @@ class SessionManifest(_Section):
         if not path.is_file():
             raise SessionFormatError(str(path), None, None, "missing: not a rig-session/1 directory")
         try:  # the hostile-YAML guards of every other loader: size, depth, aliases, duplicate keys, digits
-            doc, _ = load_located(read_source(path, "session manifest", "missing"), str(path))
+            doc = load_yaml(read_source(path, "session manifest", "missing"), str(path))
         except RigInputError as exc:
             raise SessionFormatError(exc.path, exc.line, exc.key, exc.message) from None
         manifest = cls.from_mapping(doc, path)
