@@ -109,16 +109,6 @@ _QUANTUM_SIGMA = 1.0 / np.sqrt(12.0)
 _MAG_SEM_FLOOR_UT = 0.01
 
 
-def _rows_by_step(step: np.ndarray):
-    """A function giving the row indices of one step (one stable sort, then binary searches)."""
-    order = np.argsort(step, kind="stable")
-    s_sorted = step[order]
-
-    def rows(i: int) -> np.ndarray:
-        return order[np.searchsorted(s_sorted, i, "left"):np.searchsorted(s_sorted, i, "right")]
-    return rows
-
-
 def step_means(session: Session, include=None) -> StepMeans:
     """Per-step accelerometer means for the solver: the complete static steps with a known pose, or
     the steps ``include`` (indices)."""
@@ -126,31 +116,48 @@ def step_means(session: Session, include=None) -> StepMeans:
     if not idx:
         raise SessionFormatError(str(session.path), None, "steps", "no complete static step with a known pose to solve"
                                  " (steps with unknown poses: use --method magnitude)")
-    rows_of = _rows_by_step(session.samples["step"])
-    csv_path = str(session.path / "samples.csv")
-    names, f_nom, means, blocks, ns, temps, ts, durations = [], [], [], [], [], [], [], []
-    for i in idx:
-        rows = rows_of(i)
-        n = len(rows)
-        if n < 2:
-            raise SessionFormatError(csv_path, None, f"step {i}", f"step {i + 1} is marked complete but has {n} samples")
-        a = session.samples["accel_counts"][rows].astype(float)
-        st = session.info.steps[i]
-        names.append(st.label)
-        f_nom.append(st.f_nominal if st.f_nominal is not None else [np.nan] * 3)
-        means.append(a.mean(axis=0))
-        blocks.append(a)
-        ns.append(n)
-        temps.append(_step_temperature(session, rows, i) if session.has_temperature else np.nan)
-        mid, duration = capture_window(session.samples["t_s"][rows])
-        ts.append(mid)
-        durations.append(duration)
+    rows = _StepRows(session.samples["step"], idx)
+    for i, (lo, hi) in zip(idx, rows.spans):
+        if hi - lo < 2:
+            raise SessionFormatError(str(session.path / "samples.csv"), None, f"step {i}",
+                                     f"step {i + 1} is marked complete but has {hi - lo} samples")
+    a = session.samples["accel_counts"][rows.rows].astype(float)
+    blocks = [a[lo:hi] for lo, hi in rows.spans]
+    t = session.samples["t_s"][rows.rows]
+    windows = [capture_window(t[lo:hi]) for lo, hi in rows.spans]
+    steps = [session.info.steps[i] for i in idx]
     sems, _ = step_standard_errors(blocks, _QUANTUM_SIGMA)  # correlated samples: pooled VIF per axis
-    return StepMeans(names=tuple(names), f_nominal_g=np.array(f_nom, float), mean_counts=np.array(means),
-                     sem_counts=sems, n_samples=np.array(ns, int),
-                     temp_c=np.array(temps) if session.has_temperature else None, t_s=np.array(ts),
-                     lsb_per_g=session.lsb_per_g, bias_stability=bias_stability(session),
-                     temp_rate_c_per_s=step_temperature_rates(session, idx, rows_of), duration_s=np.array(durations))
+    return StepMeans(names=tuple(st.label for st in steps),
+                     f_nominal_g=np.array([st.f_nominal if st.f_nominal is not None else [np.nan] * 3 for st in steps],
+                                          float),
+                     mean_counts=np.array([b.mean(axis=0) for b in blocks]), sem_counts=sems,
+                     n_samples=np.array([hi - lo for lo, hi in rows.spans], int),
+                     temp_c=_step_temperatures(session, rows, idx) if session.has_temperature else None,
+                     t_s=np.array([w[0] for w in windows]), lsb_per_g=session.lsb_per_g,
+                     bias_stability=bias_stability(session),
+                     temp_rate_c_per_s=step_temperature_rates(session, idx, rows.rows_of),
+                     duration_s=np.array([w[1] for w in windows]))
+
+
+class _StepRows:
+    """The rows of the steps ``idx`` (indices, in that order) of a session, found by one stable sort of
+    the step column: ``rows`` all of them, step after step (recording order within a step), ``spans``
+    each step's (start, end) in ``rows``."""
+
+    def __init__(self, step: np.ndarray, idx: list[int]) -> None:
+        order = np.argsort(step, kind="stable")
+        s_sorted = step[order]
+        lo = np.searchsorted(s_sorted, idx, "left")
+        hi = np.searchsorted(s_sorted, idx, "right")
+        self.rows = np.concatenate([order[a:b] for a, b in zip(lo, hi)]) if len(idx) else np.zeros(0, np.int64)
+        ends = np.cumsum(hi - lo)
+        self.spans = list(zip((ends - (hi - lo)).tolist(), ends.tolist()))
+        self._span_of = dict(zip(idx, self.spans))
+
+    def rows_of(self, i: int) -> np.ndarray:
+        """The row indices of step ``i`` (one of ``idx``)."""
+        lo, hi = self._span_of[i]
+        return self.rows[lo:hi]
 
 
 def on_ramp(session: Session) -> bool:
@@ -172,12 +179,16 @@ def step_temperature_rates(session: Session, idx, rows_of) -> np.ndarray | None:
     return np.array(out)
 
 
-def _step_temperature(session: Session, rows: np.ndarray, i: int) -> float:
-    tc = session.samples["temp_c"][rows]
-    if not np.all(np.isfinite(tc)):
-        raise SessionFormatError(str(session.path / "samples.csv"), int(rows[~np.isfinite(tc)][0]) + 2,
+def _step_temperatures(session: Session, rows: _StepRows, idx: list[int]) -> np.ndarray:
+    """Each step's mean temperature (C); a step with rows without one is refused, naming the first."""
+    tc = session.samples["temp_c"][rows.rows]
+    bad = ~np.isfinite(tc)
+    if bad.any():
+        k = int(np.argmax(bad))
+        i = next(i for i, (lo, hi) in zip(idx, rows.spans) if lo <= k < hi)
+        raise SessionFormatError(str(session.path / "samples.csv"), int(rows.rows[k]) + 2,
                                  "temp_c", f"step {i + 1} has rows without a temperature")
-    return float(np.mean(tc))
+    return np.array([float(np.mean(tc[lo:hi])) for lo, hi in rows.spans])
 
 
 def rate_step_means(session: Session, accel=None) -> RateStepMeans:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import io
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,7 +28,7 @@ from rig.session.manifest import BASE_COLUMNS, OPTIONAL_COLUMNS, SessionManifest
 REQUIRED_COLUMNS = ("t_s", "step", "ax", "ay", "az")
 _BOM = b"\xef\xbb\xbf"
 _NA = ["", "nan", "NaN", "NAN", "-nan", "+nan"]
-_BLOCK_LINES = 16384
+_FLOAT64 = np.dtype(np.float64)
 _BLOCK_BYTES = 2 << 20  # samples.csv is parsed in blocks of about this many bytes (whole lines)
 
 
@@ -219,6 +220,13 @@ def read_samples(path: Path, n_steps: int | None = None) -> tuple[dict, list[str
     with open(path, "rb") as fh:
         header = _header(path, fh)
         known = [c for c in header if c in BASE_COLUMNS + OPTIONAL_COLUMNS]
+        if os.fstat(fh.fileno()).st_size - fh.tell() <= _BLOCK_BYTES:  # one block: its arrays as they are
+            blocks = [_read_block(text, header, known, n_steps) for text in _bodies(path, fh, warnings)]
+            if len(blocks) == 1:
+                return blocks[0], warnings
+            fh.seek(0)
+            _header(path, fh)
+            warnings.clear()
         out = _Columns(known, _lines_after(fh))
         for text in _bodies(path, fh, warnings):
             out.add(_read_block(text, header, known, n_steps))
@@ -302,8 +310,9 @@ def _bodies(path: Path, fh, warnings: list[str]):
         cut = data.rfind(b"\n")
         body, rest = data[:cut + 1], data[cut + 1:]
         if body:
-            yield _Body(path, body, first_line)
-            first_line += body.count(b"\n")
+            block = _Body(path, body, first_line)
+            yield block
+            first_line += block.n_lines
         if not chunk:
             break
     if rest:
@@ -317,17 +326,24 @@ class _Body:
     def __init__(self, path: Path, body: bytes, first_line: int = 2) -> None:
         self.path, self.body, self.first_line = path, body, first_line
         self.quoted = b'"' in body
-        self._blank: np.ndarray | None = None
+        self._bytes = np.frombuffer(body, np.uint8)
+        self._ends = np.flatnonzero(self._bytes == 10)  # every line ends with a newline
+        self._line_info: tuple[np.ndarray, np.ndarray] | None = None
+
+    @property
+    def n_lines(self) -> int:
+        return len(self._ends)
 
     def _lines(self) -> tuple[np.ndarray, np.ndarray]:
         """Start of every line, and whether it is blank (every line ends with a newline)."""
-        a = np.frombuffer(self.body, np.uint8)
-        ends = np.flatnonzero(a == 10)
-        starts = np.concatenate([[0], ends[:-1] + 1]).astype(np.int64)
-        length = ends - starts
-        has_cr = np.zeros(len(ends), bool)
-        has_cr[length > 0] = a[ends[length > 0] - 1] == 13
-        return starts, (length - has_cr) == 0
+        if self._line_info is None:
+            a, ends = self._bytes, self._ends
+            starts = np.concatenate([[0], ends[:-1] + 1]).astype(np.int64)
+            length = ends - starts
+            has_cr = np.zeros(len(ends), bool)
+            has_cr[length > 0] = a[ends[length > 0] - 1] == 13
+            self._line_info = starts, (length - has_cr) == 0
+        return self._line_info
 
     def _records(self):
         """(file line, fields) of every non-blank record, quotes honoured (the slow path)."""
@@ -346,16 +362,12 @@ class _Body:
             return None
         if self.quoted:
             return next((line for line, row in self._records() if len(row) != ncol), None)
-        a = np.frombuffer(self.body, np.uint8)
-        starts, blank = self._lines()
-        ends = np.append(starts[1:], len(a))
-        for k in range(0, len(starts), _BLOCK_LINES):  # in blocks: reduceat casts its input to int64
-            first, last = starts[k], ends[min(k + _BLOCK_LINES, len(starts)) - 1]
-            commas = np.add.reduceat(a[first:last] == 44, starts[k:k + _BLOCK_LINES] - first, dtype=np.int64)
-            bad = np.flatnonzero((commas + 1 != ncol) & ~blank[k:k + _BLOCK_LINES])
-            if len(bad):
-                return k + int(bad[0]) + self.first_line
-        return None
+        starts = np.concatenate([[0], self._ends[:-1] + 1])  # every line has its newline: none is empty
+        per_line = np.add.reduceat((self._bytes == 44).view(np.uint8), starts, dtype=np.int32)  # commas
+        bad = np.flatnonzero(per_line + 1 != ncol)
+        if len(bad):
+            bad = bad[~self._lines()[1][bad]]  # blank lines are skipped
+        return int(bad[0]) + self.first_line if len(bad) else None
 
     def line_of(self, row: int) -> int | None:
         """The file line of data row ``row`` (0-based, blank lines skipped)."""
@@ -385,13 +397,14 @@ def _parse(text: _Body, header: list[str], known: list[str]) -> dict[str, np.nda
         return {c: np.empty(0) for c in known}
     try:
         df = pd.read_csv(io.BytesIO(text.body), header=None, names=header, usecols=known,
-                         dtype={c: "float64" for c in known}, na_values=_NA, keep_default_na=False,
-                         skip_blank_lines=True, encoding="utf-8", encoding_errors="replace")
+                         dtype={c: _FLOAT64 for c in known}, na_values=_NA, keep_default_na=False,
+                         skip_blank_lines=True, encoding="utf-8", encoding_errors="replace", engine="c")
     except (ValueError, pd.errors.ParserError) as exc:
         line, column, cell = text.first_non_number(header, known)
         detail = f"expected a number, got {cell[:40]!r}" if line else f"cannot read it ({str(exc).splitlines()[0]})"
         raise SessionFormatError(str(text.path), line, column, detail) from None
-    return {c: df[c].to_numpy(dtype=float, copy=True) for c in known}
+    values = (df if list(df.columns) == known else df[known]).to_numpy(dtype=float)  # (rows, the known columns)
+    return {c: values[:, j] for j, c in enumerate(known)}
 
 
 #: no raw count of any sensor or import is larger (2^31); a sensor's own range is checked on load
@@ -441,9 +454,9 @@ def _check(text: _Body, col: dict[str, np.ndarray], n_steps: int | None) -> None
 def _arrays(col: dict[str, np.ndarray]) -> dict:
     """The samples mapping of :class:`Session` from the parsed columns."""
     n = len(col["step"])
-    out = {"t_s": col["t_s"], "step": col["step"].astype(np.int64),
+    out = {"t_s": col["t_s"].copy(), "step": col["step"].astype(np.int64),  # copies: not views of the parsed block
            "accel_counts": np.stack([col["ax"], col["ay"], col["az"]], axis=1).astype(np.int64),
-           "temp_c": col["temp_c"] if "temp_c" in col else np.full(n, np.nan)}
+           "temp_c": col["temp_c"].copy() if "temp_c" in col else np.full(n, np.nan)}
     for key, names in (("gyro_counts", ("wx", "wy", "wz")), ("mag_counts", ("mx", "my", "mz")),
                        ("angles_deg", ("a1_deg", "a2_deg", "a3_deg"))):
         if all(c in col for c in names):
