@@ -35,6 +35,17 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
     -------
     (calib.CalibrationFile, pathlib.Path)
     """
+    cal = calibrate_session(session_dir, model=model, method=method, thermal=thermal, session=session)
+    path = Path(out) if out is not None else Path(session_dir) / "calibration.yaml"
+    calfile.write(path, cal)
+    return cal, path
+
+
+def calibrate_session(session_dir, *, model: str | None = None, method: str | None = None, thermal=None,
+                      session=None) -> calib.CalibrationFile:
+    """The calibration of a recorded session, in memory (:func:`solve_session` without writing the file):
+    the session loaded (or ``session``, loaded already), the procedure's ``solve:`` settings unless
+    overridden, the accelerometer solved, the gyroscope and magnetometer sections when recorded."""
     session = session or load_session(session_dir)
     spec = session.solve_spec or {}
     model = model or spec.get("model") or "triangular"
@@ -50,7 +61,7 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
     accel = calib.solve(steps, model=model, method=method, thermal=thermal)
     check_plausible(accel, steps.lsb_per_g)
     gyro, mag = solve_gyro_and_mag(session, spec, accel)
-    cal = calib.CalibrationFile(
+    return calib.CalibrationFile(
         created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
         software=dict(SOFTWARE),
         session=session.id,
@@ -62,9 +73,6 @@ def solve_session(session_dir, *, model: str | None = None, method: str | None =
         target=(calibration_record(session, steps, model, method)
                 if session.info.procedure.value("target") is not None else None),
     )
-    path = Path(out) if out is not None else Path(session_dir) / "calibration.yaml"
-    calfile.write(path, cal)
-    return cal, path
 
 
 #: a thermal model of order S needs steps at S + 1 or more temperatures at least this far apart (C)

@@ -1,0 +1,167 @@
+"""Speed of the solve in process against the peers doing the same arithmetic (issue 26).
+
+    .venv/bin/python benchmarks/bench_solve_speed.py [--six DIR] [--tumble DIR] [--repeat 50] [--seed 1]
+
+Without ``--six`` / ``--tumble`` it records the sessions first (``rig run procedures/six_position.yaml``
+and ``procedures/tumble26.yaml`` on the simulated rig, virtual time, ``--seed``) into a temporary
+directory. Then, each timing the median of ``--repeat`` runs in this process (wall clock and CPU time
+of this process; the CPU time is the steadier figure on a machine shared with other jobs):
+
+- ``rig solve`` in process: session directory -> calibration in memory
+  (:func:`rig.analysis.solve.calibrate_session`), and its parts: load (``load_session``: session.yaml,
+  samples.csv, the checks), adapter (``step_means``: step means, standard errors), core (``calib.solve``:
+  the fit, its uncertainty, the accelerometer section);
+- imucal's Ferraris calibration of the same session (imucal 2.x, ``FerrarisCalibration().compute``):
+  samples.csv read with ``pandas.read_csv``, each sample labelled with its pose (the step -> pose
+  table, which imucal's user writes by hand), ``ferraris_regions_from_df``, then the calibration; the
+  six-position session has no rotations, so each static region stands in for the rotation about its
+  axis (the gyroscope's part of the result is meaningless, the accelerometer's is the real thing);
+- a closed-form six-position solve: samples.csv with pandas, step means by ``groupby``, then
+  ``b = (u+ + u-) / 2`` and ``M = [(u+x - u-x), (u+y - u-y), (u+z - u-z)] / 2``;
+- ``--method combinations`` in process on the 26-direction session (78 steps).
+
+Copied into another checkout (``benchmarks/``), it times that checkout's code: without
+:func:`calibrate_session` it times ``solve_session`` with the file's write skipped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from imucal import FerrarisCalibration, ferraris_regions_from_df
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+import calib  # noqa: E402
+from rig.analysis import solve as analysis_solve  # noqa: E402
+from rig.session import load_session, step_means  # noqa: E402
+
+#: the six-position procedure's poses by step (procedures/six_position.yaml), as imucal names them
+IMUCAL_PARTS = {"+X up": "x_p", "-X up": "x_a", "+Y up": "y_p", "-Y up": "y_a", "+Z up": "z_p", "-Z up": "z_a"}
+ROTATION_STAND_INS = {"x_rot": "+X up", "y_rot": "+Y up", "z_rot": "+Z up"}
+
+
+def timed(fn, repeat: int) -> tuple[float, float, object]:
+    """(median wall ms, median CPU ms, last result) of ``repeat`` calls after one warm-up call."""
+    result = fn()
+    wall, cpu = [], []
+    for _ in range(repeat):
+        w, c = time.perf_counter(), time.process_time()
+        result = fn()
+        cpu.append(time.process_time() - c)
+        wall.append(time.perf_counter() - w)
+    return statistics.median(wall) * 1e3, statistics.median(cpu) * 1e3, result
+
+
+def record(procedure: str, out: Path, seed: int) -> Path:
+    """Run ``rig run PROCEDURE`` on the simulated rig in virtual time; the new session directory."""
+    before = set(out.glob("*")) if out.exists() else set()
+    subprocess.run([sys.executable, "-m", "rig.cli", "run", str(REPO / "procedures" / procedure), "--seed", str(seed),
+                    "--time-scale", "0", "--out", str(out), "--quiet", "--yes"], cwd=REPO, check=True,
+                   stdout=subprocess.DEVNULL)
+    return next(p for p in out.glob("*") if p not in before and p.is_dir())
+
+
+def in_process_solve(session_dir: Path, tmp: Path, **options):
+    """Session directory -> calibration in memory (older code, without ``calibrate_session``: its
+    ``solve_session`` with the file's write skipped)."""
+    if hasattr(analysis_solve, "calibrate_session"):
+        return lambda: analysis_solve.calibrate_session(session_dir, **options)
+    analysis_solve.calfile.write = lambda path, cal: None  # noqa: ARG005 - older code: time the solve alone
+    return lambda: analysis_solve.solve_session(session_dir, out=tmp / "scratch.yaml", **options)[0]
+
+
+def step_parts(session_dir: Path) -> dict:
+    """Step index -> imucal part name of a six-position session."""
+    s = load_session(session_dir)
+    return {st.index: IMUCAL_PARTS[st.name] for st in s.info.steps if st.name in IMUCAL_PARTS}
+
+
+def imucal_ferraris(session_dir: Path, parts: dict, rate_hz: float):
+    """imucal's Ferraris calibration from the session's samples.csv: (whole call, calibration only, the
+    regions alone)."""
+    columns = {"ax": "acc_x", "ay": "acc_y", "az": "acc_z", "wx": "gyr_x", "wy": "gyr_y", "wz": "gyr_z"}
+    by_name = {v: k for k, v in parts.items()}
+    rotations = {rot: by_name[IMUCAL_PARTS[face]] for rot, face in ROTATION_STAND_INS.items()}
+
+    def regions():
+        df = pd.read_csv(session_dir / "samples.csv").rename(columns=columns)
+        labelled = [df.assign(part=df["step"].map(parts))]
+        labelled += [df[df["step"] == step].assign(part=rot) for rot, step in rotations.items()]
+        return ferraris_regions_from_df(pd.concat(labelled).dropna(subset=["part"]).set_index("part"))
+
+    def calibrate(r):
+        return FerrarisCalibration().compute(r, rate_hz, "a.u.", "a.u.")
+
+    return (lambda: calibrate(regions())), calibrate, regions
+
+
+def closed_form_six(session_dir: Path, parts: dict):
+    """The six-position closed form from samples.csv: bias (3,) and matrix (3, 3), counts and counts/g."""
+    def solve():
+        df = pd.read_csv(session_dir / "samples.csv", usecols=["step", "ax", "ay", "az"])
+        means = df.groupby("step")[["ax", "ay", "az"]].mean()
+        u = {parts[i]: means.loc[i].to_numpy() for i in parts}
+        plus = np.stack([u["x_p"], u["y_p"], u["z_p"]], axis=1)
+        minus = np.stack([u["x_a"], u["y_a"], u["z_a"]], axis=1)
+        return (plus + minus).mean(axis=1) / 2, (plus - minus) / 2
+    return solve
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--six", type=Path, help="a six_position session (default: record one)")
+    ap.add_argument("--tumble", type=Path, help="a tumble26 session (default: record one)")
+    ap.add_argument("--repeat", type=int, default=50)
+    ap.add_argument("--seed", type=int, default=1)
+    args = ap.parse_args()
+    tmp = Path(tempfile.mkdtemp(prefix="bench-solve-speed-"))
+    six = args.six or record("six_position.yaml", tmp / "sessions", args.seed)
+    tumble = args.tumble or record("tumble26.yaml", tmp / "sessions", args.seed)
+    n = args.repeat
+    rows = []
+
+    session = load_session(six)
+    steps = step_means(session)
+    rows.append(("rig solve in process (session dir -> calibration)", *timed(in_process_solve(six, tmp), n)[:2]))
+    rows.append(("  load: load_session", *timed(lambda: load_session(six), n)[:2]))
+    rows.append(("  adapter: step_means", *timed(lambda: step_means(session), n)[:2]))
+    rows.append(("  core: calib.solve (pinv, wander GLS, sigmas)", *timed(lambda: calib.solve(steps), n)[:2]))
+
+    parts = step_parts(six)
+    whole, calibrate, regions = imucal_ferraris(six, parts, float(session.info.rig.sensor.sample_rate_hz))
+    rows.append(("imucal Ferraris (pandas read_csv + calibration)", *timed(whole, n)[:2]))
+    r = regions()
+    rows.append(("  core: FerrarisCalibration().compute", *timed(lambda: calibrate(r), n)[:2]))
+    rows.append(("closed-form six-position (pandas read_csv + means + formula)", *timed(closed_form_six(six, parts),
+                                                                                       n)[:2]))
+
+    k = max(3, n // 5)
+    wall, cpu, cal = timed(in_process_solve(tumble, tmp, method="combinations"), k)
+    rows.append((f"--method combinations, 26 directions ({cal.accelerometer.fit.steps} steps; median of {k})", wall,
+                 cpu))
+    t_steps = step_means(load_session(tumble))
+    rows.append(("  core: calib.solve(method=combinations)",
+                 *timed(lambda: calib.solve(t_steps, method="combinations"), k)[:2]))
+    rows.append(("  for comparison: calib.solve (pinv) on the same session",
+                 *timed(lambda: calib.solve(t_steps), k)[:2]))
+
+    print(f"six-position session: {six}\n26-direction session: {tumble}\n")
+    print(f"| what (median of {n} unless stated) | wall ms | CPU ms |")
+    print("|---|---|---|")
+    for name, w, c in rows:
+        print(f"| {name} | {w:.2f} | {c:.2f} |")
+    print(f"\ncombinations: {cal.accelerometer.fit.method}")
+
+
+if __name__ == "__main__":
+    main()
