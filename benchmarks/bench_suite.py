@@ -41,11 +41,11 @@ def run_tests(cwd: Path, durations: int) -> tuple[float, str]:
 def summarise(wall_s: float, output: str, what: str) -> None:
     final = [line for line in output.splitlines() if re.search(r"\d+ (passed|failed)", line)]
     print(f"{what}: {wall_s:.0f} s wall ({wall_s / 60:.1f} min); {final[-1].strip('= ') if final else 'no summary'}")
-    m = re.search(r"=+ slowest \d+ durations =+\n(.*?)\n(?:=|\n)", output, re.S)
-    if m:
+    timed = re.findall(r"^\s*([0-9.]+)s (setup|call|teardown)\s+(\S+)", output, re.M)
+    if timed:
         print("slowest:")
-        for line in m.group(1).splitlines():
-            print("  " + line)
+        for seconds, when, test in timed:
+            print(f"  {seconds:>7} s {when:<8} {test}")
 
 
 def main() -> None:
