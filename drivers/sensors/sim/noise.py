@@ -211,20 +211,24 @@ class NoiseProcess:
         dt = np.diff(np.concatenate([[t[0] - 1e9 if fresh else self.t_last], t]))
         self.t_last = float(t[-1])
         density = np.asarray(density, float)
+        flicker, walk = bool(np.any(self.flicker_sigma > 0)), bool(np.any(self.random_walk > 0))
+        # every draw of one sample together, sample after sample: the noise of a sample does not depend
+        # on how the samples were split between calls (how often, and when, the host read the FIFO)
+        draws = self.rng.standard_normal((len(t), 1 + (len(self.taus) if flicker else 0) + walk, 3))
         if bandwidth_hz is None:
-            out = density * self.rng.standard_normal((len(t), 3))
+            out = density * draws[:, 0]
         else:
             sigma = density * math.sqrt(math.pi * bandwidth_hz / 2)
             out, state = _first_order_bank(None if self.filtered is None else self.filtered[None, :], dt,
                                            np.array([1 / (2 * math.pi * bandwidth_hz)]), sigma,
-                                           self.rng.standard_normal((1, len(t), 3)))
+                                           draws[None, :, 0])
             self.filtered = state[0]
-        if np.any(self.flicker_sigma > 0):
+        if flicker:
             total, self.flicker = _first_order_bank(self.flicker, dt, self.taus, self.flicker_sigma,
-                                                    self.rng.standard_normal((len(self.taus), len(t), 3)))
+                                                    draws[:, 1:1 + len(self.taus)].transpose(1, 0, 2))
             out = out + total
-        if np.any(self.random_walk > 0):
-            steps = self.random_walk * np.sqrt(dt)[:, None] * self.rng.standard_normal((len(t), 3))
+        if walk:
+            steps = self.random_walk * np.sqrt(dt)[:, None] * draws[:, -1]
             if fresh:
                 steps[0] = 0.0  # the walk starts at 0 with the first sample
             w = self.walk + np.cumsum(steps, axis=0)

@@ -108,11 +108,15 @@ class LazySampler:
         heating = self.hyst.update(ph.temp_c)
         rate = self._temp_rate(t - self.delay_s if dlpf else t) if self.accel.needs_rate() else None
         a = self.accel.output_g(ph.specific_force_g, ph.temp_c, t, heating, rate)
+        # the sampler's own draws of one sample together, sample after sample (white accel x y z, white gyro
+        # x y z, thermometer): a sample's noise does not depend on how the samples were split between reads
+        white_gyro = not dlpf and self.gyro is not None
+        draws = self.rng.standard_normal((len(t), 1 + (0 if dlpf else 3) + (3 if white_gyro else 0)))
         if dlpf:
             a = a + self.accel_noise.sample(t, self.accel.noise_density_g_per_rthz, self.bandwidth_hz)
         else:
             sigma = np.asarray(self.accel.noise_density_g_per_rthz) * np.sqrt(min(self.bandwidth_hz, self.rate_hz / 2) * np.pi / 2)
-            a = a + self.rng.normal(0.0, 1.0, a.shape) * sigma
+            a = a + draws[:, 1:4] * sigma
         g = np.asarray(ph.angular_rate_dps, float)  # an ideal gyro unless an error model is given
         if self.gyro is not None:
             g = self.gyro.output_dps(ph.angular_rate_dps, ph.specific_force_g)
@@ -120,7 +124,7 @@ class LazySampler:
                 g = g + self.gyro_noise.sample(t, self.gyro.noise_density_dps_per_rthz, self.gyro_bandwidth_hz)
             else:
                 gs = np.asarray(self.gyro.noise_density_dps_per_rthz) * np.sqrt(min(self.bandwidth_hz, self.rate_hz / 2) * np.pi / 2)
-                g = g + self.rng.normal(0.0, 1.0, g.shape) * gs
-        temp = ph.temp_c + self.rng.normal(0.0, 0.02, len(t))
+                g = g + draws[:, 4:7] * gs
+        temp = ph.temp_c + 0.02 * draws[:, 0]
         return {"t_s": t, "accel_g": a, "temp_c": temp, "gyro_dps": g, "mag_ut": ph.magnetic_field_ut,
                 "skipped": skipped}
