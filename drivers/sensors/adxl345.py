@@ -28,6 +28,8 @@ class Adxl345:
     has_temperature = False
     has_gyro = False
     gyro_lsb_per_dps = None
+    #: entries of the FIFO (stream mode)
+    fifo_samples = FIFO_DEPTH
 
     def __init__(self, bus, address: int = DEFAULT_ADDRESS, *, clock: Clock | None = None) -> None:
         self.bus = bus

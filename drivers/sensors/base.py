@@ -109,6 +109,8 @@ class AccelSensor(Protocol):
     gyro_lsb_per_dps: float | None
     sample_rate_hz: float
     accel_range_g: int
+    #: samples the sensor's FIFO holds: how long the host may leave it unread (the poll interval's measure)
+    fifo_samples: int
     stats: CaptureStats
 
     def identify(self) -> SensorIdentity: ...

@@ -15,7 +15,7 @@ from drivers.clock import Clock, MonotonicClock
 from drivers.sensors.base import (BusRetry, CaptureStats, SampleBlock, SelfTestAxis, SelfTestResult, SensorError,
                                   SensorIdentity, SensorSettings, check_identity)
 from drivers.sensors.regs.mpu9150 import (ACCEL_CONFIG, ACCEL_LSB_PER_G, ACCEL_RANGES, ACCEL_XOUT_H, CONFIG,
-                                          DEFAULT_ADDRESS, FIFO_COUNTH, FIFO_EN, FIFO_EN_ALL, FIFO_R_W, GYRO_CONFIG,
+                                          DEFAULT_ADDRESS, FIFO_COUNTH, FIFO_EN, FIFO_EN_ALL, FIFO_R_W, FIFO_SIZE, GYRO_CONFIG,
                                           GYRO_LSB_PER_DPS, GYRO_RANGES, INT_ENABLE, INT_FIFO_OFLOW, INT_PIN_CFG,
                                           INT_STATUS, PWR_MGMT_1, SELF_TEST_ACCEL_RANGE, SELF_TEST_GYRO_RANGE,
                                           SELF_TEST_TOLERANCE, SELF_TEST_X, SMPLRT_DIV, TEMP_LSB_PER_C,
@@ -57,6 +57,9 @@ class Mpu9150:
     model = "MPU-9150"
     has_temperature = True
     has_gyro = True
+
+    #: whole samples (accel, temperature, gyro) in the 1024-byte FIFO
+    fifo_samples = FIFO_SIZE // SAMPLE_BYTES
 
     def __init__(self, bus, address: int = DEFAULT_ADDRESS, *, clock: Clock | None = None) -> None:
         self.bus = bus

@@ -32,6 +32,9 @@ REPLAY_AXIS = AxisConfig(port=None, speed_deg_s=MAX_SPEED_DEG_S, accel_deg_s2=20
 class ReplaySensor:
     """Serves a session's recorded samples, one step at a time, through the AccelSensor interface."""
 
+    #: a replay has no FIFO to overflow; the host reads it as it would a 32-entry one
+    fifo_samples = 32
+
     def __init__(self, session, clock) -> None:
         s = session.info.rig.sensor
         self.session = session

@@ -33,11 +33,11 @@ def _old_sem(session):
 
 @pytest.fixture(scope="module")
 def dlpf_1k():
-    return _sessions(40)
+    return _sessions(80)
 
 
 def test_sem_matches_true_scatter_of_step_means_on_dlpf_noise(dlpf_1k):
-    """1 kHz / 44 Hz: the scatter of the step means over 40 sessions (240 per axis), each session's
+    """1 kHz / 44 Hz: the scatter of the step means over 80 sessions (480 per axis), each session's
     common offset removed (bias wander slower than the session is a bias the session cannot see;
     factor 6/5 for the removed mean), against the reported sems; the old s/sqrt(n) is ~2.7x too small."""
     exact = adapter.step_means(simulate(ERR, six_faces(), 1000.0, 44.0, 0, noise=False)).mean_counts
