@@ -14,7 +14,7 @@ from calib.gyro import solve_gyro
 from calib.magnetometer import solve_mag_ellipsoid, solve_mag_positions
 from rig import __version__
 from rig.analysis.coverage import session_coverage
-from rig.execution.executors.targeted import calibration_record
+from rig.analysis.target import calibration_record
 from rig.session import Session, load_session, mag_step_means, rate_step_means, step_means
 
 SOFTWARE = {"name": "rig-calibration", "version": __version__}

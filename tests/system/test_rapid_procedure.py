@@ -18,7 +18,7 @@ import pytest
 import yaml
 
 from rig.cli import main
-from rig.execution.executors.targeted import calibration_record
+from rig.analysis.target import calibration_record
 from rig.session import load_session
 
 from conftest import PROCEDURES

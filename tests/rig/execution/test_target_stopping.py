@@ -12,6 +12,7 @@ import json
 import pytest
 
 import calib
+from rig.analysis import target
 from rig.cli.console import plain_progress_line
 from rig.config.procedure import load_procedure_text
 from rig.errors import RigInputError
@@ -77,11 +78,11 @@ def test_the_run_stops_when_the_target_is_predicted_met_and_not_much_later(make_
     assert all(s.n_samples % round(BLOCK_S * 200) == 0 and s.n_samples >= MIN_DWELL_S * 200 for s in steps)
     assert sum(s.n_samples for s in steps) / 200 < 30  # the seed's fixed 10 s per pose would be 60 s
     # what the run stopped on is the calibration's own prediction from the recorded steps
-    record = targeted.calibration_record(session, session.step_means())
+    record = target.calibration_record(session, session.step_means())
     assert record["met"] and record["predicted_attitude_error_deg"] == pytest.approx(
         done["predicted_attitude_error_deg"], rel=1e-6)  # sample times as written to the CSV
     # a re-solve by another method is not what was predicted: its record says so instead of a verdict
-    other = targeted.calibration_record(session, session.step_means(), method="flip")
+    other = target.calibration_record(session, session.step_means(), method="flip")
     assert not other["met"] and other["summary"].startswith("not evaluated: the target is predicted for the pinv")
 
 
@@ -111,7 +112,7 @@ def test_a_per_parameter_sigma_target_is_met(make_rig, tmp_path):
     eng, writer = start(proc, make_rig(), tmp_path)
     eng.prepare(resuming=False)
     eng.run()
-    record = targeted.calibration_record(load_session(writer.session_dir), load_session(writer.session_dir).step_means())
+    record = target.calibration_record(load_session(writer.session_dir), load_session(writer.session_dir).step_means())
     assert record["met"] and len(record["sigma"]) == 6, record["summary"]
     assert all(s["predicted"] <= s["target"] for s in record["sigma"])
     assert max(s["predicted"] / s["target"] for s in record["sigma"]) > 0.85  # stopped when met, not later
@@ -190,7 +191,7 @@ def test_a_resumed_run_plans_from_the_poses_already_recorded(make_rig, tmp_path)
     eng.run()
     (done,) = events(writer, "target")
     session = load_session(writer.session_dir)
-    record = targeted.calibration_record(session, session.step_means())
+    record = target.calibration_record(session, session.step_means())
     assert done["met"] and record["predicted_attitude_error_deg"] == pytest.approx(
         done["predicted_attitude_error_deg"], rel=1e-6)  # sample times as written to the CSV
 
