@@ -38,9 +38,7 @@ Prints the tally and every failure (input, command, exit code, first stderr line
 from __future__ import annotations
 
 import argparse
-import csv
 import hashlib
-import io
 import json
 import math
 import os

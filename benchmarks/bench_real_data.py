@@ -78,7 +78,7 @@ def main() -> None:
     for j, (ds, do) in enumerate(zip((415, 413, 415), (33123, 33276, 32360))):
         print(f"| {'xyz'[j]} | {cal.scale_counts_per_g[j] / g:.2f} +- {sig_s[j]:.2f} | {ds} | "
               f"{cal.bias_counts[j]:.1f} +- {cal.sigma['bias_counts'][j]:.1f} | {do} |")
-    print(f"misalignment (mrad): " + ", ".join(f"{k} {v * 1e3:.2f}" for k, v in cal.misalignment.items())
+    print("misalignment (mrad): " + ", ".join(f"{k} {v * 1e3:.2f}" for k, v in cal.misalignment.items())
           + f"; residual | |f| - 1 g | {cal.fit.residual_rms_g * 1e3:.2f} mg rms")
 
     # discover on real data

@@ -14,13 +14,11 @@ database problem (it returns a one-line warning instead). :func:`open_history` a
 from __future__ import annotations
 
 import json
-import math
 import os
 import sqlite3
 from datetime import datetime, timezone
 from pathlib import Path
 
-import numpy as np
 import yaml
 
 from calib import calfile

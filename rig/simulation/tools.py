@@ -6,7 +6,6 @@ import time
 
 import numpy as np
 
-from drivers.clock import MonotonicClock
 from drivers.sensors import open_sensor
 from drivers.sensors.base import SensorSettings
 from drivers.sensors.chips import SENSOR_MODELS

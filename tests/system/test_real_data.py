@@ -11,7 +11,7 @@ import json
 import numpy as np
 import pytest
 
-from calib import calfile, solve
+from calib import solve
 from calib.redundancy import pair_biases
 from rig.analysis.discover import discover_session
 from rig.cli import main

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import yaml
 
 from rig.errors import RigInputError, SessionFormatError
 from rig.planning.kinematics import f_nominal, roll_pitch_deg, sensor_to_world
