@@ -22,7 +22,7 @@ from rig.devices.registry import register_rig_kind
 from rig.devices.rig import Rig
 from rig.planning.kinematics import AXES
 from rig.session import MAG_COUNTS_PER_UT
-from rig.simulation.simulated import TRANSPORTS, default_transport
+from rig.simulation.simulated import TRANSPORT_OPENERS, default_transport
 
 #: the replay table moves fast and has no limits: the recording already proved the poses legal
 REPLAY_AXIS = AxisConfig(port=None, speed_deg_s=MAX_SPEED_DEG_S, accel_deg_s2=200.0, soft_limits_deg=(-36000.0, 36000.0),
@@ -156,7 +156,7 @@ def open_replay_rig(session, *, seed: int | None = None, time_scale: float | Non
     emulators = [ControllerEmulator(0x7E00 + i, clock=vclock) for i in range(3)]
     closers = [e.stop for e in emulators]
     try:
-        ports, closers = TRANSPORTS[default_transport()](emulators, vclock)
+        ports, closers = TRANSPORT_OPENERS[default_transport()](emulators, vclock)
         axes = open_stages({n: _replay_axis(ports[n], emulators[i].serial_number) for i, n in enumerate(AXES)},
                            vclock)
     except Exception:

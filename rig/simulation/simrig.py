@@ -152,7 +152,7 @@ class SimulatedRig:
         }
 
 
-#: sim.clock -> the clock of a time-scaled simulated world (time scale 0 is always virtual time)
+#: sim.clock (one per name of rig.simulation.settings.CLOCKS) -> the clock of a time-scaled simulated world (time scale 0 is always virtual time)
 SCALED_CLOCKS = {"elastic": ElasticClock, "strict": MonotonicClock}
 
 

@@ -183,7 +183,7 @@ def open_simulated_rig(rig_file, *, seed: int | None = None, time_scale: float |
     rig_clock_ = rig_clock(sim, str(rig_file.path) if time_scale is None else None)
     closers: list = []
     try:
-        ports, closers = TRANSPORTS[sim.settings.transport](sim.emulators, sim.clock)
+        ports, closers = TRANSPORT_OPENERS[sim.settings.transport](sim.emulators, sim.clock)
         sim.ports = dict(ports)
         axes_config = {n: rig_file.axes[n].with_port(ports[n], sim.emulators[i].serial_number)
                        for i, n in enumerate(AXES)}
@@ -200,8 +200,7 @@ def open_simulated_rig(rig_file, *, seed: int | None = None, time_scale: float |
               site_field={"field_ut": float(field.magnitude_ut), "inclination_deg": float(field.inclination_deg),
                           "declination_deg": float(field.declination_deg)},
               attachments={"sim_truth.yaml": yaml.safe_dump(sim.truth(), sort_keys=False)})
-    rig.closers.append(sim.stop)
-    rig.closers.extend(closers)
+    rig.closers.extend(closers)  # stop (pty) or detach (memory) the emulators: all sim.stop would do
     try:
         attach_sensors(rig, rig_file.sensor.model, sim.bus, sim.sensor_address)
     except Exception:
@@ -217,8 +216,9 @@ TRANSPORT_ENV = "RIG_SIM_TRANSPORT"
 def default_transport() -> str:
     """``sim.transport`` when the rig file does not say: ``$RIG_SIM_TRANSPORT``, else ``pty``."""
     value = os.environ.get(TRANSPORT_ENV) or "pty"
-    if value not in TRANSPORTS:
-        raise RigInputError(None, None, TRANSPORT_ENV, f"expected one of {', '.join(TRANSPORTS)}, got {value!r}")
+    if value not in TRANSPORT_OPENERS:
+        raise RigInputError(None, None, TRANSPORT_ENV,
+                            f"expected one of {', '.join(TRANSPORT_OPENERS)}, got {value!r}")
     return value
 
 
@@ -250,8 +250,9 @@ def _memory_transport(emulators, clock) -> tuple[dict[str, str], list]:
     return ports, [lambda name=name: detach(name) for name in names.values()]
 
 
-#: sim.transport -> how the runner reaches emulated controllers: (emulators, clock) -> (axis -> port, closers)
-TRANSPORTS = {"pty": _pty_transport, "memory": _memory_transport}
+#: sim.transport (one opener per name of rig.simulation.settings.TRANSPORTS) -> how the runner reaches the
+#: emulated controllers: (emulators, clock) -> (axis -> port, what closes them)
+TRANSPORT_OPENERS = {"pty": _pty_transport, "memory": _memory_transport}
 
 
 def publish_bus(sim: SimulatedRig, name: str = "sim") -> None:

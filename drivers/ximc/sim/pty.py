@@ -50,9 +50,15 @@ class PtyServer:
         self._stop = threading.Event()
         self._vanished_until: float | None = None
         self._vanish_done = False
-        self._dir = tempfile.mkdtemp(prefix="ximc-emu-")
-        self.stable_path = os.path.join(self._dir, name)
+        self._dir: str | None = None  # made on first use of stable_path: an emulator never served makes nothing
         self.path: str | None = None
+
+    @property
+    def stable_path(self) -> str:
+        """A path that always names the current pseudo-terminal (a symlink in a directory of its own)."""
+        if self._dir is None:
+            self._dir = tempfile.mkdtemp(prefix="ximc-emu-")
+        return os.path.join(self._dir, self.name)
 
     @property
     def replugged(self) -> bool:
@@ -72,7 +78,8 @@ class PtyServer:
         if self._thread is not None:
             self._thread.join(timeout=2.0)
         self._close()
-        shutil.rmtree(self._dir, ignore_errors=True)
+        if self._dir is not None:
+            shutil.rmtree(self._dir, ignore_errors=True)
 
     def _open(self) -> None:
         master, slave = os.openpty()

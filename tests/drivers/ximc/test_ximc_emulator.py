@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import re
+import tempfile
 import time
 
 import numpy as np
@@ -76,3 +77,16 @@ def test_true_angle_and_rate_for_arrays_of_times(emu):
     np.testing.assert_allclose(ang, [0.0, 1.25, 5.0, 10.0, 10.0], atol=1e-9)
     np.testing.assert_allclose(rate, [0.0, 10.0, 20.0, 0.0, 0.0], atol=1e-6)
     assert np.all(np.diff(ang) >= 0)
+
+
+def test_an_emulator_leaves_nothing_on_disk_served_or_not(tmp_path, monkeypatch):
+    """In-process rigs and the keep-up probe build emulators they never serve: those make no directory;
+    a served one removes its stable path's directory when it stops."""
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    ControllerEmulator(1, clock=VirtualClock())
+    assert list(tmp_path.iterdir()) == []
+    served = ControllerEmulator(2, clock=VirtualClock())
+    served.start()
+    assert os.path.realpath(served.stable_path) == os.path.realpath(served.path)
+    served.stop()
+    assert list(tmp_path.iterdir()) == []

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import tempfile
+
 import pytest
 
 from conftest import RIGS
 from rig.config.rigfile import load_rig_file
 from rig.devices.registry import open_rig_file
 from rig.errors import RigInputError
-from rig.simulation.simulated import TRANSPORT_ENV
+from rig.simulation import settings
+from rig.simulation.simrig import SCALED_CLOCKS
+from rig.simulation.simulated import TRANSPORT_ENV, TRANSPORT_OPENERS
 
 BASE = (RIGS / "sim.yaml").read_text()
 
@@ -30,14 +34,20 @@ def _moves_and_reads(rig) -> None:
 @pytest.mark.parametrize("transport,port,kind", [
     pytest.param("pty", "/dev/", "sim:8smc5-emulator", marks=pytest.mark.pty),
     ("memory", "ximcsim://", "sim:8smc5-emulator-in-memory")])
-def test_either_transport_drives_the_same_controllers_through_the_stage_driver(tmp_path, transport, port, kind):
-    rig = open_rig_file(_rig_file(tmp_path, f"  transport: {transport}\n"), seed=1)
+def test_either_transport_drives_the_same_controllers_through_the_stage_driver(tmp_path, monkeypatch, transport,
+                                                                               port, kind):
+    rig_file = _rig_file(tmp_path, f"  transport: {transport}\n")
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))  # where the emulators make their ports' directories
+    rig = open_rig_file(rig_file, seed=1)
     try:
         d = rig.describe()["turntable"]
         assert d["kind"] == kind and all(a["port"].startswith(port) for a in d["axes"].values())
         _moves_and_reads(rig)
     finally:
         rig.close()
+    assert list(scratch.iterdir()) == []  # closing the rig removed what its emulators made
 
 
 def test_the_environment_chooses_for_a_rig_file_that_does_not_say(tmp_path, monkeypatch):
@@ -69,3 +79,8 @@ def test_faults_of_the_serial_line_need_a_serial_line(tmp_path):
     faults = "faults:\n  ximc:\n    a2: {latency_s: 0.01}\n"
     with pytest.raises(RigInputError, match=r"faults\.ximc\.a2\.latency_s.*needs sim\.transport: pty"):
         open_rig_file(_rig_file(tmp_path, "  transport: memory\n", faults), seed=1)
+
+
+def test_every_name_the_rig_file_schema_accepts_has_its_opener_and_clock():
+    assert tuple(TRANSPORT_OPENERS) == settings.TRANSPORTS
+    assert tuple(SCALED_CLOCKS) == settings.CLOCKS
