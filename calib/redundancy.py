@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import special
+from calib.special import chi2_sf
 
 from calib.accel.inputs import StepMeans
 from calib.errors import ObservabilityError
@@ -70,5 +70,4 @@ def pair_biases(steps: StepMeans, tol: float = 0.05) -> Redundancy:
     mean = np.sum(w * b, axis=0) / np.sum(w, axis=0)
     chi2 = np.sum(((b - mean) / sg) ** 2, axis=0)
     dof = len(pairs) - 1
-    # special.chdtrc is what scipy.stats.chi2.sf computes, without importing scipy.stats (0.2 s)
-    return Redundancy(pairs, b.max(axis=0) - b.min(axis=0), chi2, dof, special.chdtrc(dof, chi2))
+    return Redundancy(pairs, b.max(axis=0) - b.min(axis=0), chi2, dof, chi2_sf(chi2, dof))

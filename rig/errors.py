@@ -23,3 +23,11 @@ class RigInputError(ValueError):
 
 class SessionFormatError(RigInputError):
     """A session directory does not follow rig-session/1."""
+
+
+class RunError(Exception):
+    """A run cannot continue; the message is one line for the technician."""
+
+
+class RunAborted(Exception):
+    """The operator interrupted the run (Ctrl-C or 'abort' at a prompt)."""

@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import expn
+from calib.special import expn
 
 from calib.errors import CalibError
 

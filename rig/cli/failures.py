@@ -12,11 +12,10 @@ import yaml
 
 from calib.errors import CalibError
 from drivers.sensors.base import SensorError
-from drivers.ximc.stage import TurntableError
+from drivers.ximc.errors import TurntableError
 from rig.cli.codes import EXIT_BAD_INPUT, EXIT_FAILURE, UsageError
 from rig.config.yamlload import SymlinkLoop
-from rig.errors import RigInputError, SessionFormatError
-from rig.execution.context import RunAborted, RunError
+from rig.errors import RigInputError, RunAborted, RunError, SessionFormatError
 from rig.execution.operator import OperatorAbsent
 from rig.session.lock import SessionLocked
 

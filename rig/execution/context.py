@@ -9,14 +9,9 @@ from dataclasses import dataclass, field
 from rig.execution.checks import CheckLimits
 from rig.execution.operator import Operator, StepProgress
 from rig.devices.rig import Rig
+from rig.errors import RunAborted, RunError
 
-
-class RunError(Exception):
-    """A run cannot continue; the message is one line for the technician."""
-
-
-class RunAborted(Exception):
-    """The operator interrupted the run (Ctrl-C or 'abort' at a prompt)."""
+__all__ = ["EngineOptions", "RunAborted", "RunContext", "RunError", "StepOutcome"]
 
 
 @dataclass(frozen=True)
