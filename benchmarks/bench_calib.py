@@ -23,8 +23,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import calib  # noqa: E402
 from calib.accel import StepMeans, solve_batch  # noqa: E402
 from calib.evaluation import roll_pitch_deg  # noqa: E402
-from calib.synthetic import f_from_roll_pitch, six_faces  # noqa: E402
-from calib.uncertainty import step_standard_errors  # noqa: E402
+from calib.evaluation import f_from_roll_pitch  # noqa: E402
+from calib.synthetic import six_faces  # noqa: E402
+from calib.numerics.uncertainty import step_standard_errors  # noqa: E402
 from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
 from drivers.sensors.sim.noise import NoiseConfig, NoiseProcess  # noqa: E402
 

@@ -28,7 +28,7 @@ verdict's false alarms (``gap_closed: false`` on a clean session) are counted se
 
 **Calibration of the tests** (``--pvalues``): on the same clean sessions, each candidate's p-value
 of the search's test against the baseline plus ``bias_tempco``
-(:func:`calib.discovery.candidate_pvalues`), which is uniform when the test is calibrated: the table
+(:func:`calib.discovery.search.candidate_pvalues`), which is uniform when the test is calibrated: the table
 gives the counts below 0.001, 0.01 and 0.05 and the Kolmogorov-Smirnov p-value against the uniform,
 and how many sessions Bonferroni's family (the smallest p-value times the number of candidates) puts
 below 0.01 (what forward selection can name: at most 1 % of sessions).
@@ -51,10 +51,11 @@ from scipy import stats
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from calib.accel.inputs import BiasStability, StepMeans  # noqa: E402
-from calib.discovery import StepContext, candidate_pvalues, discover  # noqa: E402
-from calib.effects import heating_state  # noqa: E402
-from calib.uncertainty import step_standard_errors  # noqa: E402
+from calib.accel.inputs import StepMeans  # noqa: E402
+from calib.numerics.stability import BiasStability  # noqa: E402
+from calib.discovery.search import StepContext, candidate_pvalues, discover  # noqa: E402
+from calib.discovery.effects import heating_state  # noqa: E402
+from calib.numerics.uncertainty import step_standard_errors  # noqa: E402
 from drivers.sensors.chips import CHIPS  # noqa: E402
 from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
 from drivers.sensors.sim.noise import NoiseProcess  # noqa: E402

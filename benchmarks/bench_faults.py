@@ -23,7 +23,7 @@ import yaml
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from calib import calfile  # noqa: E402
+from calib.file import calibration as calfile  # noqa: E402
 from rig.cli import main  # noqa: E402
 from rig.session import load_session  # noqa: E402
 

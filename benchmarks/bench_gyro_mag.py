@@ -26,7 +26,7 @@ import yaml
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from calib import calfile  # noqa: E402
+from calib.file import calibration as calfile  # noqa: E402
 from calib.gyro import GyroCalibration  # noqa: E402
 from calib.mag import MagCalibration  # noqa: E402
 from rig.session import load_session, mag_step_means, rate_step_means  # noqa: E402

@@ -41,10 +41,10 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 os.environ.setdefault("RIG_HISTORY", str(Path(tempfile.mkdtemp(prefix="bench-rapid-")) / "history.sqlite"))
 
-from calib import calfile  # noqa: E402
+from calib.file import calibration as calfile  # noqa: E402
 from calib.accel.predict import Goal, Predictor, plan_dwell  # noqa: E402
 from calib.evaluation import GIMBAL_LOCK_COS, roll_pitch_deg  # noqa: E402
-from calib.uncertainty import step_standard_errors  # noqa: E402
+from calib.numerics.uncertainty import step_standard_errors  # noqa: E402
 from drivers.sensors.base import SensorSettings  # noqa: E402
 from rig.config.procedure import load_procedure  # noqa: E402
 from rig.config.rigfile import load_rig_file  # noqa: E402

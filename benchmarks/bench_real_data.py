@@ -18,7 +18,7 @@ sys.path.insert(0, str(REPO))
 DATA = REPO.parent / "shared" / "datasets"
 
 from calib import solve  # noqa: E402
-from calib.redundancy import pair_biases  # noqa: E402
+from calib.accel.redundancy import pair_biases  # noqa: E402
 from rig.analysis.discover import discover_session, format_report, write_plot  # noqa: E402
 from rig.importers.recordings import import_recording  # noqa: E402
 from rig.session import load_session  # noqa: E402

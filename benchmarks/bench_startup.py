@@ -34,8 +34,8 @@ the simulator to start; medians, wall s / CPU s):
 ``rig --help`` and ``--version`` meet their target by far (they import no command and nothing
 numeric). ``rig solve`` does not yet: about 3.6 times the peer script. Nearly all of its time is
 imports (the solve itself, history and acceptance take about 0.07 s), and most of those are calib's:
-``calib.redundancy`` imports scipy.stats for one ``chi2.sf`` (about 0.27 s with its dependencies;
-``scipy.special.chdtrc`` gives the same number, as ``calib.design`` does), ``calib.magnitude`` imports
+``calib.accel.redundancy`` imports scipy.stats for one ``chi2.sf`` (about 0.27 s with its dependencies;
+``scipy.special.chdtrc`` gives the same number, as ``calib.numerics.design`` does), ``calib.numerics.magnitude`` imports
 scipy.optimize at the top for the magnitude method only; pandas (the session reader) and numpy the
 peer script pays too.
 """

@@ -46,9 +46,9 @@ sys.path.insert(0, str(REPO))
 os.environ.setdefault("RIG_HISTORY", str(Path(tempfile.mkdtemp(prefix="bench-ramp-")) / "history.sqlite"))
 
 import calib  # noqa: E402
-from calib import calfile  # noqa: E402
+from calib.file import calibration as calfile  # noqa: E402
 from calib.accel.solve import base_model, solve_gls, wander_covariance  # noqa: E402
-from calib.design import AXES, Inputs, temp_term  # noqa: E402
+from calib.numerics.design import AXES, Inputs, temp_term  # noqa: E402
 from calib.errors import CalibError  # noqa: E402
 from rig.session import load_session, step_means  # noqa: E402
 from rig.workflow.run import run_procedure  # noqa: E402

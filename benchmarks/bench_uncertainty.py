@@ -12,7 +12,7 @@ Step-level Monte Carlo (the default, fast): a six-position session (gravity alon
 40 ug bias instability, 4 ug/rts random walk; a fresh process per session), added to the error
 model's output and rounded to counts; the session goes through the SAME adapter
 (:func:`rig.session.adapter.step_means`) and solver (:func:`calib.solve`) as ``rig solve``, and
-through :func:`calib.discovery.discover` as ``rig discover``. Per configuration: observed
+through :func:`calib.discovery.search.discover` as ``rig discover``. Per configuration: observed
 scatter / reported sigma (median over sessions) for each of the nine parameters, the median
 chi2/dof, the fraction of sessions whose every reported sigma is within 25 % of the observed scatter
 (and of those outside, the share with some sigma above the band: the Birge rescale of a chance
@@ -50,7 +50,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 import calib  # noqa: E402
-from calib.discovery import StepContext, discover  # noqa: E402
+from calib.discovery.search import StepContext, discover  # noqa: E402
 from calib.gyro import param_names, solve_gyro  # noqa: E402
 from calib.mag import sigma_names, solve_mag_ellipsoid, solve_mag_positions  # noqa: E402
 from calib.synthetic import six_faces  # noqa: E402

@@ -29,7 +29,7 @@ DEFERRED: tuple[tuple[str, str, str], ...] = (
     ("rig.simulation", "rig.workflow.kinds", "the sim and replay rig kinds, only when such a rig is opened"),
     ("rig.cli.commands", "rig.cli.commands", "a command's module, only when that command is given"),
     ("rig.cli.failures", "rig.cli.main", "every layer's error types (calib, pandas), once a command runs"),
-    ("scipy.optimize", "calib.magnitude", "the magnitude method's nonlinear fit, only when that method is asked for"),
+    ("scipy.optimize", "calib.numerics.magnitude", "the magnitude method's nonlinear fit, only when that method is asked for"),
     ("scipy.optimize", "calib.mag.ellipsoid", "the ellipsoid's nonlinear fit, only when a magnetometer is solved"),
 )
 

@@ -1,19 +1,50 @@
-"""Calibration math (pure numpy): models, solvers, uncertainty, observability, evaluation, calibration file.
+"""Calibration mathematics (numpy only): models, solvers, uncertainty, discovery, the calibration file.
 
-One package per sensor, each with ``inputs`` (step means), ``result`` (a
-:class:`calib.section.CalibrationSection`) and ``solve``: :mod:`calib.accel`, :mod:`calib.gyro`,
-:mod:`calib.mag`. Imports nothing from ``rig`` or ``drivers``.
+Packages:
+
+- :mod:`calib.accel`, :mod:`calib.gyro`, :mod:`calib.mag`: one per sensor, each with ``inputs``
+  (step means), ``result`` (a :class:`calib.file.section.CalibrationSection`) and ``solve``; they do
+  not import each other.
+- :mod:`calib.numerics`: what the sensor packages share (design columns and weighted least squares,
+  the affine and magnitude fits, step-mean uncertainty, bias stability and wander, static detection).
+- :mod:`calib.discovery`: the discrepancy search and its effect library.
+- :mod:`calib.file`: the calibration file (``rig-calibration/1``), its sections, the guarded YAML loader.
+
+Modules: :mod:`calib.errors`, :mod:`calib.frames` (sensor axes), :mod:`calib.acceptance`,
+:mod:`calib.evaluation`, :mod:`calib.synthetic` (test data; no runtime module imports it).
+Imports nothing from ``rig`` or ``drivers``.
+
+The names below are the package's API (``calib.solve``, ``calib.CalibrationFile``, ...); each is
+imported from its module on first use, so ``import calib.errors`` does not load every solver.
 """
 
-from calib.accel import AccelCalibration, FitSummary, StepMeans, ThermalModel, solve, solve_batch
-from calib.calfile import CalibrationFile
-from calib.errors import CalibError, CalibrationFileError, ObservabilityError
-from calib.evaluation import Evaluation, evaluate
-from calib.gyro import GyroCalibration, RateStepMeans, solve_gyro
-from calib.mag import MagCalibration, MagStepMeans, solve_mag_ellipsoid, solve_mag_positions
-from calib.section import CalibrationSection
+from __future__ import annotations
 
-__all__ = ["AccelCalibration", "CalibError", "CalibrationFile", "CalibrationFileError", "CalibrationSection",
-           "Evaluation", "FitSummary", "GyroCalibration", "MagCalibration", "MagStepMeans", "ObservabilityError",
-           "RateStepMeans", "StepMeans", "ThermalModel", "evaluate", "solve", "solve_batch", "solve_gyro",
-           "solve_mag_ellipsoid", "solve_mag_positions"]
+import importlib
+
+#: public name -> the module that defines it
+API = {
+    "AccelCalibration": "calib.accel.result", "FitSummary": "calib.accel.result", "ThermalModel": "calib.accel.result",
+    "StepMeans": "calib.accel.inputs", "solve": "calib.accel.solve", "solve_batch": "calib.accel.solve",
+    "CalibrationFile": "calib.file.calibration", "CalibrationSection": "calib.file.section",
+    "CalibError": "calib.errors", "CalibrationFileError": "calib.errors", "ObservabilityError": "calib.errors",
+    "Evaluation": "calib.evaluation", "evaluate": "calib.evaluation",
+    "GyroCalibration": "calib.gyro.result", "RateStepMeans": "calib.gyro.inputs", "solve_gyro": "calib.gyro.solve",
+    "MagCalibration": "calib.mag.result", "MagStepMeans": "calib.mag.inputs",
+    "solve_mag_ellipsoid": "calib.mag.solve", "solve_mag_positions": "calib.mag.solve",
+}
+__all__ = sorted(API)
+
+
+def __getattr__(name: str):
+    try:
+        module = API[name]
+    except KeyError:
+        raise AttributeError(f"module 'calib' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(API))

@@ -6,7 +6,7 @@ sensor's previous calibration). Every limit becomes one :class:`LimitCheck` with
 explanation; a limit that cannot be evaluated (a parameter this calibration does not have, a NaN
 chi2/dof, no earlier figure) **fails** and says why: an acceptance never passes by default.
 
-Parameter names are those of :mod:`calib.parameters` (``accel.bias_x`` ...); limits may use
+Parameter names are those of :mod:`calib.file.parameters` (``accel.bias_x`` ...); limits may use
 shell-style patterns (``accel.bias_*``), each matching parameter is checked on its own.
 """
 
@@ -16,7 +16,7 @@ import fnmatch
 import math
 from dataclasses import dataclass, field
 
-from calib.parameters import sensor_parameters
+from calib.file.parameters import sensor_parameters
 
 #: every parameter name a calibration may carry (patterns in limits must match at least one)
 PARAMETER_NAMES: tuple[str, ...] = tuple(
@@ -190,7 +190,7 @@ def _drift_check(drift: Drift | None, top: float) -> LimitCheck:
 
 def largest_drift(current: list[tuple], previous: dict, previous_created: str | None) -> Drift:
     """The parameter that moved most, in combined sigmas, between ``current`` (rows of
-    :func:`calib.parameters.sensor_parameters`) and ``previous`` ({name: (value, sigma, unit)})."""
+    :func:`calib.file.parameters.sensor_parameters`) and ``previous`` ({name: (value, sigma, unit)})."""
     if previous_created is None:
         return Drift(None)
     worst: tuple[str | None, float | None] = (None, None)

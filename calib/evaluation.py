@@ -20,6 +20,12 @@ def roll_pitch_deg(f) -> tuple[np.ndarray, np.ndarray]:
     return np.degrees(psi), np.degrees(theta)
 
 
+def f_from_roll_pitch(roll_deg, pitch_deg) -> np.ndarray:
+    """Specific force for the seed's roll (psi) and pitch (theta): f = (-sin r cos p, sin p, cos r cos p)."""
+    r, p = np.radians(np.asarray(roll_deg, float)), np.radians(np.asarray(pitch_deg, float))
+    return np.stack([-np.sin(r) * np.cos(p), np.sin(p), np.cos(r) * np.cos(p)], axis=-1)
+
+
 def _wrap(d):
     return (np.asarray(d) + 180.0) % 360.0 - 180.0
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib.accel.inputs import StepMeans
-from calib.wander import wander_cov_g2
+from calib.numerics.wander import wander_cov_g2
 
 
 def triangular_matrix(scale_counts_per_g, alpha_yz: float, alpha_zy: float, alpha_zx: float) -> np.ndarray:
@@ -31,12 +31,6 @@ class Truth:
 
 def six_faces() -> np.ndarray:
     return np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
-
-
-def f_from_roll_pitch(roll_deg, pitch_deg) -> np.ndarray:
-    """Specific force for the seed's roll (psi) and pitch (theta): f = (-sin r cos p, sin p, cos r cos p)."""
-    r, p = np.radians(np.asarray(roll_deg, float)), np.radians(np.asarray(pitch_deg, float))
-    return np.stack([-np.sin(r) * np.cos(p), np.sin(p), np.cos(r) * np.cos(p)], axis=-1)
 
 
 def make_steps(truth: Truth, f_g: np.ndarray, *, temp_c=None, rate_hz: float = 100.0, dwell_s: float = 10.0,
@@ -59,7 +53,7 @@ def make_steps(truth: Truth, f_g: np.ndarray, *, temp_c=None, rate_hz: float = 1
 
 def wander_g(t_s, duration_s, stability, rng, n_axes: int = 3) -> np.ndarray:
     """(K, n_axes) bias wander of the step means (g), drawn from the covariance
-    :func:`calib.wander.wander_cov_g2` implies for steps at ``t_s`` lasting ``duration_s`` (zeros
+    :func:`calib.numerics.wander.wander_cov_g2` implies for steps at ``t_s`` lasting ``duration_s`` (zeros
     when ``stability`` is None); axes independent."""
     cov = wander_cov_g2(t_s, duration_s, stability)
     k = len(cov)

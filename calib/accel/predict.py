@@ -7,7 +7,7 @@ errors and the steps' capture windows (``W_j = V_j^-1``, ``V_j = diag(sem^2) + l
 chip's bias wander ``W`` between the windows, the solver's generalised least squares; or
 ``diag(1 / sem^2)`` plus a bias floor without a timeline), never on the readings themselves. A step's standard
 error is ``u / sqrt(t)`` for a dwell of ``t`` seconds, ``u`` the noise measured so far with the
-correlation-aware inflation of :mod:`calib.uncertainty`. Everything a target asks for is therefore
+correlation-aware inflation of :mod:`calib.numerics.uncertainty`. Everything a target asks for is therefore
 known before the dwell is spent:
 
 - **attitude**: the roll/pitch error at a verification pose is, to first order, linear in the
@@ -34,20 +34,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from calib.accel.inputs import BiasStability
+from calib.numerics.stability import BiasStability
 from calib.accel.solve import base_model
-from calib.design import AXES, Inputs
+from calib.numerics.design import AXES, Inputs
 from calib.errors import CalibError, ObservabilityError
-from calib.evaluation import GIMBAL_LOCK_COS
-from calib.synthetic import f_from_roll_pitch
-from calib.wander import wander_cov_g2
+from calib.evaluation import GIMBAL_LOCK_COS, f_from_roll_pitch
+from calib.numerics.wander import wander_cov_g2
 
 #: the seed paper's seven verification poses, (roll, pitch) in degrees
 SEED_TABLE_ROLL_PITCH_DEG = ((0, 90), (-60, 60), (-30, 30), (0, 0), (30, -30), (60, -60), (90, 0))
 #: Monte Carlo draws of the largest roll/pitch error (fixed seed: deterministic, replay-safe)
 DRAWS = 4096
 DRAW_SEED = 2015
-#: parameter names a sigma target may use (calib.parameters naming), per model
+#: parameter names a sigma target may use (calib.file.parameters naming), per model
 PARAMETERS = {
     "triangular": {"x": ["accel.bias_x", "accel.scale_x", "accel.alpha_yz", "accel.alpha_zy"],
                    "y": ["accel.bias_y", "accel.scale_y", "accel.alpha_zx"], "z": ["accel.bias_z", "accel.scale_z"]},
@@ -140,7 +139,7 @@ class Predictor:
     - ``stability`` (:class:`calib.accel.inputs.BiasStability`) and a ``timeline``, the steps'
       capture windows ``(t_mid_s (K,), duration_s (K,))``: the covariance is that of the solver's
       generalised least squares, ``(G^T V^-1 G)^-1`` with ``V = diag(sem^2) + lsb^2 W`` and ``W`` the
-      wander between the windows (:func:`calib.wander.wander_cov_g2`), which holds both the common part
+      wander between the windows (:func:`calib.numerics.wander.wander_cov_g2`), which holds both the common part
       and what differs between steps far apart in time. ``bias_floor`` is then not added. The
       timeline is state (set before a prediction, as the run's plan moves); without one the floor
       is used.

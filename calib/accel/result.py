@@ -12,9 +12,9 @@ import numpy as np
 from pydantic import ConfigDict, Field, field_validator, model_validator
 from typing_extensions import NotRequired, TypedDict
 
-from calib.effects import effect_counts, validate_effect
+from calib.discovery.effects import effect_counts, validate_effect
 from calib.errors import CalibError
-from calib.section import CalibrationSection, Matrix3, Vector3, array, choice, field_problem, integer, number, unit
+from calib.file.section import CalibrationSection, Matrix3, Vector3, array, choice, field_problem, integer, number, unit
 
 MODELS = ("triangular", "full", "diagonal")
 MISALIGNMENT_NAMES = ("alpha_yz", "alpha_zy", "alpha_zx")

@@ -27,11 +27,11 @@ import numpy as np
 from calib.accel.combinations import choose_subsets, subset_average_maps
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration, FitSummary, ThermalModel
-from calib.design import (AXES, AxisFit, Inputs, LinearModel, Term, check_model, check_rank, const_term, force_term,
+from calib.numerics.design import (AXES, AxisFit, Inputs, LinearModel, Term, check_model, check_rank, const_term, force_term,
                           session_rule, solve_gls, solve_wls, temp_term, undetermined)
 from calib.errors import CalibError, ObservabilityError
-from calib.magnitude import fit_magnitude
-from calib.wander import wander_cov_g2
+from calib.numerics.magnitude import fit_magnitude
+from calib.numerics.wander import wander_cov_g2
 
 THERMAL_AUTO_MIN_SPAN_C = 2.0
 #: ``method="combinations"`` averages every pose subset up to this many, else this many drawn at random
@@ -177,7 +177,7 @@ def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> A
 def wander_covariance(steps: StepMeans, sem_counts: np.ndarray, w_counts2: np.ndarray | None = None) -> np.ndarray:
     """Covariance (K, K) of the step means of one axis, counts^2: each step's own standard error on the
     diagonal plus the chip's bias wander between the steps' capture windows
-    (:func:`calib.wander.wander_cov_g2`: flicker and random walk of
+    (:func:`calib.numerics.wander.wander_cov_g2`: flicker and random walk of
     :class:`calib.accel.inputs.BiasStability`, exact for window means), times ``lsb_per_g^2``.
 
     Over a session the wander is common to steps close in time and differs between distant ones: a
@@ -193,7 +193,7 @@ def wander_covariance(steps: StepMeans, sem_counts: np.ndarray, w_counts2: np.nd
 
 def wander_counts2(steps: StepMeans) -> np.ndarray:
     """The wander part of :func:`wander_covariance`, counts^2: ``lsb_per_g^2`` times
-    :func:`calib.wander.wander_cov_g2` over the steps' capture windows (the same for every output axis)."""
+    :func:`calib.numerics.wander.wander_cov_g2` over the steps' capture windows (the same for every output axis)."""
     return float(steps.lsb_per_g) ** 2 * wander_cov_g2(np.asarray(steps.t_s, float), steps.duration_s,
                                                        steps.bias_stability)
 
@@ -389,7 +389,7 @@ def solve_magnitude(steps: StepMeans) -> AccelCalibration:
     """Calibration without known poses: |f| = 1 g in every static step (imu_tk / ArduPilot approach).
 
     Levenberg-Marquardt fit of bias and an upper-triangular U (``M = U^-1``, the seed's
-    triangular model) by :func:`calib.magnitude.fit_magnitude`; the poses (``f_nominal_g``)
+    triangular model) by :func:`calib.numerics.magnitude.fit_magnitude`; the poses (``f_nominal_g``)
     are not used. No temperature terms. Needs at least 10 well-spread static steps.
     """
     fit = fit_magnitude(steps.mean_counts, steps.sem_counts, radius=1.0)

@@ -1,7 +1,7 @@
 """What a calibration file records of its procedure's accuracy target (``target:`` of
 ``rig-calibration/1``; docs/procedures.md, "Accuracy targets").
 
-A leaf module (pydantic and typing only) so that :mod:`calib.calfile` can type the section
+A leaf module (pydantic and typing only) so that :mod:`calib.file.calibration` can type the section
 without importing the prediction; :func:`calib.accel.predict.target_record` produces the dict.
 """
 

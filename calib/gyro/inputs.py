@@ -6,9 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.affine import check_array, check_times
+from calib.numerics.affine import check_array, check_times
 from calib.errors import CalibError
-from calib.wander import SensorStability
+from calib.numerics.wander import SensorStability
 
 
 @dataclass(frozen=True)
@@ -21,13 +21,13 @@ class RateStepMeans:
     rate_nominal_dps : (K, 3) true angular rate of the step in the sensor frame, deg/s.
     mean_counts : (K, 3) mean raw gyroscope output, counts.
     sem_counts : (K, 3) standard error of each mean (from the step's own scatter, correlated samples
-        accounted for: :func:`calib.uncertainty.step_standard_errors`), counts, > 0.
+        accounted for: :func:`calib.numerics.uncertainty.step_standard_errors`), counts, > 0.
     n_samples : (K,) samples per step.
     lsb_per_dps : nominal sensitivity at the recorded range, counts per deg/s, > 0.
     f_mean_g : (K, 3) mean specific force during each step, sensor frame, g, or None.
     t_s : (K,) mid-time of each step's capture, s from session start, or None (unknown).
     duration_s : (K,) how long each step's capture lasted, s, or None (point values in time).
-    bias_stability : the gyroscope's :class:`calib.wander.SensorStability` (deg/s), or None (unknown: the steps are
+    bias_stability : the gyroscope's :class:`calib.numerics.wander.SensorStability` (deg/s), or None (unknown: the steps are
         weighed by their standard errors alone). Used only with ``t_s``.
     """
 

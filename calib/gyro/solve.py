@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib.affine import fit_affine, input_coverage, solve_axis
-from calib.design import session_rule
+from calib.numerics.affine import fit_affine, input_coverage, solve_axis
+from calib.numerics.design import session_rule
 from calib.errors import ObservabilityError
 from calib.gyro.inputs import RateStepMeans
 from calib.gyro.result import AXES, OFF_DIAGONAL, BiasPair, GyroCalibration, param_names
@@ -97,7 +97,7 @@ def solve_gyro(steps: RateStepMeans) -> GyroCalibration:
     :class:`GyroCalibration` with M and b from least squares over all steps (per output axis,
     columns ``[w_x, w_y, w_z, 1]``; generalised with the bias wander between the steps when
     ``steps.bias_stability`` and ``steps.t_s`` are known, else weights 1/sem; covariance rescaled
-    by chi2/dof only on a significant misfit of the session, :func:`calib.design.session_rule`),
+    by chi2/dof only on a significant misfit of the session, :func:`calib.numerics.design.session_rule`),
     and the + / - pair zero-rate outputs of the seed method for comparison.
 
     Raises

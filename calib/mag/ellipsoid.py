@@ -1,8 +1,8 @@
 """The field-ellipsoid fit with the magnetometer's offset wander between the steps.
 
-:func:`calib.magnitude.fit_magnitude` fits ``|U (m_k - b)| = |h|`` to the step means weighing each
+:func:`calib.numerics.magnitude.fit_magnitude` fits ``|U (m_k - b)| = |h|`` to the step means weighing each
 step by its own standard error. The offset of a magnetometer wanders (flicker, random walk:
-:class:`calib.wander.SensorStability`), common to steps close in time and different between
+:class:`calib.numerics.wander.SensorStability`), common to steps close in time and different between
 distant ones, so the step means are correlated. Linearised about the fit, the residual
 ``r_k = |U (m_k - b)| - |h|`` moves by ``g_k . dm_k`` with ``g_k = U^T f_k / |f_k|`` (``f_k = U (m_k - b)``),
 and the residuals' covariance is
@@ -11,16 +11,16 @@ and the residuals' covariance is
 
 :func:`fit_ellipsoid` minimises ``r^T V^-1 r`` (Levenberg-Marquardt on the residuals whitened by V's
 Cholesky factor, V evaluated at the weighted fit and once more at the result), the nonlinear
-counterpart of :func:`calib.design.solve_gls`. Parameters and units as ``fit_magnitude``.
+counterpart of :func:`calib.numerics.design.solve_gls`. Parameters and units as ``fit_magnitude``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from calib.design import misfit
+from calib.numerics.design import misfit
 from calib.errors import ObservabilityError
-from calib.magnitude import MISFIT_P, MagnitudeFit, fit_magnitude, matrix_sigma
+from calib.numerics.magnitude import MISFIT_P, MagnitudeFit, fit_magnitude, matrix_sigma
 
 _IU = np.triu_indices(3)
 #: times V is evaluated at the current solution and the whitened fit redone
@@ -60,7 +60,7 @@ def _whitened_fit(p0: np.ndarray, m: np.ndarray, radius: float, chol: np.ndarray
 def fit_ellipsoid(mean_ut, sem_ut, field_ut: float, wander_ut2: np.ndarray | None = None) -> MagnitudeFit:
     """Fit ``|U (m - b)| = field_ut`` to step means ``mean_ut`` (K, 3), uT, with standard errors
     ``sem_ut`` (K, 3), uT, and the offset wander between the steps ``wander_ut2`` (K, K), uT^2 (None:
-    :func:`calib.magnitude.fit_magnitude`'s weighted fit alone). The sigmas come from the whitened
+    :func:`calib.numerics.magnitude.fit_magnitude`'s weighted fit alone). The sigmas come from the whitened
     Jacobian, rescaled by chi2/dof only when the misfit is significant (as ``fit_magnitude``)."""
     first = fit_magnitude(mean_ut, sem_ut, radius=field_ut)
     if wander_ut2 is None:
@@ -75,7 +75,7 @@ def fit_ellipsoid(mean_ut, sem_ut, field_ut: float, wander_ut2: np.ndarray | Non
 
 
 def _result(sol, m: np.ndarray, radius: float, converged: bool) -> MagnitudeFit:
-    """The :class:`calib.magnitude.MagnitudeFit` of a whitened solution."""
+    """The :class:`calib.numerics.magnitude.MagnitudeFit` of a whitened solution."""
     k, n_par = len(m), len(sol.x)
     chi2, dof = float(np.sum(sol.fun**2)), k - n_par
     try:

@@ -6,8 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.affine import check_array, check_times
-from calib.wander import SensorStability
+from calib.numerics.affine import check_array, check_times
+from calib.numerics.wander import SensorStability
 
 
 @dataclass(frozen=True)
@@ -20,11 +20,11 @@ class MagStepMeans:
     field_nominal_ut : (K, 3) true field in the sensor frame, uT, or None when the poses are unknown.
     mean_ut : (K, 3) mean magnetometer output, uT.
     sem_ut : (K, 3) standard error of each mean (from the step's own scatter, correlated samples
-        accounted for: :func:`calib.uncertainty.step_standard_errors`), uT, > 0.
+        accounted for: :func:`calib.numerics.uncertainty.step_standard_errors`), uT, > 0.
     n_samples : (K,) samples per step.
     t_s : (K,) mid-time of each step's readings, s from session start, or None (unknown).
     duration_s : (K,) how long each step's readings lasted, s, or None (point values in time).
-    bias_stability : the magnetometer's :class:`calib.wander.SensorStability` (uT), or None (unknown: the steps are
+    bias_stability : the magnetometer's :class:`calib.numerics.wander.SensorStability` (uT), or None (unknown: the steps are
         weighed by their standard errors alone). Used only with ``t_s``.
     """
 

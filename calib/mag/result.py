@@ -14,7 +14,7 @@ import numpy as np
 from pydantic import ConfigDict, model_validator, with_config
 from typing_extensions import TypedDict
 
-from calib.section import CalibrationSection, Matrix3, Vector3, choice, field_problem, integer, number, unit
+from calib.file.section import CalibrationSection, Matrix3, Vector3, choice, field_problem, integer, number, unit
 from calib.frames import AXES
 
 METHODS = ("positions", "ellipsoid")

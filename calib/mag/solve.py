@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib.affine import fit_affine, input_coverage
+from calib.numerics.affine import fit_affine, input_coverage
 from calib.errors import CalibError, ObservabilityError
 from calib.mag.inputs import MagStepMeans
 from calib.mag.result import AXES, MagCalibration, sigma_names
@@ -42,7 +42,7 @@ def solve_mag_positions(steps: MagStepMeans) -> MagCalibration:
     """Solve ``m = A h + B`` (12 parameters) from positions with known field in the sensor frame.
 
     Least squares per output axis with columns ``[h_x, h_y, h_z, 1]``: generalised with the offset
-    wander between the steps when known (:func:`calib.affine.fit_affine`), else weights 1/sem;
+    wander between the steps when known (:func:`calib.numerics.affine.fit_affine`), else weights 1/sem;
     covariance rescaled by chi2/dof only on a significant misfit of the session. The seed's
     eight-position method is the special case
     K = 8; any K >= 4 positions whose fields are not in one plane determine the model,

@@ -8,15 +8,15 @@ against sensor B. For every static step complete in both sessions and every axis
     d = mean_A - mean_B,   cov(d) = diag(se_A^2 + se_B^2) + W_A + W_B,   z = L^-1 d   (L L^T = cov(d))
 
 per axis, with the step means and their correlation-aware standard errors of the session adapter
-(:func:`rig.session.step_means`, :mod:`calib.uncertainty`) and the covariance W of each session's bias
-wander between its step means that the chip's stated bias stability implies (:mod:`calib.wander`; the
+(:func:`rig.session.step_means`, :mod:`calib.numerics.uncertainty`) and the covariance W of each session's bias
+wander between its step means that the chip's stated bias stability implies (:mod:`calib.numerics.wander`; the
 two sessions' wanders are independent). ``z`` is the whitened difference (each step's innovation given
 the steps before it), ~N(0, 1) per cell when the sessions agree; without a stated stability it is
 ``(mean_A - mean_B) / sqrt(se_A^2 + se_B^2)``. The sessions agree at the noise level
 unless some |z| is beyond the Bonferroni threshold or the chi-square sum of z^2 is beyond its upper
 quantile; the false-alarm rate P of that verdict is split evenly between the two tests (P/2 each).
 Where they disagree, the normalised differences are summarised by axis, temperature, leg, time and
-pose with :func:`calib.discovery.unexplained`.
+pose with :func:`calib.discovery.search.unexplained`.
 """
 
 from __future__ import annotations
@@ -26,12 +26,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import linalg, stats
 
-from calib import calfile
-from calib.data import StepMeans
-from calib.design import misfit
-from calib.discovery import unexplained, unexplained_lines
+from calib.file import calibration as calfile
+from calib.accel.inputs import StepMeans
+from calib.numerics.design import misfit
+from calib.discovery.report import unexplained, unexplained_lines
 from calib.frames import AXES
-from calib.wander import wander_cov_g2
+from calib.numerics.wander import wander_cov_g2
 from rig.analysis.discover import step_context
 from rig.errors import RigInputError
 from rig.session import Session, load_session, step_means

@@ -1,6 +1,6 @@
 """``rig discover``: the discrepancy workflow on a recorded session (docs/discrepancy.md).
 
-The session side of :mod:`calib.discovery`: step means, the rotation of every
+The session side of :mod:`calib.discovery.search`: step means, the rotation of every
 pose (for ``table_tilt``), the heating or cooling leg of every step (from the
 temperature record, for ``thermal_hysteresis``), then the report, the JSON, the
 plot and the augmented calibration file.
@@ -14,9 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from calib import calfile
-from calib.discovery import Discovery, StepContext, discover, summary_lines, unexplained_lines
-from calib.effects import LIBRARY, heating_state
+from calib.file import calibration as calfile
+from calib.discovery.report import summary_lines, unexplained_lines
+from calib.discovery.search import Discovery, StepContext, discover
+from calib.discovery.effects import LIBRARY, heating_state
 from calib.errors import CalibError
 from rig.analysis import plots
 from rig.analysis.solve import SOFTWARE, sensor_section
@@ -108,7 +109,7 @@ def discover_session(session_dir, *, false_alarm: float = 0.01) -> tuple[Session
     return session, discover(steps, ctx, false_alarm=false_alarm)
 
 
-#: how the report names each baseline model (calib.discovery.Discovery.baseline)
+#: how the report names each baseline model (calib.discovery.search.Discovery.baseline)
 BASELINE_LABELS = {"seed": "baseline (bias, scale, triangular misalignment)",
                    "pose_groups": "pose-free baseline (one constant per axis and unknown pose)",
                    "magnitude": "magnitude baseline (|M^-1 (a - b)| = 1 g, poses unknown and never repeated; "

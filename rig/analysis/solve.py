@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 
 import calib
-from calib import calfile
+from calib.file import calibration as calfile
 from calib.errors import CalibError, ObservabilityError
 from calib.gyro import solve_gyro
-from calib.magnetometer import solve_mag_ellipsoid, solve_mag_positions
+from calib.mag import solve_mag_ellipsoid, solve_mag_positions
 from rig import __version__
 from rig.analysis.coverage import session_coverage
 from rig.analysis.target import calibration_record

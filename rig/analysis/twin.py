@@ -26,8 +26,8 @@ import yaml
 from scipy.optimize import minimize_scalar
 
 from calib.accel.result import AccelCalibration
-from calib.discovery import Discovery, discover
-from calib.uncertainty import pooled_vif
+from calib.discovery.search import Discovery, discover
+from calib.numerics.uncertainty import pooled_vif
 from drivers.sensors.regs.mpu9150 import DLPF_BW_HZ
 from rig.analysis.discover import read_events, step_context
 from rig.config.rigfile import AxisConfig, load_rig_file, parse_rig_file

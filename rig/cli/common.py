@@ -8,7 +8,7 @@ import sys
 import numpy as np
 
 from calib.gyro import GyroCalibration
-from calib.magnetometer import MagCalibration
+from calib.mag import MagCalibration
 from rig.cli.codes import EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, UsageError  # noqa: F401 - the commands use them
 from rig.lab import record_calibration
 from rig.lab.acceptance import as_lines, judge

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calib.static_detect import detect_static
+from calib.numerics.static_detect import detect_static
 from rig.errors import RigInputError
 from rig.importers.common import COUNTS_PER_G_EQUIVALENT, G_MS2, ImportedStep, Recording, first_decrease, numbers, \
     table

@@ -1,5 +1,5 @@
 """``imu_tk``: Kyle-ak/imu_tk's text file ``t x y z`` (raw counts, poses unknown): static intervals by
-:func:`calib.static_detect.detect_static`, each a static step with ``f_nominal: null``; the samples
+:func:`calib.numerics.static_detect.detect_static`, each a static step with ``f_nominal: null``; the samples
 between intervals (hand motion) are not imported."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calib.static_detect import detect_static
+from calib.numerics.static_detect import detect_static
 from rig.errors import RigInputError
 from rig.importers.common import G_MS2, ImportedStep, Recording, first_decrease
 

@@ -14,10 +14,10 @@ import math
 
 import numpy as np
 
-from calib import calfile
+from calib.file import calibration as calfile
 from calib.acceptance import Acceptance, Drift, evaluate, largest_drift
 from calib.evaluation import evaluate as evaluate_poses
-from calib.parameters import at_common_temperature
+from calib.file.parameters import at_common_temperature
 from rig.config.procedure_schema import AcceptSpec
 from rig.config.schema import validate_plain
 from rig.lab.drift import sensor_history

@@ -10,7 +10,7 @@ import json
 import math
 from dataclasses import dataclass, field
 
-from calib.parameters import at_common_temperature
+from calib.file.parameters import at_common_temperature
 from rig.analysis import plots
 from rig.lab.history import History, HistoryCorrupt
 
@@ -63,7 +63,7 @@ def drift(records: list[CalibrationRecord], limit: float = DRIFT_LIMIT_SIGMA) ->
     """Per parameter, per calibration: None for the first (or when the parameter is new), else
     ``{delta, combined_sigma, z, flagged}``; accelerometer biases of two calibrations of which one
     or both have temperature terms are compared at one temperature (``at_temp_c``, see
-    :func:`calib.parameters.at_common_temperature`)."""
+    :func:`calib.file.parameters.at_common_temperature`)."""
     names = list(dict.fromkeys(n for r in records for n in r.parameters))
     pairs = [at_common_temperature(prev.parameters, prev.info.get("temp_mean_c"), cur.parameters,
                                    cur.info.get("temp_mean_c")) for prev, cur in zip(records, records[1:])]

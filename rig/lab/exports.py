@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from calib import calfile
+from calib.file import calibration as calfile
 from calib.evaluation import GIMBAL_LOCK_COS, roll_pitch_deg
 from rig.planning.kinematics import f_nominal
 

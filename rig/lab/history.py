@@ -21,9 +21,9 @@ from pathlib import Path
 
 import yaml
 
-from calib import calfile
-from calib.parameters import finite_or_none as _fnum
-from calib.parameters import sensor_parameters
+from calib.file import calibration as calfile
+from calib.file.parameters import finite_or_none as _fnum
+from calib.file.parameters import sensor_parameters
 from rig import __version__
 from rig.errors import RigInputError
 from rig.lab.identity import rig_identity, sensor_identity, temperatures

@@ -1,8 +1,8 @@
 """The one session -> calib adapter: per-step means of a loaded session for calib's solvers.
 
-- :func:`step_means`: accelerometer, :class:`calib.data.StepMeans` (static steps);
+- :func:`step_means`: accelerometer, :class:`calib.accel.inputs.StepMeans` (static steps);
 - :func:`rate_step_means`: gyroscope, :class:`calib.gyro.RateStepMeans` (rate steps);
-- :func:`mag_step_means`: magnetometer, :class:`calib.magnetometer.MagStepMeans` (static steps with readings).
+- :func:`mag_step_means`: magnetometer, :class:`calib.mag.MagStepMeans` (static steps with readings).
 
 Each carries the steps' times and capture durations and the recorded chip's bias stability from the
 chip registry (:func:`bias_stability`, :func:`gyro_bias_stability`, :func:`mag_bias_stability`), so
@@ -16,12 +16,12 @@ from typing import Protocol
 
 import numpy as np
 
-from calib.accel import BiasStability
-from calib.data import StepMeans
+from calib.numerics.stability import BiasStability
+from calib.accel.inputs import StepMeans
 from calib.gyro import RateStepMeans
-from calib.magnetometer import MagStepMeans
-from calib.uncertainty import step_standard_errors
-from calib.wander import SensorStability
+from calib.mag import MagStepMeans
+from calib.numerics.uncertainty import step_standard_errors
+from calib.numerics.wander import SensorStability
 from drivers.sensors.chips import CHIPS, ChipSpec
 from rig.errors import SessionFormatError
 from rig.planning.kinematics import sensor_to_world
@@ -270,7 +270,7 @@ def mag_step_means(session: Session, known_field: bool = True) -> MagStepMeans |
     angles (None when the session records no site field). None when there are no readings.
 
     Standard errors from each step's scatter with the variance inflation of correlated readings
-    pooled over the steps (:func:`calib.uncertainty.step_standard_errors`), never below 0.01 uT; the
+    pooled over the steps (:func:`calib.numerics.uncertainty.step_standard_errors`), never below 0.01 uT; the
     times and durations are those of the readings (the first ``mag_samples`` of a step)."""
     if "mag_counts" not in session.samples:
         return None

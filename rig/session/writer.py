@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from calib.calfile import atomic_write_text
+from calib.file.calibration import atomic_write_text
 from rig.errors import SessionFormatError
 from rig.session.manifest import (BASE_COLUMNS, FORMAT, STATUSES, STEP_STATUSES, SessionManifest, as_manifest,
                                   validate_session_id,

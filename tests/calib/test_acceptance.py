@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import calib
-from calib import calfile
+from calib.file import calibration as calfile
 from calib.acceptance import AcceptanceLimits, Drift, evaluate, known_pattern, largest_drift
 from calib.errors import CalibrationFileError
-from calib.parameters import sensor_parameters
+from calib.file.parameters import sensor_parameters
 from calib.synthetic import Truth, make_steps, six_faces, triangular_matrix
 
 

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import calib
-from calib.accel import BiasStability
-from calib.accel.inputs import FLICKER_FLOOR
+from calib.numerics.stability import BiasStability
+from calib.numerics.stability import FLICKER_FLOOR
 from calib.synthetic import Truth, make_steps, six_faces, triangular_matrix
 from drivers.sensors.chips import CHIPS
 from drivers.sensors.sim.noise import NoiseProcess, own_stream

@@ -7,7 +7,7 @@ import pytest
 import yaml
 
 import calib
-from calib import calfile
+from calib.file import calibration as calfile
 from calib.synthetic import Truth, make_steps, six_faces, triangular_matrix
 
 TRUTH = Truth(triangular_matrix([8200.0, 8150.0, 8250.0], 0.004, -0.003, 0.002), np.array([300.0, -200.0, 500.0]),

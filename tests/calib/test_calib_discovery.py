@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from calib.data import StepMeans
-from calib.discovery import StepContext, discover
-from calib.effects import LIBRARY, EffectInputs, effect_counts, heating_state, validate_effect
+from calib.accel.inputs import StepMeans
+from calib.discovery.search import StepContext, discover
+from calib.discovery.effects import LIBRARY, EffectInputs, effect_counts, heating_state, validate_effect
 from drivers.sensors.sim.error_model import AccelErrorModel, HysteresisState
 
 LSB = 8192.0

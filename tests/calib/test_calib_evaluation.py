@@ -7,7 +7,8 @@ import pytest
 
 import calib
 from calib.evaluation import roll_pitch_deg
-from calib.synthetic import Truth, f_from_roll_pitch, make_steps, six_faces, triangular_matrix
+from calib.evaluation import f_from_roll_pitch
+from calib.synthetic import Truth, make_steps, six_faces, triangular_matrix
 
 SEED_POSES = [(0, 90), (-60, 60), (-30, 30), (0, 0), (30, -30), (60, -60), (90, 0)]
 

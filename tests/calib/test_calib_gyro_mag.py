@@ -12,8 +12,8 @@ from scipy.spatial.transform import Rotation
 
 from calib.errors import CalibError, CalibrationFileError, ObservabilityError
 from calib.gyro import GyroCalibration, RateStepMeans, param_names, solve_gyro
-from calib.magnetometer import MagCalibration, MagStepMeans, sigma_names, solve_mag_ellipsoid, solve_mag_positions
-from calib.wander import SensorStability
+from calib.mag import MagCalibration, MagStepMeans, sigma_names, solve_mag_ellipsoid, solve_mag_positions
+from calib.numerics.wander import SensorStability
 from drivers.sensors.sim.error_model import GyroErrorModel, MagErrorModel
 
 AXES = "xyz"

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from calib.errors import ObservabilityError
-from calib.magnitude import fit_magnitude
-from calib.static_detect import detect_static
+from calib.numerics.magnitude import fit_magnitude
+from calib.numerics.static_detect import detect_static
 from calib.synthetic import triangular_matrix
 
 

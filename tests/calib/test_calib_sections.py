@@ -11,10 +11,10 @@ import pytest
 import yaml
 
 import calib
-from calib import calfile
+from calib.file import calibration as calfile
 from calib.gyro import GyroCalibration, RateStepMeans, solve_gyro
 from calib.mag import MagCalibration, MagStepMeans, solve_mag_ellipsoid, solve_mag_positions
-from calib.section import CalibrationSection, section_class
+from calib.file.section import CalibrationSection, section_class
 from calib.synthetic import Truth, make_steps, six_faces, triangular_matrix
 
 SCHEMA_FILE = Path(__file__).resolve().parents[2] / "docs" / "schemas" / "calibration.schema.json"
@@ -143,7 +143,7 @@ def test_tampered_gyro_and_mag_sections_are_refused_naming_the_field(tmp_path, c
 
 def test_committed_json_schema_equals_the_generated_one():
     assert json.loads(SCHEMA_FILE.read_text()) == calfile.json_schema(), (
-        "regenerate: python -c 'from calib.calfile import write_json_schema; write_json_schema()'")
+        "regenerate: python -c 'from calib.file.calibration import write_json_schema; write_json_schema()'")
 
 
 def test_written_files_validate_against_the_json_schema(tmp_path, cal):

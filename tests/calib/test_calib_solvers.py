@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import calib
-from calib.design import Inputs
+from calib.numerics.design import Inputs
 from calib.accel.solve import solve_batch, triangular_model
 from calib.synthetic import Truth, make_steps, six_faces, triangular_matrix
 
@@ -161,7 +161,7 @@ def test_estimator_is_efficient_against_the_cramer_rao_bound():
 
 @pytest.mark.slow
 def test_a_clean_session_keeps_its_noise_sigmas_unless_the_whole_session_misfits():
-    """The Birge rescale is decided on the session's chi2 over all axes (calib.design.session_rule):
+    """The Birge rescale is decided on the session's chi2 over all axes (calib.numerics.design.session_rule):
     clean sessions are rescaled at its 1 % level, not at 1 % per axis (about 3 % of them)."""
     rng = np.random.default_rng(21)
     rescaled = 0

@@ -14,7 +14,7 @@ import pytest
 import calib
 from calib.accel.combinations import choose_subsets, subset_average_maps
 from calib.accel.solve import COMBINATIONS_MAX_SUBSETS, _model_with_thermal, solve_combinations
-from calib.design import AXES
+from calib.numerics.design import AXES
 from calib.synthetic import Truth, make_steps, six_faces, triangular_matrix
 
 TRUTH = Truth(triangular_matrix([8200.0, 8150.0, 8250.0], 0.004, -0.003, 0.002), np.array([300.0, -200.0, 500.0]),

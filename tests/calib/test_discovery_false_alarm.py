@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from calib.discovery import candidate_pvalues, discover
-from calib.discovery_observe import critical_noncentrality, critical_value
-from calib.discovery_problem import floored_sf
-from calib.effects import heating_state
+from calib.discovery.search import candidate_pvalues, discover
+from calib.discovery.observe import critical_noncentrality, critical_value
+from calib.discovery.problem import floored_sf
+from calib.discovery.effects import heating_state
 from test_discovery_matrix import FACES, SEM_G, legs, run, session, tumble
 
 

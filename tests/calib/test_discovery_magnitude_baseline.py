@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from calib.data import StepMeans
-from calib.discovery import StepContext, discover
+from calib.accel.inputs import StepMeans
+from calib.discovery.search import StepContext, discover
 from calib.errors import CalibError
 from calib.synthetic import triangular_matrix
 

@@ -1,6 +1,6 @@
 """The hidden-effect matrix at the step level: each new effect hidden, two at once, an effect outside
 the library, designs with ramps and with legs at different temperatures, and clean sessions of each
-design; every session carries the MPU-9150's bias wander (flicker + random walk, ``calib.wander``)
+design; every session carries the MPU-9150's bias wander (flicker + random walk, ``calib.numerics.wander``)
 on top of each step's own noise, as the simulator's ``dlpf`` noise does.
 
 Pass: the hidden effects named and within 3 sigma, nothing else named but the sensor's real
@@ -13,9 +13,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from calib.accel.inputs import BiasStability
-from calib.discovery import StepContext, discover
-from calib.effects import heating_state
+from calib.numerics.stability import BiasStability
+from calib.discovery.search import StepContext, discover
+from calib.discovery.effects import heating_state
 from calib.synthetic import steps_from_output
 from drivers.sensors.sim.error_model import AccelErrorModel
 

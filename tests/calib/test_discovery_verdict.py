@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib.data import StepMeans
-from calib.discovery import StepContext, discover, verdict
-from calib.effects import LIBRARY, effect_counts, temperature_rate
+from calib.accel.inputs import StepMeans
+from calib.discovery.search import StepContext, discover, verdict
+from calib.discovery.effects import LIBRARY, effect_counts, temperature_rate
 from drivers.sensors.sim.error_model import AccelErrorModel
 
 LSB = 8192.0

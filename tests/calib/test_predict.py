@@ -14,7 +14,8 @@ import pytest
 from pydantic import TypeAdapter
 
 import calib
-from calib.accel import BiasStability, StepMeans
+from calib.accel import StepMeans
+from calib.numerics.stability import BiasStability
 from calib.accel.predict import Goal, Predictor, plan_dwell, planned_sems, seed_table_f, target_record
 from calib.accel.result import triangular_matrix
 from calib.accel.target_record import TargetRecord

@@ -9,9 +9,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from calib import calfile
+from calib.file import calibration as calfile
 from calib.accel import solve
-from calib.accel.inputs import BiasStability, StepMeans
+from calib.accel.inputs import StepMeans
+from calib.numerics.stability import BiasStability
 
 LSB = 8192.0
 FACES = np.array([[0, 0, 1], [1, 0, 0], [0, 0, -1], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], float)

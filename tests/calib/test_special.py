@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy import special as scipy_special
 
-from calib.special import chi2_sf, expn
+from calib.numerics.special import chi2_sf, expn
 
 DOFS = [1, 2, 3, 5, 7, 10, 29, 100, 1000, 6000, 2.5]
 

@@ -1,4 +1,4 @@
-"""The wander covariance between step means (calib.wander) against the simulator's own bias wander
+"""The wander covariance between step means (calib.numerics.wander) against the simulator's own bias wander
 (drivers.sensors.sim.noise.NoiseProcess: flicker as Gauss-Markov processes + a random walk)."""
 
 from __future__ import annotations
@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from calib.accel.inputs import BiasStability
-from calib.wander import gauss_markov_cov, random_walk_cov, wander_cov_g2, wander_rms_g
+from calib.numerics.stability import BiasStability
+from calib.numerics.wander import gauss_markov_cov, random_walk_cov, wander_cov_g2, wander_rms_g
 from drivers.sensors.sim.noise import NoiseProcess
 
 MPU = BiasStability(40e-6, 4e-6, 5000.0)

@@ -10,7 +10,7 @@ import textwrap
 
 import pytest
 
-from calib import calfile
+from calib.file import calibration as calfile
 from rig.cli import main
 
 from conftest import PROCEDURES

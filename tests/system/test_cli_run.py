@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import yaml
 
-from calib import calfile
+from calib.file import calibration as calfile
 from rig.cli import main
 from rig.session import load_session
 

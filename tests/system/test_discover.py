@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 import yaml
 
-from calib import calfile
-from calib.effects import LIBRARY
+from calib.file import calibration as calfile
+from calib.discovery.effects import LIBRARY
 from rig.analysis.discover import discover_session
 from rig.cli import main
 

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from calib import calfile
+from calib.file import calibration as calfile
 from calib.errors import CalibrationFileError
 from drivers.clock import VirtualClock
 from drivers.ximc.sim.emulator import ControllerEmulator, XimcFaults

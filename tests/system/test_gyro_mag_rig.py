@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 import yaml
 
-from calib import calfile
-from calib.accel.inputs import FLICKER_FLOOR, flicker_mean_factor
+from calib.file import calibration as calfile
+from calib.numerics.stability import FLICKER_FLOOR, flicker_mean_factor
 from calib.gyro import GyroCalibration
-from calib.magnetometer import MagCalibration
+from calib.mag import MagCalibration
 from drivers.sensors.sim.noise import NoiseConfig
 from rig.cli import main
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from calib import calfile
+from calib.file import calibration as calfile
 from drivers.clock import MonotonicClock
 from rig.cli import main
 from rig.devices import hardware

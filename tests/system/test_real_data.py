@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from calib import solve
-from calib.redundancy import pair_biases
+from calib.accel.redundancy import pair_biases
 from rig.analysis.discover import discover_session
 from rig.cli import main
 from rig.errors import RigInputError

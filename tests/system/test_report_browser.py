@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from calib import calfile
-from calib.parameters import sensor_parameters
+from calib.file import calibration as calfile
+from calib.file.parameters import sensor_parameters
 from rig.lab.report import write_report
 
 from html_page import Page

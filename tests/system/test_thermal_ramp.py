@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import yaml
 
-from calib import calfile
+from calib.file import calibration as calfile
 from rig.cli import main
 from rig.execution.operator import SilentOperator
 from rig.execution.context import RunAborted

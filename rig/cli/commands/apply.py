@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from calib import calfile
+from calib.file import calibration as calfile
 from calib.gyro import GyroCalibration
-from calib.magnetometer import MagCalibration
+from calib.mag import MagCalibration
 from rig.cli.common import EXIT_OK, report_warnings
 from rig.session import MAG_COUNTS_PER_UT, load_session
 

@@ -6,7 +6,7 @@ import json
 import math
 
 import calib
-from calib import calfile
+from calib.file import calibration as calfile
 from rig.cli.common import EXIT_OK, UsageError, json_default, report_warnings
 from rig.session import load_session
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import sys
 
-from calib import calfile
-from calib.calfile import atomic_write_text
+from calib.file import calibration as calfile
+from calib.file.calibration import atomic_write_text
 from rig.cli.common import EXIT_OK
 from rig.lab import TARGETS, export_calibration
 

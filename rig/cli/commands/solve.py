@@ -6,9 +6,9 @@ import json
 import sys
 from pathlib import Path
 
-from calib import calfile
+from calib.file import calibration as calfile
 from calib.errors import CalibError
-from calib.redundancy import pair_biases
+from calib.accel.redundancy import pair_biases
 from rig.analysis.solve import solve_session
 from rig.cli.common import (UsageError, format_calibration, json_default, parse_thermal, conclude,
                             report_warnings)

@@ -3,7 +3,7 @@
 
 One :class:`TargetPolicy` per run, kept in ``RunContext.target``. After every capture block of a
 targeted pose it re-estimates the noise from every sample captured so far (the pooled,
-correlation-aware standard errors of :mod:`calib.uncertainty`, the same the solver will use) and
+correlation-aware standard errors of :mod:`calib.numerics.uncertainty`, the same the solver will use) and
 predicts the calibration for the display; at the pose's first block, whenever its dwell has grown by
 half since, and when its share is captured, it plans the least dwell of this pose and the poses
 still to come that meets the target within the time cap (travel and settling of the poses to come
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib.accel.predict import Predictor, describe, plan_dwell, planned_sems, unit_of
-from calib.uncertainty import pooled_vif, step_standard_errors
+from calib.numerics.uncertainty import pooled_vif, step_standard_errors
 from rig.execution.capture import nominal_dwell_s
 from rig.execution.context import RunError
 from rig.planning.kinematics import AXES
@@ -312,7 +312,7 @@ class _Layout:
 
 
 def standard_errors(blocks: list, max_lag: int | None) -> tuple[np.ndarray, np.ndarray]:
-    """``calib.uncertainty.step_standard_errors`` (what the solver computes) with the autocorrelation
+    """``calib.numerics.uncertainty.step_standard_errors`` (what the solver computes) with the autocorrelation
     summed to at most ``max_lag`` (None: half the shortest block, as the solver)."""
     if max_lag is None:
         return step_standard_errors(blocks, QUANTUM_SIGMA)

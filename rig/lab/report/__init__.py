@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from calib.calfile import atomic_write_text
+from calib.file.calibration import atomic_write_text
 from rig.errors import RigInputError
 from rig.lab.report.content import ReportContent, gather
 from rig.lab.report.render import page

@@ -15,12 +15,12 @@ from pathlib import Path
 import numpy as np
 
 import calib
-from calib import calfile
-from calib.effects import LIBRARY
+from calib.file import calibration as calfile
+from calib.discovery.effects import LIBRARY
 from calib.errors import CalibError
 from calib.gyro.result import NONORTHOGONALITY_NAMES
 from calib.mag.result import sigma_names as mag_sigma_names
-from calib.parameters import accel_parameters
+from calib.file.parameters import accel_parameters
 from rig.errors import RigInputError
 from rig.lab.drift import CalibrationRecord, drift, sensor_history
 from rig.lab.history import HistoryError, default_path, open_history
@@ -32,7 +32,7 @@ VERIFY_PROCEDURE = "procedures/verify_seed_table.yaml"
 #: files in the session larger than this are not read as discover output
 MAX_DISCOVER_BYTES = 50_000_000
 HISTORY_TIMEOUT_S = 5.0
-#: a chi2/dof above this gets a hint in the verdict (a hint, not a test: the solvers' test is calib.design.misfit)
+#: a chi2/dof above this gets a hint in the verdict (a hint, not a test: the solvers' test is calib.numerics.design.misfit)
 CHI2_HINT = 3.0
 
 
@@ -103,7 +103,7 @@ class HistoryView:
 @dataclass
 class ReportContent:
     session: Session
-    calibration: object  # calib.calfile.CalibrationFile
+    calibration: object  # calib.file.calibration.CalibrationFile
     calibration_path: Path
     verdict: Verdict
     parameters: list[Parameter]

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from calib import calfile
+from calib.file import calibration as calfile
 from rig.cli import main
 from rig.lab import export_calibration, parse_param_file
 from rig.lab.exports import (AP_SCALE_FACTOR, AP_TEMP_REFERENCE_C, G_MS2, VERIFY_POSES, apply_ardupilot, apply_px4,

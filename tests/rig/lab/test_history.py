@@ -12,9 +12,9 @@ import textwrap
 import numpy as np
 import pytest
 
-from calib import calfile
+from calib.file import calibration as calfile
 from calib.acceptance import largest_drift
-from calib.parameters import at_common_temperature
+from calib.file.parameters import at_common_temperature
 from rig.cli import main
 from rig.lab import (SCHEMA_VERSION, HistoryCorrupt, HistoryLocked, drift, format_history, list_sensors, open_history,
                      record_calibration, sensor_history, store_calibration)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib.discovery_problem import Problem, f_test, jump_times
+from calib.discovery.problem import Problem, f_test, jump_times
 from calib.frames import AXES
 
 TIME_BLOCKS = 6

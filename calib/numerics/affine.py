@@ -1,7 +1,7 @@
 """Affine least squares ``y = P x + c`` (3 outputs, 3 inputs), shared by the gyroscope (``counts = M w + b``)
 and the magnetometer (``m = A h + B``) solvers, and the array checks of their step-mean inputs.
 
-With the sensor's bias wander between the steps (:mod:`calib.wander`) the fit is generalised least
+With the sensor's bias wander between the steps (:mod:`calib.numerics.wander`) the fit is generalised least
 squares, ``V = diag(sem^2) + W`` per output axis (axes independent, W common to them), as the
 accelerometer's solver (docs/methods.md, "Per-step standard errors")."""
 
@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from calib.design import session_rule, solve_gls, solve_wls
+from calib.numerics.design import session_rule, solve_gls, solve_wls
 from calib.errors import CalibError
 
 def check_array(owner: str, name: str, value: Any, shape: tuple, positive: bool = False) -> np.ndarray:
@@ -52,7 +52,7 @@ def step_covariance(sem: np.ndarray, wander: np.ndarray | None) -> np.ndarray:
 
 def solve_axis(g: np.ndarray, y: np.ndarray, sem: np.ndarray, wander: np.ndarray | None, names: list[str]):
     """One output axis: weighted least squares (``wander`` None) or generalised least squares with
-    :func:`step_covariance` (:func:`calib.design.solve_gls`)."""
+    :func:`step_covariance` (:func:`calib.numerics.design.solve_gls`)."""
     if wander is None:
         return solve_wls(g, y, sem, names)
     return solve_gls(g, y, step_covariance(sem, wander), names)
@@ -66,7 +66,7 @@ class AffineFit:
     ----------
     matrix : (3, 3) P, units of y per unit of x.
     offset : (3,) c, units of y.
-    axis_fits : one :class:`calib.design.AxisFit` per output axis, parameters ``[P_i0, P_i1, P_i2, c_i]``.
+    axis_fits : one :class:`calib.numerics.design.AxisFit` per output axis, parameters ``[P_i0, P_i1, P_i2, c_i]``.
     residuals : (K, 3) y - P x - c, units of y.
     chi2_per_dof : total chi-square over total degrees of freedom (nan when dof = 0).
     """
@@ -106,14 +106,14 @@ def input_coverage(x: np.ndarray, rel_tol: float = 1e-9) -> tuple[list[int], boo
 def fit_affine(x: np.ndarray, y: np.ndarray, sem: np.ndarray, param_names: list[list[str]],
                wander: np.ndarray | None = None) -> AffineFit:
     """Fit ``y = P x + c`` per output axis, with the Birge rule decided on the session
-    (:func:`calib.design.session_rule`).
+    (:func:`calib.numerics.design.session_rule`).
 
     Parameters
     ----------
     x : (K, 3) inputs; y : (K, 3) step means; sem : (K, 3) their standard errors (units of y).
     param_names : per output axis, the names of ``[P_i0, P_i1, P_i2, c_i]``.
     wander : (K, K) covariance of the sensor's bias wander between the step means, units of y
-        squared, common to the three output axes (:mod:`calib.wander`); None: weights 1/sem only.
+        squared, common to the three output axes (:mod:`calib.numerics.wander`); None: weights 1/sem only.
 
     The caller checks observability first (:func:`input_coverage`).
     """

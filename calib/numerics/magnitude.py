@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.design import misfit
+from calib.numerics.design import misfit
 from calib.errors import ObservabilityError
 
 MISFIT_P = 0.01  # a misfit this improbable rescales the sigmas by chi2/dof
@@ -99,7 +99,7 @@ def fit_magnitude(mean_counts, sem_counts=None, *, radius: float = 1.0, min_inte
         cov_q = np.linalg.inv(jac.T @ jac)
     except np.linalg.LinAlgError:
         raise ObservabilityError("the static intervals do not determine the model (singular Jacobian)") from None
-    if misfit(chi2, dof, MISFIT_P)[0]:  # Birge ratio only for a significant misfit, as calib.design
+    if misfit(chi2, dof, MISFIT_P)[0]:  # Birge ratio only for a significant misfit, as calib.numerics.design
         cov_q = cov_q * chi2 / dof
     cov = np.zeros((len(p), len(p)))
     cov[np.ix_(keep, keep)] = cov_q

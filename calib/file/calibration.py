@@ -1,7 +1,7 @@
 """The calibration file (``rig-calibration/1``, YAML). See docs/calibration-file.md.
 
 :class:`CalibrationFile` is the file's schema: a pydantic model whose sections are
-:class:`calib.section.CalibrationSection` subclasses (:class:`AccelCalibration`,
+:class:`calib.file.section.CalibrationSection` subclasses (:class:`AccelCalibration`,
 :class:`GyroCalibration`, :class:`MagCalibration`). ``write`` is atomic (temp file + rename).
 ``read`` validates the format and every field, raising :class:`CalibrationFileError` that names the
 file, the field and what was expected: a tampered or truncated file never yields numbers.
@@ -22,13 +22,13 @@ from pydantic import (BeforeValidator, ConfigDict, Field, FiniteFloat, NonNegati
 from pydantic.json_schema import SkipJsonSchema
 from typing_extensions import Annotated, TypedDict
 
-from calib import yamlsafe
+from calib.file import yamlsafe
 from calib.accel.result import AccelCalibration
 from calib.accel.target_record import TargetRecord
 from calib.errors import CalibrationFileError
 from calib.gyro.result import GyroCalibration
 from calib.mag.result import MagCalibration
-from calib.section import CalibrationSection
+from calib.file.section import CalibrationSection
 
 FORMAT = "rig-calibration/1"
 SCHEMA_ID = "https://rig-calibration.invalid/schemas/calibration.schema.json"

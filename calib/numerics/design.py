@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
-from calib.special import chi2_sf
+
+from calib.numerics.special import chi2_sf
 
 from calib.errors import ObservabilityError
 from calib.frames import AXES
@@ -221,7 +222,7 @@ def solve_whitened(g: np.ndarray, y: np.ndarray, gw: np.ndarray, yw: np.ndarray,
 
 def solve_gls(g: np.ndarray, y: np.ndarray, cov_y: np.ndarray, names: list[str], misfit_p: float = 0.01) -> AxisFit:
     """Generalised least squares with the data's covariance ``cov_y`` (K, K) (the step means' standard
-    errors on the diagonal plus the sensor's bias wander between the steps, :mod:`calib.wander`):
+    errors on the diagonal plus the sensor's bias wander between the steps, :mod:`calib.numerics.wander`):
     whitened by its Cholesky factor, then as :func:`solve_wls` (rescaled by chi2/dof only when the
     misfit is significant at ``misfit_p``). Residuals are in the data's own units (not whitened).
     Shared by the accelerometer, gyroscope and magnetometer solvers."""

@@ -3,18 +3,18 @@
 1. **Baseline.** Fit the seed's model (bias, scale, triangular misalignment, no temperature terms)
    to the step means by generalised least squares: each mean's covariance is its own standard error
    (the scatter of the step's samples) plus the slow wander of the bias between steps that the
-   sensor's stated bias stability implies (:mod:`calib.wander`, :mod:`calib.discovery_problem`).
+   sensor's stated bias stability implies (:mod:`calib.numerics.wander`, :mod:`calib.discovery.problem`).
    Residuals are judged as whitened innovations (~N(0, 1) when the model holds).
 2. **Localise** the disagreement: poses, axes, temperatures, legs, time span
-   (:func:`calib.discovery_report.localise`).
-3. **Observability** from the data (:mod:`calib.discovery_observe`): a candidate is tested when the
+   (:func:`calib.discovery.report.localise`).
+3. **Observability** from the data (:mod:`calib.discovery.observe`): a candidate is tested when the
    session has the data it needs and its columns add rank to the model without hopeless conditioning;
    every candidate gets its minimum detectable magnitude at the stated false-alarm rate and 80 % power.
-4. **Name** the missing effect from :data:`calib.effects.LIBRARY` by forward stepwise selection with
-   nested-model tests (:func:`calib.discovery_problem.nested_test`), Bonferroni over the candidates
+4. **Name** the missing effect from :data:`calib.discovery.effects.LIBRARY` by forward stepwise selection with
+   nested-model tests (:func:`calib.discovery.problem.nested_test`), Bonferroni over the candidates
    left (a clean session names a spurious effect with probability at most ``false_alarm``); a
    backward pass drops what is no longer significant; effects the data cannot tell apart are reported as **aliases**.
-5. **Lack of fit** (:mod:`calib.discovery_nuisance`): when the gap stays open, the best generic
+5. **Lack of fit** (:mod:`calib.discovery.nuisance`): when the gap stays open, the best generic
    factor model of the residual is kept as nuisance structure, every named effect is re-tested with
    it and those it makes unnecessary are dropped; the factor is reported under ``unexplained``.
 6. **Refit** with every named effect (the M-dependent terms re-linearised at the new M); the verdict
@@ -32,21 +32,19 @@ import numpy as np
 
 from calib.accel.inputs import StepMeans
 from calib.accel.solve import TRIANGULAR_NAMES, assemble
-from calib.design import AxisFit, misfit
-from calib.discovery_nuisance import lack_of_fit
-from calib.discovery_observe import FORCE_EFFECTS, missing_data, observability, triage
-from calib.discovery_problem import (COLUMN_TOL, MIN_JUMP_SIDE, TRIANGULAR_COLUMNS, Fit, Problem, RadialProblem,
-                                     f_test, jump_times, nested_test, scan_jump)
-from calib.discovery_report import HINTS, localise, summary_lines, unexplained, unexplained_lines
-from calib.effects import LIBRARY
+from calib.numerics.design import AxisFit, misfit
+from calib.discovery.nuisance import lack_of_fit
+from calib.discovery.observe import missing_data, observability, triage
+from calib.discovery.problem import (Fit, Problem, RadialProblem,
+                                     jump_times, scan_jump)
+from calib.discovery.report import localise, unexplained
+from calib.discovery.effects import LIBRARY
 from calib.errors import CalibError
 from calib.frames import AXES
-from calib.wander import wander_rms_g
+from calib.numerics.wander import wander_rms_g
 
-__all__ = ["COLUMN_TOL", "FORCE_EFFECTS", "HINTS", "MIN_JUMP_SIDE", "TRIANGULAR_COLUMNS", "Discovery", "FoundEffect",
-           "StepContext", "StepRow", "candidate_pvalues", "coverage_problem", "discover", "f_test", "jump_times",
-           "localise", "nested_test", "remaining", "scan_jump", "summary_lines", "unexplained", "unexplained_lines",
-           "verdict"]
+__all__ = ["Discovery", "FoundEffect", "StepContext", "StepRow", "candidate_pvalues", "coverage_problem", "discover",
+           "remaining", "verdict"]
 
 FORMAT = "rig-discover/4"
 TEMP_EFFECTS = ("bias_tempco_quadratic", "bias_tempco_cubic")  # enter only after bias_tempco
@@ -179,7 +177,7 @@ def _nan_none_dict(d: dict) -> dict:
 
 def coverage_problem(name: str, steps: StepMeans, ctx: StepContext, pose_free: bool) -> str | None:
     """What data the session lacks for effect ``name`` (None when it has it all); the design itself
-    is judged by the candidate's columns (:func:`calib.discovery_observe.observability`)."""
+    is judged by the candidate's columns (:func:`calib.discovery.observe.observability`)."""
     return missing_data(name, steps, ctx, pose_free, len(jump_times(np.asarray(steps.t_s, float))))
 
 
@@ -225,7 +223,7 @@ def candidate_pvalues(steps: StepMeans, ctx: StepContext | None = None, model=("
     A calibration check, not part of the search: on sessions whose truth is the baseline plus
     ``model`` (a clean simulated sensor: its real ``bias_tempco``) each p-value is uniform on [0, 1]
     when its test is calibrated, so the fraction below ``u`` is ``u``. ``test`` is the search's own
-    (``search``, :func:`calib.discovery_problem.nested_test`), or either of its ingredients alone
+    (``search``, :func:`calib.discovery.problem.nested_test`), or either of its ingredients alone
     (``known_noise``: the chi-square drop with V known; ``scatter``: the F test). ``bias_jump``'s
     p-value is the best jump time's, multiplied by the number of times (conservative, not uniform).
     Effects of ``model`` the session cannot observe are left out of it.
@@ -250,7 +248,7 @@ def candidate_pvalues(steps: StepMeans, ctx: StepContext | None = None, model=("
 def _prepared(steps: StepMeans, ctx: StepContext, names: list, false_alarm: float, t0_c: float | None = None):
     """The search's problem for ``steps``, its reference temperature (``t0_c`` or the mean step
     temperature, C) and time (the mean step time, s), the baseline fit (whose matrix the force effects
-    use) and the triage of candidates ``names`` (:func:`calib.discovery_observe.triage`)."""
+    use) and the triage of candidates ``names`` (:func:`calib.discovery.observe.triage`)."""
     temps = None if steps.temp_c is None else np.asarray(steps.temp_c, float)
     t0 = float(t0_c) if t0_c is not None else (float(np.mean(temps)) if temps is not None else 25.0)
     t_ref = float(np.mean(steps.t_s))

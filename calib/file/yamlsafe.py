@@ -1,6 +1,6 @@
 """Reading YAML that may be hostile: the calibration file loader's guards.
 
-A calibration file is data written by ``calib.calfile.write`` (no aliases, no duplicate keys, a
+A calibration file is data written by ``calib.file.calibration.write`` (no aliases, no duplicate keys, a
 few kB). Anything else is refused before it is built: aliases (the "billion laughs" bomb),
 duplicate keys (last-wins would silently pick a value), nesting deeper than ``MAX_DEPTH``, files
 over ``MAX_BYTES``, integers longer than ``MAX_INT_DIGITS`` digits, text that is not UTF-8.

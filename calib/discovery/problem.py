@@ -2,7 +2,7 @@
 
 The step means of a session are not independent: besides each mean's own standard error
 (``sem``, from the scatter of the step's samples) they share the slow wander of the bias
-(:mod:`calib.wander`). The covariance of the stacked means (axis-major rows, counts^2) is
+(:mod:`calib.numerics.wander`). The covariance of the stacked means (axis-major rows, counts^2) is
 
     V = blockdiag_j( diag(sem_j^2) + lsb^2 W ),   W = wander_cov_g2(step times, durations, bias stability)
 
@@ -30,11 +30,11 @@ import numpy as np
 from scipy import linalg, special, stats
 
 from calib.accel.inputs import StepMeans
-from calib.design import misfit
-from calib.effects import LIBRARY, EffectInputs
+from calib.numerics.design import misfit
+from calib.discovery.effects import LIBRARY, EffectInputs
 from calib.frames import AXES
-from calib.magnitude import fit_magnitude
-from calib.wander import wander_cov_g2
+from calib.numerics.magnitude import fit_magnitude
+from calib.numerics.wander import wander_cov_g2
 
 #: baseline columns: which force components enter each output axis (the seed's triangular model)
 TRIANGULAR_COLUMNS = {"x": [0, 1, 2], "y": [1, 2], "z": [2]}
@@ -404,7 +404,7 @@ def floored_sf(t: float, q: int, dof: int, lam: float = 0.0) -> float:
     return float(np.exp(np.logaddexp(np.log(below) + logsf(q * t), np.log1p(-below) + above)))
 
 
-#: the tests :func:`calib.discovery.candidate_pvalues` can report (the search uses ``search``)
+#: the tests :func:`calib.discovery.search.candidate_pvalues` can report (the search uses ``search``)
 TESTS = {"search": nested_test, "known_noise": known_noise_test, "scatter": f_test}
 
 

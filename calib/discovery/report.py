@@ -2,7 +2,7 @@
 stays open, what remains (plain data for the report and the JSON of ``rig discover`` and ``rig compare``).
 
 The residuals given are each in its own marginal standard deviation (``r / sqrt(sem^2 + wander_ii)``,
-:meth:`calib.discovery_problem.Problem.marginal`), so a jump stays a step in time and a drift a trend.
+:meth:`calib.discovery.problem.Problem.marginal`), so a jump stays a step in time and a drift a trend.
 With a bias wander they are correlated between steps, so the p-values of the structure tests here
 (which assume independent residuals) are descriptive; the tests that decide (the nested tests, the
 verdict, the lack-of-fit factor) use the whitened residuals.
@@ -14,7 +14,7 @@ import numpy as np
 from scipy import stats
 
 from calib.accel.inputs import StepMeans
-from calib.discovery_problem import jump_times
+from calib.discovery.problem import jump_times
 from calib.frames import AXES
 
 

@@ -58,7 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.accel.inputs import FLICKER_FLOOR, BiasStability
+from calib.numerics.stability import FLICKER_FLOOR, BiasStability
 
 #: shortest flicker time constant modelled, s (faster wander is part of a step's own scatter)
 TAU_MIN_S = 0.05

@@ -11,7 +11,7 @@ steps in time for a jump. Everything else is decided by the candidate's columns 
   out the model); above ``MAX_VIF`` the parameter is confounded with the model to the point that
   its estimate means nothing: unobservable, with the VIF said;
 - **minimum detectable magnitude** (MDM) per parameter: the search's test of the candidate (q
-  columns, ``d`` dof left after it; :func:`calib.discovery_problem.nested_test`) at level ``alpha``
+  columns, ``d`` dof left after it; :func:`calib.discovery.problem.nested_test`) at level ``alpha``
   (the false-alarm rate split over the candidates, and over the jump times for ``bias_jump``) reaches
   power ``POWER`` when its non-centrality ``lambda = theta_j^2 |P c_j|^2`` reaches ``lambda*``
   (:func:`critical_noncentrality`); ``MDM_j = sqrt(lambda* / |P c_j|^2)``, in the effect's unit, the
@@ -25,8 +25,8 @@ import functools
 import numpy as np
 from scipy import optimize
 
-from calib.discovery_problem import Problem, determined, floored_sf, independent
-from calib.effects import LIBRARY
+from calib.discovery.problem import Problem, determined, floored_sf, independent
+from calib.discovery.effects import LIBRARY
 
 POWER = 0.8
 MAX_VIF = 1e4
@@ -57,7 +57,7 @@ def missing_data(name: str, steps, ctx, pose_free: bool, n_jump_times: int) -> s
 
 @functools.lru_cache(maxsize=512)
 def critical_value(q: int, dof: int, alpha: float) -> float:
-    """The statistic of :func:`calib.discovery_problem.nested_test` exceeded with probability ``alpha``
+    """The statistic of :func:`calib.discovery.problem.nested_test` exceeded with probability ``alpha``
     under the null (``q`` columns, ``dof`` left after them)."""
     return float(optimize.brentq(lambda t: floored_sf(t, q, dof) - alpha, 1e-9, 1e6))
 
@@ -65,7 +65,7 @@ def critical_value(q: int, dof: int, alpha: float) -> float:
 @functools.lru_cache(maxsize=512)
 def critical_noncentrality(q: int, alpha: float, dof: int = 0, power: float = POWER) -> float:
     """lambda* at which the search's test of ``q`` columns, ``dof`` dof left after them, at level
-    ``alpha`` reaches ``power`` (:func:`calib.discovery_problem.floored_sf` at that non-centrality)."""
+    ``alpha`` reaches ``power`` (:func:`calib.discovery.problem.floored_sf` at that non-centrality)."""
     crit = critical_value(q, dof, alpha)
     return float(optimize.brentq(lambda lam: floored_sf(crit, q, dof, lam) - power, 1e-9, 1e6))
 

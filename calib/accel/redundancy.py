@@ -12,7 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from calib.special import chi2_sf
+
+from calib.numerics.special import chi2_sf
 
 from calib.accel.inputs import StepMeans
 from calib.errors import ObservabilityError
