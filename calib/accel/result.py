@@ -12,7 +12,7 @@ import numpy as np
 from pydantic import ConfigDict, Field, field_validator, model_validator
 from typing_extensions import NotRequired, TypedDict
 
-from calib.discovery.effects import effect_counts, validate_effect
+from calib.discovery.effects import LIBRARY, TIME_EFFECTS, effect_counts, validate_effect
 from calib.errors import CalibError
 from calib.file.section import CalibrationSection, Matrix3, Vector3, array, choice, field_problem, integer, number, unit
 
@@ -108,6 +108,9 @@ class AccelCalibration(CalibrationSection):
     """
 
     CAL_TYPE: ClassVar[str] = "accelerometer"
+    #: the unit :meth:`apply` takes and the unit it gives (``calib.file.apply`` checks the recording's)
+    INPUT_UNIT: ClassVar[str] = "counts"
+    OUTPUT_UNIT: ClassVar[str] = "g"
     model_config = ConfigDict(frozen=True, extra="forbid")  # a misspelt key is refused (docs/calibration-file.md)
 
     model: choice(*MODELS) = unit("-", "triangular (seed), full (12 parameters), diagonal (flip method)")
@@ -176,6 +179,14 @@ class AccelCalibration(CalibrationSection):
         if self.effects:
             out = out + effect_counts(self.effects, f, temp_c, t_s, self.lsb_per_g, self.matrix_counts_per_g)
         return out
+
+    def apply_needs(self) -> tuple[str, ...]:
+        """What :meth:`apply` needs besides the counts: ``"temp_c"`` (a thermal model or a temperature
+        effect), ``"t_s"`` (a time effect: bias_drift, bias_jump, thermal_gradient)."""
+        on_sensor = [LIBRARY[e["name"]] for e in self.effects if LIBRARY[e["name"]].on_sensor]
+        temp = self.temperature is not None or any("temp" in lib.needs for lib in on_sensor)
+        time = any(lib.name in TIME_EFFECTS for lib in on_sensor)
+        return ("temp_c",) * temp + ("t_s",) * time
 
     def apply(self, counts, temp_c=None, t_s=None) -> np.ndarray:
         """Specific force (N, 3) in g, sensor frame, from raw counts (N, 3).

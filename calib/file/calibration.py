@@ -6,6 +6,8 @@
 ``read`` validates the format and every field, raising :class:`CalibrationFileError` that names the
 file, the field and what was expected: a tampered or truncated file never yields numbers.
 :func:`json_schema` is the file's JSON Schema (``docs/schemas/calibration.schema.json``).
+:meth:`CalibrationFile.apply` applies every section to a :class:`calib.file.apply.Recording` (raw counts in,
+physical units out), refusing a recording the file is not for.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import json
 import os
 import tempfile
 from pathlib import Path
-from typing import Any, ClassVar, Optional
+from typing import Any, ClassVar, Iterable, Optional
 
 import yaml
 from pydantic import (BeforeValidator, ConfigDict, Field, FiniteFloat, NonNegativeInt, StrictBool, field_validator,
@@ -23,6 +25,7 @@ from pydantic.json_schema import SkipJsonSchema
 from typing_extensions import Annotated, TypedDict
 
 from calib.file import yamlsafe
+from calib.file.apply import CalibratedRecording, Recording, apply_calibration
 from calib.accel.result import AccelCalibration
 from calib.accel.target_record import TargetRecord
 from calib.errors import CalibrationFileError
@@ -134,6 +137,31 @@ class CalibrationFile(CalibrationSection):
             if d.get(key) is None:
                 d.pop(key, None)
         return d
+
+    def apply(self, recording: Recording, sensors: str | Iterable[str] | None = None,
+              source: str | None = None) -> CalibratedRecording:
+        """The one way to apply a calibration file: raw counts of ``recording`` in, physical units out.
+
+        Parameters
+        ----------
+        recording : :class:`calib.file.apply.Recording`: data per sensor (N, 3), ``t_s``, ``temp_c``, and
+            what they were recorded as (sensor model, sensitivity of the range, unit).
+        sensors : the sections to apply (``"accelerometer"``, ``"gyroscope"``, ``"magnetometer"``); default
+            every section of the file for which the recording has data.
+        source : how refusals name the file (its path); default the session it was solved from.
+
+        Returns
+        -------
+        :class:`calib.file.apply.CalibratedRecording`: ``f_g`` (g; ``f_ms2`` m/s^2), ``w_dps`` (deg/s),
+        ``h_ut`` (uT), sensor frame, with ``units()`` and the sections ``applied``.
+
+        Raises
+        ------
+        calib.file.apply.RecordingMismatch (a CalibError), one line naming the file, what it is for and
+        what the recording is: another sensor model, another sensitivity (full-scale range), another
+        unit, no section for the data, no temperature for a thermal model. docs/calibration-file.md.
+        """
+        return apply_calibration(self, recording, sensors, source)
 
     @field_validator("format", mode="before")
     @classmethod

@@ -81,6 +81,9 @@ class GyroCalibration(CalibrationSection):
     """
 
     CAL_TYPE: ClassVar[str] = "gyroscope"
+    #: the unit :meth:`apply` takes and the unit it gives (``calib.file.apply`` checks the recording's)
+    INPUT_UNIT: ClassVar[str] = "counts"
+    OUTPUT_UNIT: ClassVar[str] = "deg/s"
     LABEL: ClassVar[str] = "gyro"
     FILE_REQUIRED: ClassVar[tuple[str, ...]] = ("bias_pairs", "residual_rms_dps", "chi2_per_dof", "n_steps")
 

@@ -49,6 +49,10 @@ class MagCalibration(CalibrationSection):
     """
 
     CAL_TYPE: ClassVar[str] = "magnetometer"
+    #: the unit :meth:`apply` takes and the unit it gives: the chip's output already in uT (raw counts are
+    #: divided by the recording's counts per uT first: ``calib.file.apply``)
+    INPUT_UNIT: ClassVar[str] = "uT"
+    OUTPUT_UNIT: ClassVar[str] = "uT"
     FILE_REQUIRED: ClassVar[tuple[str, ...]] = ("fit_quality",)
 
     method: choice(*METHODS) = unit("-", "positions or ellipsoid")

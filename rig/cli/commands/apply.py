@@ -9,10 +9,9 @@ import numpy as np
 import pandas as pd
 
 from calib.file import calibration as calfile
-from calib.gyro import GyroCalibration
-from calib.mag import MagCalibration
+from rig.analysis.apply import recording_from_session
 from rig.cli.common import EXIT_OK, report_warnings
-from rig.session import MAG_COUNTS_PER_UT, load_session
+from rig.session import load_session
 
 
 def add_parser(sub) -> None:
@@ -26,26 +25,19 @@ def run(args) -> int:
     cal = calfile.read(args.calibration)
     session = load_session(args.session)
     report_warnings("apply", session)
-    d = session.samples
-    temp = d["temp_c"] if session.has_temperature else None
-    f = cal.accelerometer.apply(d["accel_counts"], temp_c=temp, t_s=d["t_s"])
-    table = {"t_s": _fmt(d["t_s"], "%.4f"), "step": d["step"].astype(np.int64).astype(str),
+    # the one entry point: every section the session has data for, after the sensor/range/unit checks
+    out = cal.apply(recording_from_session(session), source=str(args.calibration))
+    f, temp = out.f_g, out.temp_c
+    table = {"t_s": _fmt(out.t_s, "%.4f"), "step": session.samples["step"].astype(np.int64).astype(str),
              "fx": _fmt(f[:, 0], "%.7f"), "fy": _fmt(f[:, 1], "%.7f"), "fz": _fmt(f[:, 2], "%.7f"),
              "temp_c": _fmt(temp, "%.3f") if temp is not None else np.full(len(f), "")}
-    if cal.gyroscope and "gyro_counts" in d:
-        gyro = cal.gyroscope if isinstance(cal.gyroscope, GyroCalibration) else \
-            GyroCalibration.from_dict(cal.gyroscope, args.calibration)
-        w = gyro.apply(d["gyro_counts"])
-        table.update({f"w{a}_dps": _fmt(w[:, j], "%.5f") for j, a in enumerate("xyz")})
-    if cal.magnetometer and "mag_counts" in d:
-        mag = cal.magnetometer if isinstance(cal.magnetometer, MagCalibration) else \
-            MagCalibration.from_dict(cal.magnetometer, args.calibration)
-        info = session.info.rig.sensor.magnetometer
-        h = mag.apply(d["mag_counts"] / float((info.mag_lsb_per_ut if info else None) or MAG_COUNTS_PER_UT))
-        table.update({f"m{a}_ut": _fmt(h[:, j], "%.5f") for j, a in enumerate("xyz")})
-    out = Path(args.output)
-    write_atomically(out, lambda tmp: pd.DataFrame(table).to_csv(tmp, index=False, lineterminator="\r\n"))
-    print(f"wrote {len(f)} rows to {out}")
+    if out.w_dps is not None:
+        table.update({f"w{a}_dps": _fmt(out.w_dps[:, j], "%.5f") for j, a in enumerate("xyz")})
+    if out.h_ut is not None:
+        table.update({f"m{a}_ut": _fmt(out.h_ut[:, j], "%.5f") for j, a in enumerate("xyz")})
+    path = Path(args.output)
+    write_atomically(path, lambda tmp: pd.DataFrame(table).to_csv(tmp, index=False, lineterminator="\r\n"))
+    print(f"wrote {len(f)} rows to {path}")
     return EXIT_OK
 
 
