@@ -27,6 +27,8 @@ DEFERRED: tuple[tuple[str, str, str], ...] = (
     ("matplotlib", "", "a plot one command draws on request"),
     ("scipy.signal", "drivers.sensors.sim.noise", "the noise filter, only when a simulated sensor draws noise"),
     ("rig.simulation", "rig.workflow.kinds", "the sim and replay rig kinds, only when such a rig is opened"),
+    ("rig.simulation", "rig.composition", "the sim: and faults: schemas, only when a rig file has such a section"),
+    ("rig.composition", "rig.cli.main", "the composition root, called once a command runs (not for --help)"),
     ("rig.cli.commands", "rig.cli.commands", "a command's module, only when that command is given"),
     ("rig.cli.failures", "rig.cli.main", "every layer's error types (calib, pandas), once a command runs"),
     ("scipy.optimize", "calib.numerics.magnitude", "the magnitude method's nonlinear fit, only when that method is asked for"),

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from rig.workflow import kinds  # noqa: F401 - the suite is wired as the workflows are (rig.composition): rig kinds, sim:/faults:
+
 REPO = Path(__file__).resolve().parents[1]
 PROCEDURES = REPO / "procedures"
 RIGS = REPO / "rigs"

@@ -4,7 +4,8 @@ Every error is one line on stderr: what went wrong, where (file, line or field),
 expected. No tracebacks (set ``RIG_DEBUG=1`` to see them). Each command lives in its own module
 (``rig.cli.commands``); this module builds the parser and turns exceptions into exit codes (by the
 table in :mod:`rig.cli.failures`). It imports only the command given: ``rig --help`` and ``rig
---version`` load no command, no numpy (docs/architecture.md, "Deferred imports").
+--version`` load no command, no numpy (docs/architecture.md, "Deferred imports"). Once a command is
+given, :func:`main` calls the composition root (:func:`rig.composition.wire`) before running it.
 """
 
 from __future__ import annotations
@@ -61,6 +62,8 @@ def main(argv: list[str] | None = None) -> int:
         print("rig: give a command; see rig --help", file=sys.stderr)
         return EXIT_BAD_INPUT
     from rig.cli import failures  # deferred: the error types of every layer (calib, pandas), not for --help
+    from rig.composition import wire  # deferred: the composition root, once a command runs, not for --help
+    wire()  # the simulator's providers (rig.composition): every command reads rig files alike
     held: list[str] = []
     try:
         with warnings.catch_warnings():

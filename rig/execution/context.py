@@ -5,11 +5,17 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-from rig.execution.checks import CheckLimits
-from rig.execution.operator import Operator, StepProgress
+from rig.config.procedure import PlannedStep, Procedure
 from rig.devices.rig import Rig
 from rig.errors import RunAborted, RunError
+from rig.execution.checks import CheckLimits
+from rig.execution.operator import Operator, StepProgress
+from rig.session.writer import SessionWriter
+
+if TYPE_CHECKING:  # the policy's module imports this one (and the capture, which imports this one)
+    from rig.execution.executors.target_policy import TargetPolicy
 
 __all__ = ["EngineOptions", "RunAborted", "RunContext", "RunError", "StepOutcome"]
 
@@ -45,14 +51,15 @@ class StepOutcome:
 class RunContext:
     """The state a run shares between its steps.
 
-    ``recorder`` is the session writer (``event``, ``append_samples``, ``complete_step``);
-    ``t0_s`` is the rig-clock time of session time 0 (earlier than now on a resume, so session
-    time continues); ``estimates_s`` the expected duration of every step (for the run's ETA).
+    ``recorder`` is the session being written (events, samples, finished steps; its typed manifest
+    ``info`` as written so far and its ``session_dir``); ``t0_s`` is the rig-clock time of session time 0 (earlier
+    than now on a resume, so session time continues); ``estimates_s`` the expected duration of every
+    step (for the run's ETA).
     """
 
-    procedure: object
+    procedure: Procedure
     rig: Rig
-    recorder: object
+    recorder: SessionWriter
     operator: Operator
     options: EngineOptions
     t0_s: float
@@ -61,8 +68,8 @@ class RunContext:
     magnetometer_samples: int = 0
     io_retries_seen: int = 0
     outcomes: list[StepOutcome] = field(default_factory=list)
-    #: the run's accuracy-target policy (rig.execution.executors.target_policy), made by the first targeted pose
-    target: object | None = None
+    #: the run's accuracy-target policy, made by the first targeted pose
+    target: TargetPolicy | None = None
     wall0_s: float = field(default_factory=time.monotonic)
 
     def session_time(self) -> float:
@@ -73,19 +80,19 @@ class RunContext:
         """Record an event stamped with the session time."""
         self.recorder.event(kind, t_s=self.session_time(), **fields)
 
-    def warn(self, step, message: str, **fields) -> None:
+    def warn(self, step: PlannedStep, message: str, **fields) -> None:
         """A warning in the session's events and on the operator's screen."""
         self.recorder.event("warning", t_s=self.session_time(), step=step.index, message=message, **fields)
         self.operator.warn(message)
 
-    def progress(self, step, phase: str, **fields) -> None:
+    def progress(self, step: PlannedStep, phase: str, **fields) -> None:
         eta_s = fields.get("eta_s")
         current = self.estimates_s[step.index] if eta_s is None else eta_s
         run_eta = sum(self.estimates_s[step.index + 1:]) + current
         self.operator.progress(StepProgress(index=step.index, total=self.total_steps, name=step.name, phase=phase,
                                             run_eta_s=run_eta, **fields))
 
-    def finish(self, step, stats: dict, status: str, n_samples: int, problems: list[str]) -> None:
+    def finish(self, step: PlannedStep, stats: dict, status: str, n_samples: int, problems: list[str]) -> None:
         """Commit a captured step (durable on return) and note its outcome."""
         self.recorder.complete_step(step.index, stats, status=status)
         self.event("capture", step=step.index, n_samples=n_samples, status=status)

@@ -1,13 +1,14 @@
 """The engine: owns the loop over a procedure's steps, the abort and the cleanup.
 
-Each step kind has a small executor (``rig.execution.executors``); the engine checks every
-remaining step before anything moves (:meth:`Engine.preflight`), prepares the axes and runs the
-steps, and stops the motors on any error or interruption. Every finished step is durable before
+Each step kind has a small executor (an :class:`~rig.execution.executors.Executor`, chosen by the
+table of ``rig.execution.executors``); the engine checks every remaining step before anything moves
+(:meth:`Engine.preflight`), prepares the axes and runs the steps, and stops the motors on any error or interruption. Every finished step is durable before
 the next begins, so an interrupted run resumes from the first incomplete step (``first_step``).
 """
 
 from __future__ import annotations
 
+from rig.config.procedure import Procedure
 from rig.devices.rig import Rig
 from rig.errors import RigInputError
 from rig.execution.context import EngineOptions, RunAborted, RunContext, StepOutcome
@@ -16,9 +17,10 @@ from rig.execution.executors import executor_for
 from rig.execution.motion import check_reachable, stop_motors
 from rig.execution.operator import Operator, OperatorAbsent, SilentOperator
 from rig.planning.kinematics import AXES
+from rig.session.writer import SessionWriter
 
 
-def check_before_recording(procedure, rig: Rig, operator: Operator, *, first_step: int = 0,
+def check_before_recording(procedure: Procedure, rig: Rig, operator: Operator, *, first_step: int = 0,
                            start_deg: dict[str, float] | None = None) -> None:
     """Everything that can be refused before a session directory exists or anything moves: the sensor
     the procedure names, every remaining pose and rate (soft limits, cable wrap, stage speed), a
@@ -31,9 +33,7 @@ def check_before_recording(procedure, rig: Rig, operator: Operator, *, first_ste
     steps = procedure.expanded_steps()[first_step:]
     check_reachable(procedure, steps, rig, start_deg)
     for step in steps:
-        check = getattr(executor_for(step), "preflight", None)
-        if check is not None:
-            check(procedure, step, rig)
+        executor_for(step).preflight(procedure, step, rig)
     asks = [s for s in steps if s.kind == "prompt" or (
         s.kind == "thermal" and (s.temperature.mode != "wait" or rig.chamber is None))]
     if asks and not operator.can_confirm():
@@ -62,8 +62,8 @@ class Engine:
         Magnetometer readings per static step (0: the procedure does not read it).
     """
 
-    def __init__(self, procedure, rig: Rig, recorder, operator: Operator | None = None, *, first_step: int = 0,
-                 options: EngineOptions = EngineOptions(), time_offset_s: float = 0.0,
+    def __init__(self, procedure: Procedure, rig: Rig, recorder: SessionWriter, operator: Operator | None = None, *,
+                 first_step: int = 0, options: EngineOptions = EngineOptions(), time_offset_s: float = 0.0,
                  magnetometer_samples: int = 0) -> None:
         self.procedure = procedure
         self.steps = procedure.expanded_steps()

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+from rig.config.procedure import PlannedStep
 from rig.execution.context import RunAborted, RunContext
 
 
-def execute(ctx: RunContext, step) -> None:
+def execute(ctx: RunContext, step: PlannedStep) -> None:
     ctx.progress(step, "prompt")
     ok = ctx.operator.confirm(step.prompt)
     ctx.event("prompt", step=step.index, text=step.prompt, answer="yes" if ok else "abort")

@@ -15,15 +15,18 @@ last recorded capture, waits until the sensor is there, and ramps on from it at 
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Callable
 
 import numpy as np
 
+from rig.config.procedure import PlannedStep, Procedure, RampPlan
 from rig.config.procedure_schema import TemperatureTarget
+from rig.devices.rig import Rig
 from rig.execution.capture import settle_and_capture
 from rig.execution.context import RunAborted, RunContext, StepOutcome
 from rig.execution.executors import temperature
 from rig.execution.executors.static import run_pose
-from rig.execution.operator import StepProgress
+from rig.execution.operator import Operator, StepProgress
 
 #: a resume waits until the sensor is this close to the temperature it resumes the ramp from (C), for this long (s)
 RESUME_TOLERANCE_C = 0.3
@@ -32,12 +35,12 @@ RESUME_HOLD_S = 10.0
 RATE_WINDOW_S = 30.0
 
 
-def preflight(procedure, step, rig) -> None:
+def preflight(procedure: Procedure | None, step: PlannedStep, rig: Rig) -> None:
     """A ramp reads the sensor's thermometer."""
     temperature.preflight(procedure, step, rig)
 
 
-def execute(ctx: RunContext, step) -> None:
+def execute(ctx: RunContext, step: PlannedStep) -> None:
     (start if step.ramp.capture == 0 else capture)(ctx, step)
 
 
@@ -112,10 +115,23 @@ class RampProgress:
     over the last :data:`RATE_WINDOW_S` of the capture's readings, before them the previous capture's, and
     the captures done of the leg); everything else passes through. ``now`` gives the session time, s."""
 
-    def __init__(self, inner, plan, now, last_rate_c_per_min: float | None) -> None:
+    def __init__(self, inner: Operator, plan: RampPlan, now: Callable[[], float],
+                 last_rate_c_per_min: float | None) -> None:
         self.inner, self.plan, self.now = inner, plan, now
         self.rate = last_rate_c_per_min
         self.readings: list[tuple[float, float]] = []
+
+    def info(self, message: str) -> None:
+        self.inner.info(message)
+
+    def warn(self, message: str) -> None:
+        self.inner.warn(message)
+
+    def confirm(self, question: str) -> bool:
+        return self.inner.confirm(question)
+
+    def can_confirm(self) -> bool:
+        return self.inner.can_confirm()
 
     def progress(self, p: StepProgress) -> None:
         if p.temp_c is not None and p.temp_c == p.temp_c:
@@ -129,19 +145,19 @@ class RampProgress:
                 f"{self.plan.capture - 1}/{self.plan.captures} captured)")
         self.inner.progress(replace(p, name=name))
 
-    def __getattr__(self, name):
+    def __getattr__(self, name):  # anything else the operator has (a console's own attributes)
         return getattr(self.inner, name)
 
 
 def _previous_rate(ctx: RunContext, step) -> float | None:
     """The temperature rate the previous capture of the same leg measured, C/min (None: none yet)."""
-    steps = getattr(ctx.recorder, "manifest", {}).get("steps") or []
-    previous = steps[step.index - 1] if 0 < step.index <= len(steps) else {}
-    ramp = (previous.get("stats") or {}).get("ramp") or {}
+    steps = ctx.recorder.info.steps
+    stats = steps[step.index - 1].stats if 0 < step.index <= len(steps) else None
+    ramp = getattr(stats, "ramp", None) or {}  # an extra key of the recorded stats (StepStats keeps unknown keys)
     return ramp.get("temp_rate_c_per_min") if ramp.get("leg") == step.ramp.leg else None
 
 
-def restore(ctx: RunContext, step, next_step=None) -> None:
+def restore(ctx: RunContext, step: PlannedStep, next_step: PlannedStep | None = None) -> None:
     """On a resume after ramp start step ``step``: within the leg, bring the chamber to the temperature of the
     leg's last recorded capture, wait until the sensor holds it, and ramp on from there; after the leg, hold
     its ``to_c`` as a temperature step would."""
@@ -161,9 +177,8 @@ def restore(ctx: RunContext, step, next_step=None) -> None:
 
 def _last_capture_c(ctx: RunContext, leg: int, step) -> float:
     """Mean temperature of the leg's last recorded capture (the ramp's start temperature when none), C."""
-    info = getattr(ctx.recorder, "info", None)
-    for record in reversed(info.steps if info is not None else []):
-        ramp = getattr(record, "ramp", None)
+    for record in reversed(ctx.recorder.info.steps):
+        ramp = getattr(record, "ramp", None)  # the step's ramp plan: an extra key of the record
         stats = record.stats
         if (isinstance(ramp, dict) and ramp.get("leg") == leg and record.status in ("complete", "flagged")
                 and stats is not None and stats.temp_c is not None):

@@ -12,6 +12,7 @@ from typing import Callable
 import numpy as np
 
 from drivers.sensors.base import SensorError
+from rig.config.procedure import PlannedStep
 from rig.execution.capture import Capture, expected_samples, settle_and_capture
 from rig.execution.checks import check_step
 from rig.execution.context import RunContext
@@ -19,11 +20,11 @@ from rig.execution.motion import angles_now_deg, move_to
 from rig.session import MAG_COUNTS_PER_UT
 
 
-def execute(ctx: RunContext, step) -> None:
+def execute(ctx: RunContext, step: PlannedStep) -> None:
     run_pose(ctx, step, settle_and_capture)
 
 
-def run_pose(ctx: RunContext, step, capture_step: Callable[[RunContext, object], Capture],
+def run_pose(ctx: RunContext, step: PlannedStep, capture_step: Callable[[RunContext, PlannedStep], Capture],
              extra_stats: Callable[[], dict] | None = None, expected: int | None = None) -> tuple[Capture, str]:
     """Move, capture with ``capture_step`` (re-measured on bad data), record; return the capture and
     the step's status. ``extra_stats`` adds keys to the step's recorded stats (a targeted pose's

@@ -22,8 +22,10 @@ import numpy as np
 
 from calib.accel.predict import Predictor, describe, plan_dwell, planned_sems, unit_of
 from calib.numerics.uncertainty import pooled_vif, step_standard_errors
+from rig.config.procedure import Procedure
+from rig.devices.rig import Rig
 from rig.execution.capture import nominal_dwell_s
-from rig.execution.context import RunError
+from rig.execution.context import RunContext, RunError
 from rig.planning.kinematics import AXES
 from rig.planning.targets import move_time_s
 from rig.session import load_session
@@ -65,7 +67,7 @@ class TargetSetup:
     """What a target's planning needs and a run does not change: the goal, its predictor, the static
     steps and the time each costs beyond its dwell on this rig (the preflight uses it alone)."""
 
-    def __init__(self, procedure, rig) -> None:
+    def __init__(self, procedure: Procedure, rig: Rig) -> None:
         sensor = rig.sensor
         self.rig = rig
         self.spec = procedure.target
@@ -99,7 +101,7 @@ class TargetSetup:
 class TargetPolicy:
     """The run's target state: the captured steps, the plan, and the decisions (see the module)."""
 
-    def __init__(self, ctx, recorded: dict[int, tuple[np.ndarray, np.ndarray]] | None = None) -> None:
+    def __init__(self, ctx: RunContext, recorded: dict[int, tuple[np.ndarray, np.ndarray]] | None = None) -> None:
         self.ctx = ctx
         self.setup = setup = TargetSetup(ctx.procedure, ctx.rig)
         self.spec, self.goal, self.rate = setup.spec, setup.goal, setup.rate
@@ -116,11 +118,9 @@ class TargetPolicy:
         self.warned = False
 
     @classmethod
-    def for_run(cls, ctx) -> "TargetPolicy":
+    def for_run(cls, ctx: RunContext) -> "TargetPolicy":
         """The policy of this run; a resumed run starts from the static steps already recorded."""
-        manifest = getattr(ctx.recorder, "manifest", None) or {}
-        done = [s["index"] for s in manifest.get("steps", []) if s.get("status") == "complete"
-                and s.get("kind") == "static"]
+        done = [s.index for s in ctx.recorder.info.steps if s.status == "complete" and s.kind == "static"]
         recorded = {}
         if done:
             session = load_session(ctx.recorder.session_dir)

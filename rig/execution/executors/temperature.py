@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from rig.config.procedure import PlannedStep, Procedure
+from rig.devices.rig import Rig
 from rig.execution.context import RunAborted, RunContext, RunError, StepOutcome
 
 
-def preflight(procedure, step, rig) -> None:
+def preflight(procedure: Procedure | None, step: PlannedStep, rig: Rig) -> None:
     """A temperature step needs a thermometer on the sensor."""
     if not rig.sensor.has_temperature:
         raise RunError(f"step {step.index + 1} ({step.name}) waits for the sensor's thermometer, "
@@ -38,7 +40,7 @@ def apply_setpoint(ctx: RunContext, step) -> None:
         chamber.set_target_c(target.target_c)
 
 
-def execute(ctx: RunContext, step) -> None:
+def execute(ctx: RunContext, step: PlannedStep) -> None:
     preflight(None, step, ctx.rig)
     apply_setpoint(ctx, step)
     clock = ctx.rig.clock
@@ -50,7 +52,7 @@ def execute(ctx: RunContext, step) -> None:
     ctx.outcomes.append(StepOutcome(step.index, "complete", 0))
 
 
-def restore(ctx: RunContext, step, next_step=None) -> None:
+def restore(ctx: RunContext, step: PlannedStep, next_step: PlannedStep | None = None) -> None:
     """On a resume after temperature step ``step`` (``next_step``: the step the run resumes at): set its
     set-point again and wait until the sensor is back in band before the next capture (the chamber may
     have drifted while the run was stopped); the step itself stays as recorded."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import subprocess
 import sys
 
@@ -61,19 +62,58 @@ def test_error_model_overrides_accept_exactly_the_error_models_fields():
         assert list(schema.model_fields) == _fields(cls)
 
 
-def test_loading_a_simulated_rig_file_imports_its_schemas_lazily_and_rig_config_imports_no_simulator():
-    code = ("import sys\n"
-            "import rig.config.rigfile, rig.config.procedure\n"
-            "bad = [m for m in sys.modules if m.startswith(('rig.simulation', 'drivers.ximc.sim', 'drivers.sensors.sim'))]\n"
-            "assert not bad, bad\n"
-            "rig.config.rigfile.load_rig_file('rigs/sim.yaml')\n"
-            "assert 'rig.simulation.settings' in sys.modules\n"
-            "try:\n"
-            "    rig.config.rigfile.load_rig_file('rigs/sim.yaml'.replace('sim.yaml', 'missing.yaml'))\n"
-            "except Exception as e:\n"
-            "    print(e)\n")
+#: what a fresh interpreter prints about a rig file it loads: the sections (or the one-line refusal) and whether
+#: the simulator was loaded; ``{before}`` is what the program imports first, ``{wire}`` how it is wired
+LOAD_PROBE = """
+import json, sys
+{before}
+import rig.config.rigfile
+from rig.errors import RigInputError
+def simulator_loaded():
+    return sorted({{m.split('.')[0] + '.' + m.split('.')[1] for m in sys.modules
+                    if m.startswith(('rig.simulation', 'drivers.ximc.sim', 'drivers.sensors.sim'))}})
+{wire}
+loaded_before = simulator_loaded()
+hardware = rig.config.rigfile.load_rig_file('rigs/example_hardware.yaml')
+try:
+    rig = rig.config.rigfile.load_rig_file('rigs/sim.yaml')
+    answer = {{'sim': rig.sim, 'faults': rig.faults}}
+except RigInputError as exc:
+    answer = str(exc)
+print(json.dumps({{'answer': answer, 'loaded_before': loaded_before, 'hardware': hardware.kind,
+                  'settings': 'rig.simulation.settings' in sys.modules}}, sort_keys=True, default=str))
+"""
+
+
+def _load_in_a_fresh_interpreter(before: str, wire: str) -> dict:
+    code = LOAD_PROBE.format(before=before, wire=wire)
     proc = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=120)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def test_a_wired_program_loads_a_simulated_rig_file_alike_whatever_it_imported_before():
+    """The composition root wires the sections' provider without loading the simulator; the first sim: section
+    loads it, and the answer is the same whether the simulator, the workflows or nothing was imported first."""
+    wire = "import rig.composition\nrig.composition.wire()"
+    plain = _load_in_a_fresh_interpreter("", wire)
+    assert plain["loaded_before"] == [] and plain["settings"] and plain["hardware"] == "hardware"
+    assert isinstance(plain["answer"], dict) and plain["answer"]["sim"]["time_scale"] == 10
+    simulator_first = _load_in_a_fresh_interpreter("import rig.simulation", wire)
+    workflows = _load_in_a_fresh_interpreter("import rig.workflow.run", "")  # wired by rig.workflow.kinds
+    assert workflows["loaded_before"] == []
+    assert simulator_first["answer"] == workflows["answer"] == plain["answer"]
+
+
+def test_an_unwired_program_refuses_a_sim_section_whatever_it_imported_before():
+    """rig.config alone imports no simulator and, unwired, refuses the sim: section on its line, also when the
+    simulator was imported (its schemas registered themselves); a hardware rig file loads."""
+    plain = _load_in_a_fresh_interpreter("", "")
+    assert plain["loaded_before"] == [] and not plain["settings"] and plain["hardware"] == "hardware"
+    assert plain["answer"].startswith("rigs/sim.yaml:16: sim: no provider of the 'sim' section is wired into this "
+                                      "program") and "rig.composition.wire()" in plain["answer"]
+    simulator_first = _load_in_a_fresh_interpreter("import rig.simulation", "")
+    assert simulator_first["answer"] == plain["answer"]
 
 
 def test_a_sim_section_is_located_and_belongs_only_to_simulated_rigs():
