@@ -110,7 +110,7 @@ class Design:
         if jump_t_s is not None:
             m.bias_jump_t_s = jump_t_s
         out = m.output_g(self.f, self.temp, self.t_mid, self.heating, self.rate)
-        proc = NoiseProcess([STABILITY.bias_instability_g] * 3, [STABILITY.random_walk_g_per_rts] * 3,
+        proc = NoiseProcess([STABILITY.bias_instability] * 3, [STABILITY.random_walk_per_rts] * 3,
                             np.random.default_rng(rng.integers(2**62)), flicker_band_s=(0.02, CHIP.accel_flicker_corner_s))
         times = [np.linspace(t - d / 2, t + d / 2, n) for t, d, n in zip(self.t_mid, self.dur, self.n)]
         noise = proc.sample(np.concatenate(times), np.asarray(m.noise_density_g_per_rthz, float), BANDWIDTH_HZ)

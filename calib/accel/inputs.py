@@ -94,7 +94,7 @@ class StepMeans:
 
     def bias_stability_counts(self) -> float:
         """1-sigma (counts) by which the session's bias stands off the sensor's long-run bias
-        (:meth:`BiasStability.sigma_g` over the span of the steps' times); 0 when unknown."""
+        (:meth:`BiasStability.sigma` over the span of the steps' times); 0 when unknown."""
         if self.bias_stability is None or len(self) == 0:
             return 0.0
-        return self.bias_stability.sigma_g(float(np.ptp(self.t_s))) * float(self.lsb_per_g)
+        return self.bias_stability.sigma(float(np.ptp(self.t_s))) * float(self.lsb_per_g)

@@ -136,7 +136,7 @@ class Predictor:
     - ``bias_floor_counts``: 1-sigma by which the session's bias stands off the sensor's long-run
       bias (:meth:`calib.accel.inputs.StepMeans.bias_stability_counts`), added to every bias's
       variance (what is common to the whole session; not the wander *between* the steps);
-    - ``stability`` (:class:`calib.accel.inputs.BiasStability`) and a ``timeline``, the steps'
+    - ``stability`` (:class:`calib.numerics.stability.BiasStability`) and a ``timeline``, the steps'
       capture windows ``(t_mid_s (K,), duration_s (K,))``: the covariance is that of the solver's
       generalised least squares, ``(G^T V^-1 G)^-1`` with ``V = diag(sem^2) + lsb^2 W`` and ``W`` the
       wander between the windows (:func:`calib.numerics.wander.wander_cov_g2`), which holds both the common part

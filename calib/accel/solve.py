@@ -178,7 +178,7 @@ def wander_covariance(steps: StepMeans, sem_counts: np.ndarray, w_counts2: np.nd
     """Covariance (K, K) of the step means of one axis, counts^2: each step's own standard error on the
     diagonal plus the chip's bias wander between the steps' capture windows
     (:func:`calib.numerics.wander.wander_cov_g2`: flicker and random walk of
-    :class:`calib.accel.inputs.BiasStability`, exact for window means), times ``lsb_per_g^2``.
+    :class:`calib.numerics.stability.BiasStability`, exact for window means), times ``lsb_per_g^2``.
 
     Over a session the wander is common to steps close in time and differs between distant ones: a
     six-position run sees it mostly as one offset of all its biases (what the bias-stability term

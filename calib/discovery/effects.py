@@ -7,9 +7,13 @@ with the same weighted least squares as the baseline::
 
     a = M f + b + lsb_per_g * sum_effects contribution_g(params, inputs)
 
-The equations match the simulator's error model (drivers/sensors/error_model.py
-and rig/world.py; docs/discrepancy.md), so a hidden effect's estimate compares
-directly with the value switched on in a rig file.
+The equations match the simulator's error model (drivers/sensors/sim/error_model.py
+and rig/simulation/world.py; docs/discrepancy.md), so a hidden effect's estimate compares
+directly with the value switched on in a rig file. Each effect of the sensor names the
+error-model field that holds it (``Effect.sim_field``): the one map from an effect to the
+simulator, read by the simulated rig (``sim: effects:`` of a rig file,
+rig/simulation/settings.py) and by the digital twin (rig/analysis/twin.py), which calib
+may not import and which may not import each other.
 
 =========================  =========  ===========================================================
 name                       unit       output term (axis j; dT = T - t0_c, Mn = M / lsb_per_g)
@@ -102,6 +106,10 @@ class Effect:
     coverage : the pose / temperature coverage that makes it observable (for reports).
     on_sensor : False for properties of the rig (applied by nobody at ``apply`` time).
     contribution : (params (P,), EffectInputs) -> (K, 3) output term, g.
+    sim_field : the field of the simulator's accelerometer error model
+        (``drivers.sensors.sim.error_model.AccelErrorModel``) that holds this effect's parameters, in
+        the same unit and order (a 3x3 field row by row); None for an effect the simulated world
+        injects otherwise (``table_tilt``: the table's tilt; ``full_misalignment``: a mounting rotation).
     """
 
     name: str
@@ -112,6 +120,7 @@ class Effect:
     coverage: str
     on_sensor: bool
     contribution: Callable[[np.ndarray, EffectInputs], np.ndarray]
+    sim_field: str | None = None
 
     def columns_g(self, x: EffectInputs) -> np.ndarray:
         """Design columns (K, 3, P): the output term per unit of each parameter, g."""
@@ -175,37 +184,40 @@ def _heating(x):
 
 LIBRARY: dict[str, Effect] = {e.name: e for e in [
     Effect("bias_tempco", "bias linear in temperature", "g/C", AXES, ("temp",),
-           "steps spread over at least 2 C", True, _per_axis(lambda x: x.dt_c()[:, None])),
+           "steps spread over at least 2 C", True, _per_axis(lambda x: x.dt_c()[:, None]),
+           sim_field="bias_tempco_g_per_c"),
     Effect("bias_tempco_quadratic", "bias quadratic in temperature", "g/C^2", AXES, ("temp",),
            "steps at 3 or more temperatures spread over at least 2 C", True,
-           _per_axis(lambda x: x.dt_c()[:, None] ** 2)),
+           _per_axis(lambda x: x.dt_c()[:, None] ** 2), sim_field="bias_tempco2_g_per_c2"),
     Effect("scale_tempco", "scale factor linear in temperature", "1/C", AXES, ("temp",),
-           "+ and - poses of each axis at 2 or more temperatures", True, _scale_tempco),
+           "+ and - poses of each axis at 2 or more temperatures", True, _scale_tempco,
+           sim_field="scale_tempco_per_c"),
     Effect("scale_nonlinearity", "output quadratic in the input along the same axis", "1/g", AXES, (),
            "three or more levels of each axis' input (e.g. -1, 0, +1 g)", True,
-           _per_axis(lambda x: x.f_g ** 2)),
+           _per_axis(lambda x: x.f_g ** 2), sim_field="scale_nonlinearity"),
     Effect("cross_axis_nonlinearity", "output depending on products of two input components", "1/g",
            tuple(f"{o}_{q}" for o in AXES for q in ("xy", "yz", "zx")), (),
-           "edge or corner poses (two input components non-zero at once)", True, _cross),
+           "edge or corner poses (two input components non-zero at once)", True, _cross,
+           sim_field="cross_axis_nonlinearity"),
     Effect("full_misalignment", "couplings below the triangular model's diagonal (mounting rotation)", "rad",
            ("yx", "zx", "zy"), (), "poses along all three axes", True, _full_mis),
     Effect("table_tilt", "turntable base out of level (about base x, base y)", "deg", ("x", "y"),
            ("rotation",), "the outer axis turned between poses", False, _tilt),
     Effect("bias_drift", "bias changing linearly with time", "g/s", AXES, (),
            "steps spread in time, not in step with temperature", True,
-           _per_axis(lambda x: (np.asarray(x.t_s, float) - x.t_ref_s)[:, None])),
+           _per_axis(lambda x: (np.asarray(x.t_s, float) - x.t_ref_s)[:, None]), sim_field="bias_drift_g_per_s"),
     Effect("thermal_hysteresis", "bias offset after heating versus after cooling (+h/2, -h/2)", "g", AXES,
            ("temp", "legs"), "the same temperatures visited on a heating and a cooling leg", True,
-           _per_axis(lambda x: 0.5 * _heating(x)[:, None])),
+           _per_axis(lambda x: 0.5 * _heating(x)[:, None]), sim_field="thermal_hysteresis_g"),
     Effect("bias_tempco_cubic", "bias cubic in temperature", "g/C^3", AXES, ("temp",),
            "steps at 4 or more temperatures spread over at least 2 C", True,
-           _per_axis(lambda x: x.dt_c()[:, None] ** 3)),
+           _per_axis(lambda x: x.dt_c()[:, None] ** 3), sim_field="bias_tempco3_g_per_c3"),
     Effect("thermal_gradient", "bias proportional to the rate of temperature change dT/dt", "g/(C/s)", AXES,
            ("temp", "rate"), "steps captured at different temperature rates (while the chamber ramps)", True,
-           _per_axis(lambda x: _rate(x)[:, None])),
+           _per_axis(lambda x: _rate(x)[:, None]), sim_field="thermal_gradient_g_per_c_per_s"),
     Effect("bias_jump", "a bias step at a time found by the search (shock, mode change)", "g", AXES, ("time",),
            "steps before and after the jump (at least 3 on each side)", True,
-           _per_axis(lambda x: _jump(x)[:, None])),
+           _per_axis(lambda x: _jump(x)[:, None]), sim_field="bias_jump_g"),
 ]}
 
 #: extra fields an effect entry of a calibration file carries, per effect

@@ -8,7 +8,7 @@ import numpy as np
 
 from calib.numerics.affine import check_array, check_times
 from calib.errors import CalibError
-from calib.numerics.wander import SensorStability
+from calib.numerics.stability import BiasStability
 
 
 @dataclass(frozen=True)
@@ -27,7 +27,7 @@ class RateStepMeans:
     f_mean_g : (K, 3) mean specific force during each step, sensor frame, g, or None.
     t_s : (K,) mid-time of each step's capture, s from session start, or None (unknown).
     duration_s : (K,) how long each step's capture lasted, s, or None (point values in time).
-    bias_stability : the gyroscope's :class:`calib.numerics.wander.SensorStability` (deg/s), or None (unknown: the steps are
+    bias_stability : the gyroscope's :class:`calib.numerics.stability.BiasStability` (deg/s), or None (unknown: the steps are
         weighed by their standard errors alone). Used only with ``t_s``.
     """
 
@@ -40,7 +40,7 @@ class RateStepMeans:
     f_mean_g: np.ndarray | None = None
     t_s: np.ndarray | None = None
     duration_s: np.ndarray | None = None
-    bias_stability: SensorStability | None = None
+    bias_stability: BiasStability | None = None
 
     def __post_init__(self) -> None:
         k = len(self.names)

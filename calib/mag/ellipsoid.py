@@ -2,7 +2,7 @@
 
 :func:`calib.numerics.magnitude.fit_magnitude` fits ``|U (m_k - b)| = |h|`` to the step means weighing each
 step by its own standard error. The offset of a magnetometer wanders (flicker, random walk:
-:class:`calib.numerics.wander.SensorStability`), common to steps close in time and different between
+:class:`calib.numerics.stability.BiasStability`), common to steps close in time and different between
 distant ones, so the step means are correlated. Linearised about the fit, the residual
 ``r_k = |U (m_k - b)| - |h|`` moves by ``g_k . dm_k`` with ``g_k = U^T f_k / |f_k|`` (``f_k = U (m_k - b)``),
 and the residuals' covariance is

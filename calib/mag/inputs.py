@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib.numerics.affine import check_array, check_times
-from calib.numerics.wander import SensorStability
+from calib.numerics.stability import BiasStability
 
 
 @dataclass(frozen=True)
@@ -24,7 +24,7 @@ class MagStepMeans:
     n_samples : (K,) samples per step.
     t_s : (K,) mid-time of each step's readings, s from session start, or None (unknown).
     duration_s : (K,) how long each step's readings lasted, s, or None (point values in time).
-    bias_stability : the magnetometer's :class:`calib.numerics.wander.SensorStability` (uT), or None (unknown: the steps are
+    bias_stability : the magnetometer's :class:`calib.numerics.stability.BiasStability` (uT), or None (unknown: the steps are
         weighed by their standard errors alone). Used only with ``t_s``.
     """
 
@@ -35,7 +35,7 @@ class MagStepMeans:
     n_samples: np.ndarray
     t_s: np.ndarray | None = None
     duration_s: np.ndarray | None = None
-    bias_stability: SensorStability | None = None
+    bias_stability: BiasStability | None = None
 
     def __post_init__(self) -> None:
         k = len(self.names)

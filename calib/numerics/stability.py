@@ -1,47 +1,64 @@
 """How far a sensor's bias wanders, as an Allan-variance characterisation states it (docs/sensors.md,
-"Bias stability"), and what that leaves in the mean of a session."""
+"Bias stability"), and what that leaves in the mean of a session and between the means of its steps."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
 
-from calib.numerics.special import expn
+import numpy as np
 
-#: Allan deviation floor of flicker noise = sqrt(2 ln 2 / pi) * flicker coefficient (IEEE Std 952, annex C)
-FLICKER_FLOOR = math.sqrt(2 * math.log(2) / math.pi)
-#: the Euler-Mascheroni constant
-EULER_GAMMA = 0.5772156649015329
+from calib.errors import CalibError
+from calib.numerics.special import EULER_GAMMA, expn
+from calib.numerics.wander import FLICKER_FLOOR, PER_DECADE, TAU_MIN_S, wander_cov
+
+#: the units of the sensors' figures: accelerometer, gyroscope, magnetometer
+UNITS = ("g", "deg/s", "uT")
 
 
 @dataclass(frozen=True)
 class BiasStability:
-    """How far a sensor's bias wanders, as an Allan-variance characterisation states it.
+    """How far a sensor's bias wanders, as an Allan-variance characterisation states it, in the sensor's
+    own ``unit`` (docs/sensors.md, "Bias stability").
 
-    bias_instability_g : Allan deviation floor B of the bias (flicker), g.
-    random_walk_g_per_rts : bias random walk K, g/sqrt(s).
+    bias_instability : Allan deviation floor B of the bias (flicker), ``unit``.
+    random_walk_per_rts : bias random walk K, ``unit``/sqrt(s).
     flicker_corner_s : longest correlation time of the flicker (beyond it the bias no longer wanders
         as flicker), s.
+    unit : the unit of the figures (:data:`UNITS`: an accelerometer's "g", a gyroscope's "deg/s", a
+        magnetometer's "uT").
 
     A calibration session of duration T sees one realisation of the slow part of that wander: its
-    bias differs from the sensor's long-run bias by :meth:`sigma_g` (1-sigma), which no amount of
-    averaging within the session reveals (docs/sensors.md, "Bias stability").
+    bias differs from the sensor's long-run bias by :meth:`sigma` (1-sigma), which no amount of
+    averaging within the session reveals; between the means of its steps the wander is correlated
+    (:meth:`cov`).
     """
 
-    bias_instability_g: float
-    random_walk_g_per_rts: float
+    bias_instability: float
+    random_walk_per_rts: float
     flicker_corner_s: float
+    unit: str = "g"
 
-    def sigma_g(self, duration_s: float) -> float:
-        """1-sigma of a session's mean bias about the long-run bias, g: the variance of a T-second
+    def __post_init__(self) -> None:
+        if self.unit not in UNITS:
+            raise CalibError(f"BiasStability.unit: expected one of {', '.join(UNITS)}, got {self.unit!r}")
+
+    def sigma(self, duration_s: float) -> float:
+        """1-sigma of a session's mean bias about the long-run bias, ``unit``: the variance of a T-second
         mean of the flicker, ``(B / 0.664)^2 F(T / T_c) / (2 pi)`` (:func:`flicker_mean_factor`;
         ``ln(T_c / T) + 3/2 - gamma`` for T << T_c: the power below 1/T plus what the components of
         correlation time near T leave in the mean), plus the random walk's mean over the session,
         ``K^2 T / 3``."""
         t = max(float(duration_s), 1.0)
-        coeff = self.bias_instability_g / FLICKER_FLOOR
+        coeff = self.bias_instability / FLICKER_FLOOR
         flicker = coeff**2 * flicker_mean_factor(t / self.flicker_corner_s) / (2 * math.pi) if coeff > 0 else 0.0
-        return math.sqrt(flicker + self.random_walk_g_per_rts**2 * t / 3.0)
+        return math.sqrt(flicker + self.random_walk_per_rts**2 * t / 3.0)
+
+    def cov(self, t_mid_s, duration_s, *, tau_min_s: float = TAU_MIN_S, per_decade: int = PER_DECADE) -> np.ndarray:
+        """(K, K) covariance of the wander between the means of K steps centred at ``t_mid_s`` (s) lasting
+        ``duration_s`` (s; 0 or None: point values), ``unit`` squared (:func:`calib.numerics.wander.wander_cov`)."""
+        return wander_cov(t_mid_s, duration_s, self.bias_instability, self.random_walk_per_rts, self.flicker_corner_s,
+                          tau_min_s=tau_min_s, per_decade=per_decade)
 
 
 def flicker_mean_factor(a: float) -> float:

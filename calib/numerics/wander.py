@@ -1,8 +1,8 @@
 """The covariance between step means that a wandering bias implies.
 
-A MEMS accelerometer's bias is not constant: an Allan-variance characterisation
-(:class:`calib.accel.inputs.BiasStability`) states a flicker floor B (g) and a random
-walk K (g/sqrt(s)). Within one step the wander hardly moves, so the scatter of the step's
+A MEMS sensor's bias is not constant: an Allan-variance characterisation
+(:class:`calib.numerics.stability.BiasStability`) states a flicker floor B (an accelerometer's g)
+and a random walk K (g/sqrt(s)). Within one step the wander hardly moves, so the scatter of the step's
 own samples (its standard error) does not see it; between steps minutes apart it does,
 and a slow common wander of the step means looks like a drift, a jump or a temperature
 term to a search that treats the means as independent. This module gives the covariance
@@ -47,19 +47,20 @@ with itself. A constant added to every mean (the walk's value at the origin) lie
 span of any model with a bias, so the choice of origin does not change a fit.
 
 :func:`wander_cov` is in the square of the figures' unit, for any sensor (the gyroscope's deg/s, the
-magnetometer's uT); :func:`wander_cov_g2` is the accelerometer's, in g^2 (multiply by
-``lsb_per_g^2`` for counts^2).
+magnetometer's uT; :meth:`calib.numerics.stability.BiasStability.cov`); :func:`wander_cov_g2` is the
+accelerometer's, in g^2 (multiply by ``lsb_per_g^2`` for counts^2).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from calib.numerics.stability import FLICKER_FLOOR, BiasStability
+from calib.errors import CalibError
 
+#: Allan deviation floor of flicker noise = sqrt(2 ln 2 / pi) * flicker coefficient (IEEE Std 952, annex C)
+FLICKER_FLOOR = math.sqrt(2 * math.log(2) / math.pi)
 #: shortest flicker time constant modelled, s (faster wander is part of a step's own scatter)
 TAU_MIN_S = 0.05
 PER_DECADE = 4
@@ -137,42 +138,22 @@ def wander_cov(t_mid_s, duration_s, bias_instability: float, random_walk_per_rts
     return out
 
 
-@dataclass(frozen=True)
-class SensorStability:
-    """How far a sensor's bias wanders, as an Allan-variance characterisation states it, in the sensor's
-    own ``unit`` (a gyroscope's deg/s, a magnetometer's uT; docs/sensors.md, "Bias stability").
-
-    bias_instability : Allan deviation floor B of the bias (flicker), ``unit``.
-    random_walk_per_rts : bias random walk K, ``unit``/sqrt(s).
-    flicker_corner_s : longest correlation time of the flicker, s.
-    unit : the unit of the figures ("deg/s", "uT").
-    """
-
-    bias_instability: float
-    random_walk_per_rts: float
-    flicker_corner_s: float
-    unit: str
-
-    def cov(self, t_mid_s, duration_s) -> np.ndarray:
-        """(K, K) covariance of the wander between the means of steps centred at ``t_mid_s`` (s) lasting
-        ``duration_s`` (s), ``unit`` squared (:func:`wander_cov`)."""
-        return wander_cov(t_mid_s, duration_s, self.bias_instability, self.random_walk_per_rts, self.flicker_corner_s)
-
-
-def wander_cov_g2(t_mid_s, duration_s, stability: BiasStability | None, *, tau_min_s: float = TAU_MIN_S,
+def wander_cov_g2(t_mid_s, duration_s, stability, *, tau_min_s: float = TAU_MIN_S,
                   per_decade: int = PER_DECADE) -> np.ndarray:
     """(K, K) covariance (g^2) of the accelerometer's bias wander between the means of K steps centred
-    at ``t_mid_s`` (s) lasting ``duration_s`` (s; 0: point values); zeros when ``stability`` is None."""
+    at ``t_mid_s`` (s) lasting ``duration_s`` (s; 0: point values): :meth:`BiasStability.cov
+    <calib.numerics.stability.BiasStability.cov>` of ``stability`` (unit g); zeros when it is None."""
     t = np.asarray(t_mid_s, float)
     if stability is None:
         return np.zeros((len(t), len(t)))
-    return wander_cov(t, duration_s, stability.bias_instability_g, stability.random_walk_g_per_rts,
-                      stability.flicker_corner_s, tau_min_s=tau_min_s, per_decade=per_decade)
+    if stability.unit != "g":
+        raise CalibError(f"wander_cov_g2: expected the accelerometer's stability (g), got one in {stability.unit}")
+    return stability.cov(t, duration_s, tau_min_s=tau_min_s, per_decade=per_decade)
 
 
-def wander_rms_g(t_mid_s, duration_s, stability: BiasStability | None) -> float:
+def wander_rms_g(t_mid_s, duration_s, stability) -> float:
     """RMS (g) of the wander of the step means about their common mean: what the wander adds to the
-    scatter of the residuals (0 without a stability)."""
+    scatter of the residuals (0 without a stability; ``stability`` as for :func:`wander_cov_g2`)."""
     w = wander_cov_g2(t_mid_s, duration_s, stability)
     k = len(w)
     if k == 0:

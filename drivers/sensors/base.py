@@ -45,12 +45,19 @@ class CaptureStats:
 
 @dataclass(frozen=True)
 class SampleBlock:
-    """Samples read in one go: times in clock seconds, raw counts."""
+    """Samples read in one go, or of one capture: times (clock seconds), raw accelerometer counts (N, 3),
+    temperature (C, NaN: none) and raw gyroscope counts (N, 3; None: no gyroscope)."""
 
     t_s: np.ndarray
     accel_counts: np.ndarray
     temp_c: np.ndarray
     gyro_counts: np.ndarray | None = None
+
+    @classmethod
+    def empty(cls, with_gyro: bool) -> "SampleBlock":
+        """No samples (with an empty gyroscope array when ``with_gyro``)."""
+        return cls(np.empty(0), np.empty((0, 3), np.int64), np.empty(0),
+                   np.empty((0, 3), np.int64) if with_gyro else None)
 
     def __len__(self) -> int:
         return len(self.t_s)

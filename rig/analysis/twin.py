@@ -11,7 +11,8 @@ re-simulates the procedure (its text is written beside the twin) and ``rig compa
 the re-simulated session and the measured one disagree.
 
 The twin is written as YAML text and validated by the ordinary rig-file loader; nothing here
-imports the simulator (the field names are the simulator's, checked by the tests).
+imports the simulator: an effect's error-model field is the effect library's
+(:attr:`calib.discovery.effects.Effect.sim_field`, the map the simulated rig reads too).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import yaml
 from scipy.optimize import minimize_scalar
 
 from calib.accel.result import AccelCalibration
+from calib.discovery.effects import LIBRARY
 from calib.discovery.search import Discovery, discover
 from calib.numerics.uncertainty import pooled_vif
 from drivers.sensors.regs.mpu9150 import DLPF_BW_HZ
@@ -35,14 +37,10 @@ from rig.errors import RigInputError
 from rig.planning.kinematics import AXES
 from rig.session import Session, load_session, step_means
 
-#: calibration effect -> simulator error-model field (the same quantity and unit, docs/simulated-rig.md)
-ERROR_FIELDS = {"scale_nonlinearity": "scale_nonlinearity", "bias_drift": "bias_drift_g_per_s",
-                "thermal_hysteresis": "thermal_hysteresis_g", "thermal_gradient": "thermal_gradient_g_per_c_per_s",
-                "bias_jump": "bias_jump_g", "cross_axis_nonlinearity": "cross_axis_nonlinearity"}
 #: bias polynomial effects -> power of (T - t0)
 BIAS_POWERS = {"bias_tempco": 1, "bias_tempco_quadratic": 2, "bias_tempco_cubic": 3}
-#: error-model fields of the bias polynomial about ``t_ref_c``, power 0..3
-POLY_FIELDS = ("bias_g", "bias_tempco_g_per_c", "bias_tempco2_g_per_c2", "bias_tempco3_g_per_c3")
+#: error-model fields of the bias polynomial about ``t_ref_c``, power 0..3 (the effects' own fields, the bias's)
+POLY_FIELDS = ("bias_g", *(LIBRARY[name].sim_field for name in sorted(BIAS_POWERS, key=BIAS_POWERS.get)))
 #: the axis keys a twin carries over from the session's rig file
 AXIS_KEYS = ("sign", "home_offset_deg", "speed_deg_s", "accel_deg_s2", "soft_limits_deg", "cable_wrap_deg",
              "slip_ring")
@@ -107,7 +105,7 @@ def error_model(cal: AccelCalibration) -> tuple[dict, list, list]:
             _add_power(poly, p, BIAS_POWERS[name], t_ref - float(e.get("t0_c", t_ref)))
         elif name == "scale_tempco":  # 1 + s (T - t0) = (1 + s d) (1 + s / (1 + s d) (T - t_ref)), d = t_ref - t0
             row_scale = 1.0 + p * (t_ref - float(e.get("t0_c", t_ref)))
-            errors["scale_tempco_per_c"] = (p / row_scale).tolist()
+            errors[LIBRARY[name].sim_field] = (p / row_scale).tolist()
         elif name == "full_misalignment":  # y += p_yx Mn_yy fx, z += Mn_zz (p_zx fx + p_zy fy)
             matrix[1, 0] += p[0] * matrix[1, 1]
             matrix[2, 0] += p[1] * matrix[2, 2]
@@ -123,8 +121,9 @@ def error_model(cal: AccelCalibration) -> tuple[dict, list, list]:
 
 
 def _effect_fields(errors: dict, poly: np.ndarray, name: str, p: np.ndarray, entry: dict) -> None:
-    """The error-model fields of one effect (and its reference: drift time, jump time, hysteresis band)."""
-    errors[ERROR_FIELDS[name]] = p.reshape(3, 3).tolist() if name == "cross_axis_nonlinearity" else p.tolist()
+    """The error-model fields of one effect (its library field, :attr:`calib.discovery.effects.Effect.sim_field`,
+    and its reference: drift time, jump time, hysteresis band)."""
+    errors[LIBRARY[name].sim_field] = p.reshape(3, 3).tolist() if name == "cross_axis_nonlinearity" else p.tolist()
     if name == "bias_drift":  # b + p (t - t_ref_s) = (b - p t_ref_s) + p t
         poly[:, 0] -= p * float(entry.get("t_ref_s", 0.0))
     elif name == "bias_jump":

@@ -11,26 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from drivers.sensors.base import SampleBlock
 from rig.execution.context import RunContext, RunError
 from rig.execution.settle import SettleDetector, SettleRule
-
-
-@dataclass
-class Samples:
-    """Samples of one capture: times (rig clock, s), raw counts, temperature (C, NaN: none)."""
-
-    t_s: np.ndarray
-    accel_counts: np.ndarray
-    temp_c: np.ndarray
-    gyro_counts: np.ndarray | None
-
-    @classmethod
-    def empty(cls, with_gyro: bool) -> "Samples":
-        return cls(np.empty(0), np.empty((0, 3), np.int64), np.empty(0),
-                   np.empty((0, 3), np.int64) if with_gyro else None)
-
-    def __len__(self) -> int:
-        return len(self.t_s)
 
 
 @dataclass
@@ -38,7 +21,7 @@ class Capture:
     """One step's capture: the samples, how long settling took (s; None: it never settled) and
     the problems that flag the step."""
 
-    samples: Samples
+    samples: SampleBlock
     settle_s: float | None
     problems: list[str] = field(default_factory=list)
 
@@ -108,7 +91,7 @@ def nominal_dwell_s(step, rate_hz: float) -> float:
     return float(d.max_seconds or 600.0)
 
 
-def settle_with_accelerometer(ctx: RunContext, step) -> tuple[Samples, float | None, list[str]]:
+def settle_with_accelerometer(ctx: RunContext, step) -> tuple[SampleBlock, float | None, list[str]]:
     """Watch the accelerometer until consecutive windows agree (``SettleDetector``); return the
     samples to keep (none unless ``keep_settle_windows``), the settle time and problems."""
     sensor, clock = ctx.rig.sensor, ctx.rig.clock
@@ -127,21 +110,21 @@ def settle_with_accelerometer(ctx: RunContext, step) -> tuple[Samples, float | N
             break
         if clock.now() - t_start > rule.timeout_s:
             # capture anyway from here on; the step is flagged
-            return (Samples.empty(block.gyro_counts is not None), None,
+            return (SampleBlock.empty(block.gyro_counts is not None), None,
                     [f"did not settle within {rule.timeout_s:g} s"])
     ctx.event("settle", step=step.index, settle_s=settled.elapsed_s, noise_g=[float(x) for x in settled.noise_g])
     if ctx.options.keep_settle_windows:
-        keep = Samples(settled.keep_t_s, settled.keep_accel, settled.keep_temp_c, settled.keep_gyro)
+        keep = SampleBlock(settled.keep_t_s, settled.keep_accel, settled.keep_temp_c, settled.keep_gyro)
     else:
         # the windows that proved the table still hold the tail of the ringing, whose mean biases
         # the step mean by ~0.1 mg (rig discover named it as a spurious drift): start afresh
-        keep = Samples.empty(settled.keep_gyro is not None)
+        keep = SampleBlock.empty(settled.keep_gyro is not None)
     return keep, settled.elapsed_s, []
 
 
-def settle_not_needed(ctx: RunContext, step) -> tuple[Samples, float | None, list[str]]:
+def settle_not_needed(ctx: RunContext, step) -> tuple[SampleBlock, float | None, list[str]]:
     """A recording holds only settled samples: capture from its first sample."""
-    return Samples.empty(False), 0.0, []
+    return SampleBlock.empty(False), 0.0, []
 
 
 #: rig.settle -> how stillness is judged
@@ -165,7 +148,7 @@ def settle_and_capture(ctx: RunContext, step) -> Capture:
     raise AssertionError("unreachable: the last attempt returns or raises")
 
 
-def capture(ctx: RunContext, step, keep: Samples) -> Samples:
+def capture(ctx: RunContext, step, keep: SampleBlock) -> SampleBlock:
     """:func:`capture_dwell` on a started sensor (a rate step's constant-rate part); samples lost to the
     pace of the rig's clock have it captured again (the sensor restarted) and stop the run when every
     attempt loses samples (:func:`lost_samples`)."""
@@ -179,7 +162,7 @@ def capture(ctx: RunContext, step, keep: Samples) -> Samples:
     raise AssertionError("unreachable: the last attempt returns or raises")
 
 
-def capture_dwell(ctx: RunContext, step, keep: Samples) -> Samples:
+def capture_dwell(ctx: RunContext, step, keep: SampleBlock) -> SampleBlock:
     """Read the sensor until the dwell is done (samples, seconds, or a standard-error target)."""
     sensor, clock = ctx.rig.sensor, ctx.rig.clock
     rate, lsb, dwell = sensor.sample_rate_hz, sensor.accel_lsb_per_g, step.dwell
@@ -199,7 +182,7 @@ def capture_dwell(ctx: RunContext, step, keep: Samples) -> Samples:
         clock.sleep(poll_interval_s(sensor))
         block = sensor.read()
         if len(block.t_s):
-            parts.append(Samples(block.t_s, block.accel_counts, block.temp_c, block.gyro_counts))
+            parts.append(block)
             n += len(block.t_s)
             ctx.progress(step, "capture", noise_ug=_noise_ug(parts, lsb),
                          temp_c=float(block.temp_c[-1]) if len(block.temp_c) else None,
@@ -208,19 +191,19 @@ def capture_dwell(ctx: RunContext, step, keep: Samples) -> Samples:
     return _join(parts, n_target)
 
 
-def _join(parts: list[Samples], n_target: int) -> Samples:
+def _join(parts: list[SampleBlock], n_target: int) -> SampleBlock:
     gyros = [p.gyro_counts for p in parts if p.gyro_counts is not None]
-    out = Samples(np.concatenate([p.t_s for p in parts]),
-                  np.concatenate([p.accel_counts for p in parts]).astype(np.int64),
-                  np.concatenate([p.temp_c for p in parts]),
-                  np.concatenate(gyros).astype(np.int64) if gyros else None)
+    out = SampleBlock(np.concatenate([p.t_s for p in parts]),
+                      np.concatenate([p.accel_counts for p in parts]).astype(np.int64),
+                      np.concatenate([p.temp_c for p in parts]),
+                      np.concatenate(gyros).astype(np.int64) if gyros else None)
     if n_target:
-        out = Samples(out.t_s[:n_target], out.accel_counts[:n_target], out.temp_c[:n_target],
-                      out.gyro_counts[:n_target] if out.gyro_counts is not None else None)
+        out = SampleBlock(out.t_s[:n_target], out.accel_counts[:n_target], out.temp_c[:n_target],
+                          out.gyro_counts[:n_target] if out.gyro_counts is not None else None)
     return out
 
 
-def _noise_ug(parts: list[Samples], lsb: float) -> float | None:
+def _noise_ug(parts: list[SampleBlock], lsb: float) -> float | None:
     a = np.concatenate([p.accel_counts for p in parts])
     if len(a) < 3:
         return None

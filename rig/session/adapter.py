@@ -21,7 +21,6 @@ from calib.accel.inputs import StepMeans
 from calib.gyro import RateStepMeans
 from calib.mag import MagStepMeans
 from calib.numerics.uncertainty import step_standard_errors
-from calib.numerics.wander import SensorStability
 from drivers.sensors.chips import CHIPS, ChipSpec
 from rig.errors import SessionFormatError
 from rig.planning.kinematics import sensor_to_world
@@ -55,11 +54,27 @@ def chip_of(model) -> ChipSpec | None:
     return CHIPS.get(model) if isinstance(model, str) else None
 
 
+#: sensor -> (unit, the ChipSpec fields of its flicker floor, random walk and flicker corner)
+STABILITY_FIELDS = {
+    "accel": ("g", "accel_bias_instability_g", "accel_random_walk_g_per_rts", "accel_flicker_corner_s"),
+    "gyro": ("deg/s", "gyro_bias_instability_dps", "gyro_random_walk_dps_per_rts", "gyro_flicker_corner_s"),
+    "mag": ("uT", "mag_bias_instability_ut", "mag_random_walk_ut_per_rts", "mag_flicker_corner_s"),
+}
+
+
+def chip_stability(chip: ChipSpec | None, sensor: str) -> BiasStability | None:
+    """The bias characterisation of ``chip``'s ``sensor`` (:data:`STABILITY_FIELDS`), or None (no chip, or
+    one the registry gives no figures for that sensor; no flicker corner of its own: the accelerometer's)."""
+    unit, floor, walk, corner = STABILITY_FIELDS[sensor]
+    if chip is None or getattr(chip, floor) is None:
+        return None
+    return BiasStability(getattr(chip, floor), getattr(chip, walk) or 0.0,
+                         getattr(chip, corner) or chip.accel_flicker_corner_s, unit)
+
+
 def accel_stability(chip: ChipSpec | None) -> BiasStability | None:
     """The accelerometer bias characterisation of ``chip`` (None: None)."""
-    if chip is None:
-        return None
-    return BiasStability(chip.accel_bias_instability_g, chip.accel_random_walk_g_per_rts, chip.accel_flicker_corner_s)
+    return chip_stability(chip, "accel")
 
 
 def bias_stability(session) -> BiasStability | None:
@@ -68,32 +83,14 @@ def bias_stability(session) -> BiasStability | None:
     return accel_stability(recorded_chip(session))
 
 
-#: sensor -> (unit, the ChipSpec fields of its flicker floor, random walk and flicker corner)
-STABILITY_FIELDS = {
-    "gyro": ("deg/s", "gyro_bias_instability_dps", "gyro_random_walk_dps_per_rts", "gyro_flicker_corner_s"),
-    "mag": ("uT", "mag_bias_instability_ut", "mag_random_walk_ut_per_rts", "mag_flicker_corner_s"),
-}
-
-
-def _sensor_stability(session, sensor: str) -> SensorStability | None:
-    """The recorded chip's bias characterisation of ``sensor`` (:data:`STABILITY_FIELDS`), or None
-    (unknown sensor, or a chip the registry gives no figures for it)."""
-    unit, floor, walk, corner = STABILITY_FIELDS[sensor]
-    chip = recorded_chip(session)
-    if chip is None or getattr(chip, floor) is None:
-        return None
-    return SensorStability(getattr(chip, floor), getattr(chip, walk) or 0.0,
-                           getattr(chip, corner) or chip.accel_flicker_corner_s, unit)
-
-
-def gyro_bias_stability(session) -> SensorStability | None:
+def gyro_bias_stability(session) -> BiasStability | None:
     """The recorded chip's gyroscope bias characterisation (deg/s), or None."""
-    return _sensor_stability(session, "gyro")
+    return chip_stability(recorded_chip(session), "gyro")
 
 
-def mag_bias_stability(session) -> SensorStability | None:
+def mag_bias_stability(session) -> BiasStability | None:
     """The recorded chip's magnetometer offset characterisation (uT), or None."""
-    return _sensor_stability(session, "mag")
+    return chip_stability(recorded_chip(session), "mag")
 
 
 def capture_window(t_s: np.ndarray) -> tuple[float, float]:

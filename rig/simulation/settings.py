@@ -18,6 +18,7 @@ from typing import Annotated, Any, ClassVar, Optional
 import numpy as np
 from pydantic import BeforeValidator, WithJsonSchema, create_model
 
+from calib.discovery.effects import LIBRARY
 from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, MagErrorModel
 from drivers.sensors.sim.noise import NOISE_MODELS
 from rig.config.schema import Strict, choice, fail, flag, number, validate_plain
@@ -29,22 +30,13 @@ CLOCKS = ("elastic", "strict")
 #: how the runner reaches the emulated controllers: pseudo-terminals, or in process (``ximcsim://``)
 TRANSPORTS = ("pty", "memory")
 
-#: Canonical names of hidden effects a rig file may switch on, and how each
-#: maps onto the sensor error model (field, shape) or the world model.
-EFFECT_FIELDS: dict[str, str] = {
-    "bias_tempco": "bias_tempco_g_per_c",
-    "bias_tempco_quadratic": "bias_tempco2_g_per_c2",
-    "scale_tempco": "scale_tempco_per_c",
-    "scale_nonlinearity": "scale_nonlinearity",
-    "cross_axis_nonlinearity": "cross_axis_nonlinearity",
-    "bias_drift": "bias_drift_g_per_s",
-    "thermal_hysteresis": "thermal_hysteresis_g",
-    "bias_tempco_cubic": "bias_tempco3_g_per_c3",
-    "thermal_gradient": "thermal_gradient_g_per_c_per_s",
-    "bias_jump": "bias_jump_g",
-}
+#: Canonical names of hidden effects a rig file may switch on (``sim: effects:``) -> the sensor error-model
+#: field each sets: the effect library's own map (calib.discovery.effects, ``Effect.sim_field``), so a
+#: hidden effect and its estimate by ``rig discover`` are the same quantity in the same unit.
+EFFECT_FIELDS: dict[str, str] = {name: e.sim_field for name, e in LIBRARY.items() if e.sim_field is not None}
 #: parameters of an effect that are not magnitudes (error-model field), e.g. when the bias jump happens
 EFFECT_PARAMS: dict[str, str] = {"bias_jump_t_s": "bias_jump_t_s"}
+#: the library's effects without an error-model field, which the simulated world injects (:mod:`rig.simulation.simrig`)
 WORLD_EFFECTS = ("table_tilt", "full_misalignment")
 MAX_MAGNITUDE = 1e6  # no error-model term or effect is anywhere near this
 

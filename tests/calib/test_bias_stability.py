@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 
 import calib
-from calib.numerics.stability import BiasStability
-from calib.numerics.stability import FLICKER_FLOOR
+from calib.numerics.stability import FLICKER_FLOOR, BiasStability
 from calib.synthetic import Truth, make_steps, six_faces, triangular_matrix
 from drivers.sensors.chips import CHIPS
 from drivers.sensors.sim.noise import NoiseProcess, own_stream
@@ -24,7 +23,7 @@ MPU = BiasStability(40e-6, 4e-6, 5000.0)
 
 
 def test_the_stability_sigma_is_the_scatter_of_the_simulated_chip_s_session_mean():
-    """sigma_g(T) against the simulator's own wander (flicker + random walk, no white noise): the
+    """sigma(T) against the simulator's own wander (flicker + random walk, no white noise): the
     spread of T-second means over many fresh sensors, to its statistical precision."""
     t_s, rate_hz, sensors = 40.0, 10.0, 700
     t = np.arange(1, int(t_s * rate_hz) + 1) / rate_hz
@@ -32,11 +31,11 @@ def test_the_stability_sigma_is_the_scatter_of_the_simulated_chip_s_session_mean
                       .sample(t, [0.0] * 3, None).mean(axis=0) for seed in range(sensors)])
     n = means.size
     tolerance = 4.0 / math.sqrt(2 * n)  # 4 standard errors of a standard deviation from n draws (~4 %)
-    assert means.std() / MPU.sigma_g(t_s) == pytest.approx(1.0, abs=tolerance)
+    assert means.std() / MPU.sigma(t_s) == pytest.approx(1.0, abs=tolerance)
     # the flicker power below 1/T alone (ln(T_c / T), the old formula) falls short by more than that
     only_below = math.sqrt((40e-6 / FLICKER_FLOOR) ** 2 * math.log(5000.0 / t_s) / (2 * math.pi) + 16e-12 * t_s / 3)
     assert means.std() / only_below > 1 + tolerance
-    assert BiasStability(0.0, 4e-6, 5000.0).sigma_g(300.0) == pytest.approx(4e-6 * 10)  # K sqrt(T / 3)
+    assert BiasStability(0.0, 4e-6, 5000.0).sigma(300.0) == pytest.approx(4e-6 * 10)  # K sqrt(T / 3)
 
 
 def test_the_solver_weighs_the_steps_with_the_wander_so_the_bias_sigma_holds_the_session_s_stability():
@@ -50,7 +49,7 @@ def test_the_solver_weighs_the_steps_with_the_wander_so_the_bias_sigma_holds_the
     plain = calib.solve(steps, thermal="off")
     wandering = steps.__class__(**{**steps.__dict__, "bias_stability": MPU, "duration_s": np.full(6, 10.0)})
     with_stab = calib.solve(wandering, thermal="off")
-    extra = MPU.sigma_g(float(np.ptp(steps.t_s))) * steps.lsb_per_g
+    extra = MPU.sigma(float(np.ptp(steps.t_s))) * steps.lsb_per_g
     assert np.allclose(with_stab.sigma["bias_counts"], np.hypot(plain.sigma["bias_counts"], extra), rtol=0.03)
     scale_gain = np.array(with_stab.sigma["scale_counts_per_g"]) / np.array(plain.sigma["scale_counts_per_g"])
     assert np.all((scale_gain > 1.0) & (scale_gain < 1.15)), scale_gain
@@ -62,7 +61,7 @@ def test_the_adapter_takes_the_chip_registry_s_figures_and_none_for_unknown_sens
         sensor=SimpleNamespace(model="MPU-9150")))))
     chip = CHIPS["MPU-9150"]
     assert mpu == BiasStability(chip.accel_bias_instability_g, chip.accel_random_walk_g_per_rts,
-                                chip.accel_flicker_corner_s)
+                                chip.accel_flicker_corner_s, "g")
     assert adapter.bias_stability(SimpleNamespace(info=SimpleNamespace(rig=SimpleNamespace(
         sensor=SimpleNamespace(model="Xsens MTi"))))) is None
 

@@ -3,6 +3,8 @@ equations against the simulator's error model."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -47,28 +49,45 @@ def test_terms_that_are_zero_at_every_pose_are_unobservable_and_never_named():
     assert d.effects == []
 
 
-@pytest.mark.parametrize("name, field, value", [
-    ("bias_tempco", "bias_tempco_g_per_c", [1e-3, -2e-3, 3e-3]),
-    ("bias_tempco_quadratic", "bias_tempco2_g_per_c2", [1e-5, -2e-5, 3e-5]),
-    ("scale_tempco", "scale_tempco_per_c", [1e-4, -2e-4, 3e-4]),
-    ("scale_nonlinearity", "scale_nonlinearity", [1e-3, -2e-3, 3e-3]),
-    ("cross_axis_nonlinearity", "cross_axis_nonlinearity", [[1e-3, 2e-3, 3e-3], [4e-3, 5e-3, 6e-3], [7e-3, 8e-3, 9e-3]]),
-    ("bias_drift", "bias_drift_g_per_s", [1e-6, -2e-6, 3e-6]),
-    ("thermal_hysteresis", "thermal_hysteresis_g", [1e-3, -2e-3, 3e-3]),
-])
-def test_each_library_term_is_the_simulators_own_equation(name, field, value):
+#: a value of each effect the simulator injects through its error model, shaped as the effect's field
+SIM_VALUES = {
+    "bias_tempco": [1e-3, -2e-3, 3e-3],
+    "bias_tempco_quadratic": [1e-5, -2e-5, 3e-5],
+    "scale_tempco": [1e-4, -2e-4, 3e-4],
+    "scale_nonlinearity": [1e-3, -2e-3, 3e-3],
+    "cross_axis_nonlinearity": [[1e-3, 2e-3, 3e-3], [4e-3, 5e-3, 6e-3], [7e-3, 8e-3, 9e-3]],
+    "bias_drift": [1e-6, -2e-6, 3e-6],
+    "thermal_hysteresis": [1e-3, -2e-3, 3e-3],
+    "bias_tempco_cubic": [1e-7, -2e-7, 3e-7],
+    "thermal_gradient": [0.05, -0.04, 0.05],
+    "bias_jump": [2e-3, -1e-3, 5e-4],
+}
+JUMP_T_S = 1500.0
+
+
+def test_every_effect_with_a_simulator_field_has_its_equation_checked():
+    assert set(SIM_VALUES) == {n for n, e in LIBRARY.items() if e.sim_field is not None}
+
+
+@pytest.mark.parametrize("name", list(SIM_VALUES))
+def test_each_library_term_is_the_simulators_own_equation(name):
+    """The library's term of each effect equals what its simulator field (``Effect.sim_field``) adds to
+    the simulator's output, set to the same value."""
+    value = SIM_VALUES[name]
     rng = np.random.default_rng(3)
     f = rng.normal(size=(40, 3))
     f /= np.linalg.norm(f, axis=1, keepdims=True)
     temp = rng.uniform(15, 40, 40)
     t = rng.uniform(0, 3000, 40)
     heating = rng.choice([-1.0, 0.0, 1.0], 40)
-    base = AccelErrorModel(matrix=(np.eye(3) * 1.01).tolist(), t_ref_c=25.0)
-    with_effect = AccelErrorModel(matrix=(np.eye(3) * 1.01).tolist(), t_ref_c=25.0, **{field: value})
-    diff = with_effect.output_g(f, temp, t, heating) - base.output_g(f, temp, t, heating)
-    x = EffectInputs(f_g=f, temp_c=temp, t_s=t, heating=heating, matrix_g=np.eye(3) * 1.01, t0_c=25.0)
+    rate = rng.uniform(-0.05, 0.05, 40)
+    base = AccelErrorModel(matrix=(np.eye(3) * 1.01).tolist(), t_ref_c=25.0, bias_jump_t_s=JUMP_T_S)
+    with_effect = dataclasses.replace(base, **{LIBRARY[name].sim_field: value})
+    diff = with_effect.output_g(f, temp, t, heating, rate) - base.output_g(f, temp, t, heating, rate)
+    x = EffectInputs(f_g=f, temp_c=temp, t_s=t, heating=heating, matrix_g=np.eye(3) * 1.01, t0_c=25.0,
+                     temp_rate=rate, t_jump_s=JUMP_T_S)
     got = LIBRARY[name].contribution(np.asarray(value, float).ravel(), x)
-    assert np.allclose(got, diff, rtol=1e-12, atol=1e-15)
+    assert np.any(diff) and np.allclose(got, diff, rtol=1e-12, atol=1e-15)
 
 
 def test_heating_state_follows_the_simulators_hysteresis_rule():

@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 from calib.errors import CalibError, CalibrationFileError, ObservabilityError
 from calib.gyro import GyroCalibration, RateStepMeans, param_names, solve_gyro
 from calib.mag import MagCalibration, MagStepMeans, sigma_names, solve_mag_ellipsoid, solve_mag_positions
-from calib.numerics.wander import SensorStability
+from calib.numerics.stability import BiasStability
 from drivers.sensors.sim.error_model import GyroErrorModel, MagErrorModel
 
 AXES = "xyz"
@@ -404,7 +404,7 @@ def test_the_wander_between_steps_enters_the_gyro_fit_and_the_pair_sigmas():
     model = GyroErrorModel.draw(np.random.default_rng(33))
     steps = gyro_steps(model, np.random.default_rng(34))
     k = len(steps)
-    stab = SensorStability(0.002, 2e-4, 5000.0, "deg/s")
+    stab = BiasStability(0.002, 2e-4, 5000.0, "deg/s")
     timed = RateStepMeans(**{**steps.__dict__, "t_s": 100.0 + 108.0 * np.arange(k), "duration_s": np.full(k, 100.0),
                              "bias_stability": stab})
     plain, wandering = solve_gyro(steps), solve_gyro(timed)

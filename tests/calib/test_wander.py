@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from calib.errors import CalibError
 from calib.numerics.stability import BiasStability
-from calib.numerics.wander import gauss_markov_cov, random_walk_cov, wander_cov_g2, wander_rms_g
+from calib.numerics.wander import gauss_markov_cov, random_walk_cov, wander_cov, wander_cov_g2, wander_rms_g
 from drivers.sensors.sim.noise import NoiseProcess
 
 MPU = BiasStability(40e-6, 4e-6, 5000.0)
@@ -21,7 +22,7 @@ def _simulated_window_means(stability: BiasStability, runs: int) -> np.ndarray:
     times = np.concatenate([np.linspace(a, a + d, PER_WINDOW) for a, d in zip(STARTS_S, DURATIONS_S)])
     out = []
     for r in range(runs):
-        p = NoiseProcess([stability.bias_instability_g] * 3, [stability.random_walk_g_per_rts] * 3,
+        p = NoiseProcess([stability.bias_instability] * 3, [stability.random_walk_per_rts] * 3,
                          np.random.default_rng(r), flicker_band_s=(0.02, stability.flicker_corner_s))
         x = p.sample(times, np.zeros(3), None)
         out.append(x.reshape(len(STARTS_S), PER_WINDOW, 3).mean(axis=1).T)
@@ -60,3 +61,16 @@ def test_no_stability_means_no_wander():
     assert not np.any(wander_cov_g2([0.0, 10.0], 5.0, None))
     assert wander_rms_g([0.0, 10.0], 5.0, None) == 0.0
     assert wander_rms_g(np.arange(50) * 60.0, 5.0, MPU) > 50e-6  # an hour of MPU-9150 wanders by ~0.1 mg
+
+
+def test_one_stability_type_for_every_sensor_in_its_own_unit():
+    """BiasStability carries its unit: the accelerometer's covariance is wander_cov_g2's, a gyroscope's is
+    wander_cov of its own figures (deg/s), and the g^2 function refuses a stability in another unit."""
+    t, d = STARTS_S + DURATIONS_S / 2, DURATIONS_S
+    gyro = BiasStability(0.002, 2e-4, 5000.0, "deg/s")
+    assert MPU.unit == "g" and np.array_equal(MPU.cov(t, d), wander_cov_g2(t, d, MPU))
+    assert np.array_equal(gyro.cov(t, d), wander_cov(t, d, 0.002, 2e-4, 5000.0))
+    with pytest.raises(CalibError, match="deg/s"):
+        wander_cov_g2(t, d, gyro)
+    with pytest.raises(CalibError, match="unit"):
+        BiasStability(1e-5, 1e-6, 100.0, "m/s^2")

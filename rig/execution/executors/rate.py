@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from rig.errors import RigInputError
-from rig.execution.capture import Samples, capture
+from drivers.sensors.base import SampleBlock
+from rig.execution.capture import capture
 from rig.execution.context import RunContext, RunError
 from rig.execution.motion import move_to, wrap_position
 from drivers.ximc.stages import MAX_SPEED_DEG_S as STAGE_MAX_SPEED_DEG_S
@@ -56,7 +57,7 @@ def execute(ctx: RunContext, step) -> None:
     _record(ctx, step, samples, [speed0, speed1], problems)
 
 
-def _spin_and_capture(ctx: RunContext, step, axis, stage_rate: float) -> tuple[float, Samples, float]:
+def _spin_and_capture(ctx: RunContext, step, axis, stage_rate: float) -> tuple[float, SampleBlock, float]:
     """Wait out the acceleration, check the speed, capture, check it again."""
     spin_up = abs(stage_rate) / axis.config.accel_deg_s2 + step.settle.min_s
     ctx.rig.clock.sleep(spin_up)
@@ -66,11 +67,11 @@ def _spin_and_capture(ctx: RunContext, step, axis, stage_rate: float) -> tuple[f
                        f"{spin_up:.1f} s, expected {stage_rate:g} deg/s")
     ctx.rig.sensor.start()  # (re)starts sampling now: nothing from the spin-up is kept
     ctx.progress(step, "capture")
-    samples = capture(ctx, step, Samples.empty(True))
+    samples = capture(ctx, step, SampleBlock.empty(True))
     return speed0, samples, axis.stage.get_speed_deg_s()
 
 
-def _record(ctx: RunContext, step, samples: Samples, speeds: list[float], problems: list[str]) -> None:
+def _record(ctx: RunContext, step, samples: SampleBlock, speeds: list[float], problems: list[str]) -> None:
     sensor = ctx.rig.sensor
     status = "complete" if not problems else "flagged"
     ts = samples.t_s - ctx.t0_s

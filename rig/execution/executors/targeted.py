@@ -19,7 +19,8 @@ import numpy as np
 from calib.accel.predict import Predictor, plan_dwell
 from drivers.sensors.chips import CHIPS
 from rig.errors import RigInputError
-from rig.execution.capture import (SETTLERS, Capture, Samples, loss_counters, lost_samples, nominal_dwell_s,
+from drivers.sensors.base import SampleBlock
+from rig.execution.capture import (SETTLERS, Capture, loss_counters, lost_samples, nominal_dwell_s,
                                    poll_interval_s)
 from rig.execution.capture import settle_and_capture as static_capture
 from rig.execution.context import RunContext
@@ -100,7 +101,7 @@ def settle_and_capture(ctx: RunContext, step, policy: TargetPolicy) -> Capture:
     return Capture(samples, settle_s, problems)
 
 
-def capture_until_decided(ctx: RunContext, step, keep: Samples, policy: TargetPolicy) -> Samples:
+def capture_until_decided(ctx: RunContext, step, keep: SampleBlock, policy: TargetPolicy) -> SampleBlock:
     """Read the sensor; at every ``policy.block_n`` samples (from ``policy.min_n`` on) ask the policy
     whether to stop. The decision sees exactly the first n samples, so a replay stops alike."""
     sensor, clock = ctx.rig.sensor, ctx.rig.clock
@@ -111,7 +112,7 @@ def capture_until_decided(ctx: RunContext, step, keep: Samples, policy: TargetPo
         clock.sleep(poll_interval_s(sensor))
         block = sensor.read()
         if len(block.t_s):
-            parts.append(Samples(block.t_s, block.accel_counts, block.temp_c, block.gyro_counts))
+            parts.append(SampleBlock(block.t_s, block.accel_counts, block.temp_c, block.gyro_counts))
             n += len(block.t_s)
             last_data = clock.now()
         elif clock.now() - last_data > IDLE_TIMEOUT_S:
@@ -129,16 +130,16 @@ def capture_until_decided(ctx: RunContext, step, keep: Samples, policy: TargetPo
     return _cut(_join(parts), stop_n)
 
 
-def _join(parts: list[Samples]) -> Samples:
+def _join(parts: list[SampleBlock]) -> SampleBlock:
     gyros = [p.gyro_counts for p in parts if p.gyro_counts is not None]
-    return Samples(np.concatenate([p.t_s for p in parts]),
-                   np.concatenate([p.accel_counts for p in parts]).astype(np.int64),
-                   np.concatenate([p.temp_c for p in parts]),
-                   np.concatenate(gyros).astype(np.int64) if gyros else None)
+    return SampleBlock(np.concatenate([p.t_s for p in parts]),
+                       np.concatenate([p.accel_counts for p in parts]).astype(np.int64),
+                       np.concatenate([p.temp_c for p in parts]),
+                       np.concatenate(gyros).astype(np.int64) if gyros else None)
 
 
-def _cut(s: Samples, n: int) -> Samples:
-    return Samples(s.t_s[:n], s.accel_counts[:n], s.temp_c[:n], None if s.gyro_counts is None else s.gyro_counts[:n])
+def _cut(s: SampleBlock, n: int) -> SampleBlock:
+    return SampleBlock(s.t_s[:n], s.accel_counts[:n], s.temp_c[:n], None if s.gyro_counts is None else s.gyro_counts[:n])
 
 
 def _noise_ug(a: np.ndarray, lsb: float) -> float | None:
