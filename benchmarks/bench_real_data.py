@@ -35,9 +35,9 @@ def main() -> None:
     print(f"imported 3 recordings in {time.perf_counter() - t0:.2f} s")
     for k, p in paths.items():
         s = load_session(p)
-        st = s.manifest["steps"]
-        print(f"  {k}: {len(s.samples['t_s'])} samples, {s.manifest['rig']['sensor']['sample_rate_hz']:g} Hz, "
-              f"{len(st)} steps ({sum(x['kind'] == 'static' for x in st)} static) from {s.manifest['import']['steps_from']}")
+        st = s.info.to_dict()["steps"]
+        print(f"  {k}: {len(s.samples['t_s'])} samples, {s.info.to_dict()['rig']['sensor']['sample_rate_hz']:g} Hz, "
+              f"{len(st)} steps ({sum(x['kind'] == 'static' for x in st)} static) from {s.info.to_dict()['import']['steps_from']}")
 
     # imucal: our six-position solve vs imucal's own Ferraris calibration
     golden = json.loads((DATA / "imucal" / "example_cal.json").read_text())
@@ -70,7 +70,7 @@ def main() -> None:
     t0 = time.perf_counter()
     cal = solve(st, method="magnitude")
     dt = time.perf_counter() - t0
-    g = s.manifest["import"]["g_ms2"]
+    g = s.info.to_dict()["import"]["g_ms2"]
     sig_s = np.asarray(cal.sigma["scale_counts_per_g"]) / g
     print(f"\n### imu_tk Xsens recording: magnitude method ({len(st)} static intervals, {dt * 1e3:.0f} ms) vs datasheet")
     print("| axis | scale ours (counts per m/s^2) | datasheet | offset ours (counts) | datasheet |")

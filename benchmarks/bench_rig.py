@@ -25,7 +25,8 @@ from rig.planning.targets import move_time_s  # noqa: E402
 from rig.config.procedure import load_procedure  # noqa: E402
 from rig.workflow.run import run_procedure  # noqa: E402
 from rig.session import SessionWriter, load_session  # noqa: E402
-from rig.analysis.solve import solve_session  # noqa: E402
+from calib.file import calibration as calfile  # noqa: E402
+from rig.analysis.solve import calibrate_session  # noqa: E402
 
 
 def lower_bound_s(procedure_path: Path, accel_deg_s2: float = 40.0, settle_s: float = 1.0) -> float:
@@ -56,7 +57,7 @@ def realtime_six_position(tmp: Path) -> Path:
 def replay_rate(session_dir: Path, n: int = 20) -> None:
     t0 = time.perf_counter()
     for _ in range(n):
-        solve_session(session_dir, out=session_dir / "bench_calibration.yaml")
+        calfile.write(session_dir / "bench_calibration.yaml", calibrate_session(session_dir))
     dt = (time.perf_counter() - t0) / n
     print(f"re-solve of a recorded six-position session (load + solve + write): {dt * 1e3:.1f} ms "
           f"-> {1 / dt:.1f} sessions/s")
@@ -86,7 +87,7 @@ def one_hour_session(tmp: Path) -> None:
     t0 = time.perf_counter()
     s = load_session(d)
     t1 = time.perf_counter()
-    solve_session(d, session=s)
+    calfile.write(d / "bench_calibration.yaml", calibrate_session(d, session=s))
     t2 = time.perf_counter()
     print(f"one-hour 100 Hz thermal session ({len(s.samples['t_s'])} rows, {size_mb:.1f} MB): load {t1 - t0:.2f} s, "
           f"solve + write {t2 - t1:.2f} s, total {t2 - t0:.2f} s (target < 2 s)")

@@ -31,6 +31,7 @@ API = {
     "Evaluation": "calib.evaluation", "evaluate": "calib.evaluation",
     "GyroCalibration": "calib.gyro.result", "RateStepMeans": "calib.gyro.inputs", "solve_gyro": "calib.gyro.solve",
     "MagCalibration": "calib.mag.result", "MagStepMeans": "calib.mag.inputs",
+    "Recording": "calib.file.apply", "CalibratedRecording": "calib.file.apply", "RecordingMismatch": "calib.file.apply",
     "solve_mag_ellipsoid": "calib.mag.solve", "solve_mag_positions": "calib.mag.solve",
 }
 __all__ = sorted(API)

@@ -8,7 +8,6 @@ plot and the augmented calibration file.
 
 from __future__ import annotations
 
-import json
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -27,22 +26,6 @@ from rig.session import Session, load_session, step_means
 BAND_C = 0.5
 
 
-def read_events(session_dir) -> list[dict]:
-    """The session's events (a torn last line, from a crash, is skipped)."""
-    path = Path(session_dir) / "events.jsonl"
-    out = []
-    if not path.is_file():
-        return out
-    for line in path.read_text().splitlines():
-        try:
-            e = json.loads(line)
-        except json.JSONDecodeError:
-            continue
-        if isinstance(e, dict):
-            out.append(e)
-    return out
-
-
 def step_context(session: Session, step_indices: list[int]) -> StepContext:
     """Pose rotations and heating legs of the given steps."""
     steps = session.info.steps
@@ -53,7 +36,7 @@ def step_context(session: Session, step_indices: list[int]) -> StepContext:
     heating = None
     if session.has_temperature:
         series: list[tuple[float, float, int | None]] = []  # (t_s, temp_c, step position or None)
-        for e in read_events(session.path):
+        for e in session.events:
             if e.get("kind") == "temperature" and isinstance(e.get("t_s"), (int, float)):
                 t_end = float(e["t_s"])
                 if isinstance(e.get("start_c"), (int, float)):

@@ -1,14 +1,13 @@
-"""Session -> calibration file: the one path used by ``rig run``, ``rig solve`` and ``rig replay``."""
+"""Session -> calibration, in memory: the solve step of the pipeline tail (:func:`rig.workflow.conclude.conclude`,
+which writes the file)."""
 
 from __future__ import annotations
 
 from datetime import datetime, timezone
-from pathlib import Path
 
 import numpy as np
 
 import calib
-from calib.file import calibration as calfile
 from calib.errors import CalibError, ObservabilityError
 from calib.gyro import solve_gyro
 from calib.mag import solve_mag_ellipsoid, solve_mag_positions
@@ -20,30 +19,9 @@ from rig.session import Session, load_session, mag_step_means, rate_step_means, 
 SOFTWARE = {"name": "rig-calibration", "version": __version__}
 
 
-def solve_session(session_dir, *, model: str | None = None, method: str | None = None,
-                  thermal=None, out=None, session=None):
-    """Solve a recorded session and write its calibration file.
-
-    Parameters
-    ----------
-    session_dir : path of a ``rig-session/1`` directory.
-    model, method, thermal : override the procedure's ``solve:`` settings
-        (defaults: triangular, pinv, auto).
-    out : path of the calibration file (default ``SESSION/calibration.yaml``).
-
-    Returns
-    -------
-    (calib.CalibrationFile, pathlib.Path)
-    """
-    cal = calibrate_session(session_dir, model=model, method=method, thermal=thermal, session=session)
-    path = Path(out) if out is not None else Path(session_dir) / "calibration.yaml"
-    calfile.write(path, cal)
-    return cal, path
-
-
 def calibrate_session(session_dir, *, model: str | None = None, method: str | None = None, thermal=None,
                       session=None) -> calib.CalibrationFile:
-    """The calibration of a recorded session, in memory (:func:`solve_session` without writing the file):
+    """The calibration of a recorded session, in memory (:func:`rig.workflow.conclude.conclude` judges and writes it):
     the session loaded (or ``session``, loaded already), the procedure's ``solve:`` settings unless
     overridden, the accelerometer solved, the gyroscope and magnetometer sections when recorded."""
     session = session or load_session(session_dir)
@@ -70,8 +48,7 @@ def calibrate_session(session_dir, *, model: str | None = None, method: str | No
         gyroscope=gyro,
         magnetometer=mag,
         coverage=session_coverage(session),
-        target=(calibration_record(session, steps, model, method)
-                if session.info.procedure.value("target") is not None else None),
+        target=calibration_record(session, steps, model, method),
     )
 
 

@@ -7,7 +7,6 @@ import numpy as np
 
 from calib.accel.predict import Predictor, target_record
 from calib.errors import CalibError
-from rig.config.procedure import load_procedure_text
 
 
 def calibration_record(session, steps, model: str | None = None, method: str | None = None) -> dict | None:
@@ -20,10 +19,9 @@ def calibration_record(session, steps, model: str | None = None, method: str | N
     steps' own standard errors and the chip's bias stability, as the solver's sigmas are, so it is
     the calibration's whether the session was run, resumed, replayed or re-solved.
     """
-    text = session.info.procedure.text
-    if not text:
+    if session.info.procedure.value("target") is None:  # the raw text asked (an import's text need not validate)
         return None
-    procedure = load_procedure_text(text, session.info.procedure.file or "session.yaml: procedure.text")
+    procedure = session.procedure
     spec = procedure.target
     if spec is None:
         return None

@@ -31,7 +31,7 @@ from calib.discovery.effects import LIBRARY
 from calib.discovery.search import Discovery, discover
 from calib.numerics.uncertainty import pooled_vif
 from drivers.sensors.regs.mpu9150 import DLPF_BW_HZ
-from rig.analysis.discover import read_events, step_context
+from rig.analysis.discover import step_context
 from rig.config.rigfile import AxisConfig, load_rig_file, parse_rig_file
 from rig.errors import RigInputError
 from rig.planning.kinematics import AXES
@@ -254,7 +254,7 @@ def chamber_commands(events: list) -> list[ChamberCommand]:
 def _temperature_record(session: Session, idx: list) -> tuple[list, np.ndarray, np.ndarray]:
     """The chamber commands and the observed (t_s, temp_c): each static step's mean and each temperature
     step's first reading (1 s after its setpoint)."""
-    events = read_events(session.path)
+    events = session.events
     t_obs, c_obs = [], []
     for e in events:
         t = e.get("t_s")

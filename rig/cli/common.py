@@ -1,5 +1,5 @@
 """What every command shares: exit codes and the usage error (from :mod:`rig.cli.codes`), JSON and
-calibration formatting, the end of every solve."""
+calibration formatting, how the end of every solve (:func:`rig.workflow.conclude.conclude`) is shown."""
 
 from __future__ import annotations
 
@@ -10,30 +10,21 @@ import numpy as np
 from calib.gyro import GyroCalibration
 from calib.mag import MagCalibration
 from rig.cli.codes import EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, UsageError  # noqa: F401 - the commands use them
-from rig.lab import record_calibration
-from rig.lab.acceptance import as_lines, judge
+from rig.lab.acceptance import as_lines
 
 
-def record_in_history(command: str, session_dir, calibration_path, verdict: str | None = None) -> None:
-    """Every solve goes into the calibration history (docs/history.md); a history problem is one
-    warning line and never changes the command's result."""
-    warning = record_calibration(session_dir, calibration_path, verdict=verdict)
-    if warning is not None:
-        print(f"rig {command}: warning: {warning}", file=sys.stderr)
-
-
-def conclude(command: str, session_dir, calibration_path, *, quiet: bool = False, session=None) -> int:
-    """After every solve: apply the procedure's ``accept:`` limits (the verdict goes into the
-    calibration file), print PASS or FAIL with one line per failed limit (on stderr when ``quiet``), record the calibration in
-    the history with its verdict. Returns EXIT_OK, or EXIT_REJECTED when a limit failed. ``session``:
-    the session when the caller has it loaded already (it is then not read again)."""
-    acceptance = judge(session_dir, calibration_path, session=session)
-    verdict = None if acceptance is None else acceptance.verdict
-    if acceptance is not None:
-        for line in as_lines(acceptance):  # with --json the verdict is in the JSON; the lines go to stderr
+def present(command: str, conclusion, *, quiet: bool = False) -> int:
+    """What the pipeline tail decided, as every solving command prints it: PASS or FAIL with one line
+    per failed limit (on stderr when ``quiet``), a history warning, the report written. Returns EXIT_OK,
+    or EXIT_REJECTED when a limit failed."""
+    if conclusion.acceptance is not None:
+        for line in as_lines(conclusion.acceptance):  # with --json the verdict is in the JSON; the lines go to stderr
             print(line, file=sys.stderr if quiet else sys.stdout)
-    record_in_history(command, session_dir, calibration_path, verdict=verdict)
-    return EXIT_REJECTED if acceptance is not None and not acceptance.passed else EXIT_OK
+    if conclusion.history_warning is not None:
+        print(f"rig {command}: warning: {conclusion.history_warning}", file=sys.stderr)
+    if conclusion.report_path is not None:
+        print(f"report: {conclusion.report_path}", file=sys.stderr if quiet else sys.stdout)
+    return EXIT_OK if conclusion.passed else EXIT_REJECTED
 
 
 def report_warnings(command: str, session) -> None:

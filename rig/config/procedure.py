@@ -18,7 +18,7 @@ from drivers.sensors.base import SensorSettings
 from drivers.sensors.chips import CHIPS
 from calib.accel.predict import Predictor
 from calib.errors import CalibError
-from rig.config.procedure_schema import (ACCEL_RANGES_G, ADXL345_RATES_HZ, FORMAT, GYRO_RANGES_DPS, METHODS,
+from rig.config.procedure_schema import (ACCEL_RANGES_G, ADXL345_RATES_HZ, FORMAT, GYRO_RANGES_DPS, METHODS, AcceptSpec,
                                          MIN_DWELL_SAMPLES, MODELS, RATE_MAX_DEG_S, AnglesStep, Dwell,
                                          ProcedureDoc, PoseStep, RampStep, RateStep, RepeatStep, SensorSpec, Settle,
                                          SolveSpec, TargetSpec, TemperatureStep, TemperatureTarget, PromptStep)
@@ -123,6 +123,8 @@ class Procedure:
     solve: SolveSpec | None
     text: str = field(repr=False, default="")
     target: TargetSpec | None = None
+    accept: AcceptSpec | None = None  # acceptance limits (docs/procedures.md, ``accept:``)
+    report: bool = False  # write SESSION/report.html at the end of the run
 
     def expanded_steps(self) -> list[PlannedStep]:
         return list(self.steps)
@@ -182,7 +184,8 @@ class _Expander:
             self.check_target(spec, doc, steps)
         return Procedure(name=spec.name, description=spec.description or "", path=self.path, sensor=self.sensor,
                          dwell=spec.dwell, settle=spec.settle, order=spec.order, steps=tuple(steps),
-                         solve=spec.solve, text=text, target=spec.target)
+                         solve=spec.solve, text=text, target=spec.target, accept=spec.accept,
+                         report=bool(spec.report))
 
     def check_target(self, spec: ProcedureDoc, doc: dict, steps: list) -> None:
         """A target needs pose steps only, a pinv solve of the static model, parameters that model

@@ -3,7 +3,7 @@
 The leaf specs (:class:`Dwell`, :class:`Settle`, :class:`TemperatureTarget`, :class:`SensorSpec`,
 :class:`SolveSpec`) are the values the runner reads; the step models and :class:`ProcedureDoc`
 describe the file and are expanded into ``PlannedStep`` by :mod:`rig.config.procedure`.
-``docs/schemas/procedure.schema.json`` is generated from here (``python -m rig.config.schemas``).
+``docs/schemas/procedure.schema.json`` is generated from here (``python -m rig.cli.schemas``).
 """
 
 from __future__ import annotations

@@ -55,7 +55,7 @@ def lost_samples(ctx: RunContext, step, since: tuple[int, int], *, last_attempt:
         ctx.event("warning", step=step.index, source="clock", message=f"measuring step {step.index + 1} again: {what}")
         ctx.operator.warn(f"step {step.index + 1} ({step.name}): {what}; measuring again")
         return None
-    where = getattr(ctx.recorder, "session_dir", None) or "<session dir>"
+    where = ctx.recorder.session_dir
     resume = f"rig run --resume {where}" + (f" {why.resume_options}" if why.resume_options else "")
     raise SamplesLost(f"step {step.index + 1} ({step.name}): {what}; run stopped (motors stopped, session kept)"
                       + (f"; {why.advice}" if why.advice else "") + f"; resume with: {resume}")

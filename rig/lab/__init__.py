@@ -1,6 +1,6 @@
 """The lab around the rig: the calibration history (``history.py``, ``drift.py``) and exports (``exports.py``).
 
-A layer between ``rig.cli`` and ``rig.workflow`` (docs/architecture.md): it reads sessions and
+A layer between ``rig.workflow`` and ``rig.analysis`` (docs/architecture.md): it reads sessions and
 calibration files, never drives a rig and never imports a simulator.
 """
 

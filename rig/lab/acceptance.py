@@ -1,11 +1,12 @@
 """The procedure's ``accept:`` limits applied to a solved session (docs/procedures.md).
 
-:func:`judge` is the one call made after every solve (``rig run``, ``solve``, ``replay``): it reads
-the limits from the procedure recorded in the session, computes the figures that need more than the
-calibration (the largest roll/pitch error over the session's poses, the drift since the sensor's
-previous calibration in the history), applies :func:`calib.acceptance.evaluate` and writes the
-verdict into the calibration file (``acceptance:``). Sessions whose procedure has no limits are
-left as they are.
+:func:`judge` is the step of the pipeline tail (:func:`rig.workflow.conclude.conclude`, after every
+solve: ``rig run``, ``solve``, ``replay``, ``run_procedure``) that takes the limits from the procedure
+recorded in the session, computes the figures that need more than the calibration (the largest
+roll/pitch error over the session's poses, the drift since the sensor's previous calibration in the
+history) and applies :func:`calib.acceptance.evaluate`, in memory; the verdict goes into the
+calibration file (``acceptance:``) when it is written, once. Sessions whose procedure has no limits
+get no verdict.
 """
 
 from __future__ import annotations
@@ -14,57 +15,49 @@ import math
 
 import numpy as np
 
-from calib.file import calibration as calfile
 from calib.acceptance import Acceptance, Drift, evaluate, largest_drift
 from calib.evaluation import evaluate as evaluate_poses
 from calib.file.parameters import at_common_temperature
 from rig.config.procedure_schema import AcceptSpec
-from rig.config.schema import validate_plain
 from rig.lab.drift import sensor_history
 from rig.lab.history import HistoryError, calibration_row, open_history
-from rig.session import load_session
-from rig.session.manifest import SessionManifest
+from rig.session import Session
 
 
-def recorded_limits(session_dir) -> AcceptSpec | None:
-    """The ``accept:`` section of the procedure recorded in the session, validated, or None."""
-    info, _raw = SessionManifest.load(session_dir)
-    spec = info.procedure.section("accept")
-    if spec is None:
+def recorded_limits(session: Session) -> AcceptSpec | None:
+    """The ``accept:`` section of the procedure recorded in the session (validated with it), or None."""
+    if session.info.procedure.value("accept") is None:  # the raw text asked (an import's text need not validate)
         return None
-    return validate_plain(AcceptSpec, spec, "session.yaml: procedure.text: accept")
+    return session.procedure.accept
 
 
-def judge(session_dir, calibration_path, *, history=None, session=None) -> Acceptance | None:
-    """Apply the session's acceptance limits to its calibration file and record the verdict in it.
+def judge(session: Session, cal, *, calibration_path=None, history=None) -> Acceptance | None:
+    """The session's acceptance limits applied to its calibration, in memory (nothing is read again or
+    written: :func:`rig.workflow.conclude.conclude` writes the file once, verdict included).
 
     Parameters
     ----------
-    session_dir : the solved session.
-    calibration_path : its ``rig-calibration/1`` file (rewritten atomically with ``acceptance:``).
+    session : the solved session (loaded).
+    cal : its calibration (:class:`calib.CalibrationFile`).
+    calibration_path : where the calibration is (or will be) written: what the history row names.
     history : history database for ``max_drift_sigma`` (default: ``$RIG_HISTORY`` or the user's).
-    session : the session already loaded by the caller (loaded here when None).
 
     Returns
     -------
     :class:`calib.acceptance.Acceptance`, or None when the procedure has no ``accept:`` limits.
     """
-    spec = recorded_limits(session_dir)
+    spec = recorded_limits(session)
     if spec is None:
         return None
     limits = spec.limits()
-    cal = calfile.read(calibration_path)
-    attitude = (largest_attitude_error_deg(session_dir, cal, session=session)
-                if limits.max_attitude_error_deg is not None else None)
-    previous = previous_calibration(session_dir, calibration_path, history) if limits.max_drift_sigma else None
-    acceptance = evaluate(cal, limits, attitude_error_deg=attitude, drift=previous)
-    calfile.write(calibration_path, cal.model_copy(update={"acceptance": acceptance.to_dict()}))
-    return acceptance
+    attitude = largest_attitude_error_deg(session, cal) if limits.max_attitude_error_deg is not None else None
+    previous = previous_calibration(session, cal, calibration_path, history) if limits.max_drift_sigma else None
+    return evaluate(cal, limits, attitude_error_deg=attitude, drift=previous)
 
 
-def largest_attitude_error_deg(session_dir, cal, *, session=None) -> float | None:
+def largest_attitude_error_deg(session: Session, cal) -> float | None:
     """The largest |roll| or |pitch| error (deg) of the calibration over the session's static poses."""
-    steps = (session or load_session(session_dir)).step_means()
+    steps = session.step_means()
     if len(steps) == 0:
         return None
     ev = evaluate_poses(cal.accelerometer, steps)
@@ -72,10 +65,11 @@ def largest_attitude_error_deg(session_dir, cal, *, session=None) -> float | Non
     return float(worst) if math.isfinite(worst) else None
 
 
-def previous_calibration(session_dir, calibration_path, history=None) -> Drift | None:
+def previous_calibration(session: Session, cal, calibration_path=None, history=None) -> Drift | None:
     """How far this calibration moved from the sensor's latest one in the history (None: unreadable)."""
     try:
-        row = calibration_row(session_dir, calibration_path)
+        row = calibration_row(session.path, calibration_path or session.path / "calibration.yaml",
+                              manifest=session.info.to_dict(), calibration=cal)
         with open_history(history) as h:
             records = sensor_history(h, row["sensor"]["key"])
     except HistoryError:

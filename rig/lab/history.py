@@ -178,10 +178,13 @@ def _migrate(conn: sqlite3.Connection, path: Path) -> None:
 
 # ---------------------------------------------------------------------------------------------- recording
 
+_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml when present: 10x faster
+
+
 def _read_manifest(session_dir) -> dict:
     p = Path(session_dir) / "session.yaml"
     try:
-        doc = yaml.safe_load(p.read_text())
+        doc = yaml.load(p.read_text(), Loader=_LOADER)
     except FileNotFoundError:
         raise RigInputError(str(p), None, None, "no session manifest (session.yaml)") from None
     except yaml.YAMLError:
@@ -191,10 +194,13 @@ def _read_manifest(session_dir) -> dict:
     return doc
 
 
-def calibration_row(session_dir, calibration_path, *, sensor_id=None, verdict=None) -> dict:
-    """Everything :func:`record_calibration` stores, as plain data (no database)."""
-    manifest = _read_manifest(session_dir)
-    cal = calfile.read(calibration_path)
+def calibration_row(session_dir, calibration_path, *, sensor_id=None, verdict=None, manifest: dict | None = None,
+                    calibration=None) -> dict:
+    """Everything :func:`record_calibration` stores, as plain data (no database). ``manifest`` (the
+    session's manifest as a mapping) and ``calibration`` (the file's content): what the caller holds
+    already; each is read from disk only when not given."""
+    manifest = manifest if manifest is not None else _read_manifest(session_dir)
+    cal = calibration if calibration is not None else calfile.read(calibration_path)
     sensor = sensor_identity(manifest, cal, sensor_id)
     fit = cal.accelerometer.fit
     temps = temperatures(manifest)
@@ -231,15 +237,19 @@ def _insert(conn: sqlite3.Connection, row: dict) -> int:
 
 
 def store_calibration(session_dir, calibration_path, *, history=None, sensor_id=None, verdict=None,
-                      timeout_s: float = BUSY_TIMEOUT_S) -> tuple[int, str]:
-    """Record one calibration; returns (row id, sensor key). Raises HistoryError, RigInputError, CalibError."""
-    row = calibration_row(session_dir, calibration_path, sensor_id=sensor_id, verdict=verdict)
+                      timeout_s: float = BUSY_TIMEOUT_S, manifest: dict | None = None,
+                      calibration=None) -> tuple[int, str]:
+    """Record one calibration; returns (row id, sensor key). Raises HistoryError, RigInputError, CalibError.
+    ``manifest``, ``calibration``: as :func:`calibration_row`."""
+    row = calibration_row(session_dir, calibration_path, sensor_id=sensor_id, verdict=verdict, manifest=manifest,
+                          calibration=calibration)
     with open_history(history, timeout_s=timeout_s) as h:
         return h.write(_insert, row), row["sensor"]["key"]
 
 
 def record_calibration(session_dir, calibration_path, *, history=None, sensor_id: str | None = None,
-                       verdict: str | None = None, timeout_s: float = BUSY_TIMEOUT_S) -> str | None:
+                       verdict: str | None = None, timeout_s: float = BUSY_TIMEOUT_S, manifest: dict | None = None,
+                       calibration=None) -> str | None:
     """Record a solved calibration in the history; **never raises** (for ``rig run/solve/replay/import``).
 
     Parameters
@@ -250,6 +260,8 @@ def record_calibration(session_dir, calibration_path, *, history=None, sensor_id
     sensor_id : a serial or fixture id given by the operator; overrides the key built from the manifest.
     verdict : acceptance verdict (``PASS``/``FAIL``) when the procedure has limits, else None.
     timeout_s : how long to wait for another writer.
+    manifest, calibration : the session's manifest (a mapping) and the calibration, when the caller holds
+        them (then neither file is read again).
 
     Returns
     -------
@@ -258,7 +270,7 @@ def record_calibration(session_dir, calibration_path, *, history=None, sensor_id
     """
     try:
         store_calibration(session_dir, calibration_path, history=history, sensor_id=sensor_id, verdict=verdict,
-                          timeout_s=timeout_s)
+                          timeout_s=timeout_s, manifest=manifest, calibration=calibration)
     except Exception as exc:  # noqa: BLE001 - the contract: a history problem never breaks a run
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
         return f"history not recorded: {first}"

@@ -11,7 +11,9 @@ dropped with a warning.
 from __future__ import annotations
 
 import csv
+import functools
 import io
+import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,8 +22,9 @@ import numpy as np
 import pandas as pd
 
 from drivers.sensors.chips import CHIPS
+from rig.config.procedure import Procedure, load_procedure_text
 from rig.config.yamlload import SymlinkLoop
-from rig.errors import SessionFormatError
+from rig.errors import RigInputError, SessionFormatError
 from rig.session import adapter
 from rig.session.manifest import BASE_COLUMNS, OPTIONAL_COLUMNS, SessionManifest, StepRecord
 
@@ -38,18 +41,14 @@ class Session:
 
     ``samples``: ``t_s`` (N,), ``step`` (N,) int, ``accel_counts`` (N, 3) int, ``temp_c`` (N,) (NaN
     when absent), and ``gyro_counts``, ``mag_counts``, ``angles_deg`` (N, 3) when recorded.
-    ``manifest`` is the plain mapping as read (kept while callers move to ``info``).
+    The recorded procedure (:attr:`procedure`) and the events (:attr:`events`) are read on first use,
+    once: a session is read from disk once, whatever asks what of it.
     """
 
     path: Path
     info: SessionManifest
     samples: dict
     warnings: list[str] = field(default_factory=list)
-    manifest: dict | None = None
-
-    def __post_init__(self) -> None:
-        if self.manifest is None:
-            self.manifest = self.info.to_dict()
 
     @property
     def id(self) -> str:
@@ -70,6 +69,28 @@ class Session:
     @property
     def solve_spec(self) -> dict | None:
         return self.info.procedure.solve_spec()
+
+    @functools.cached_property
+    def procedure(self) -> Procedure | None:
+        """The procedure the session recorded (``procedure.text``), validated once; None for a session
+        without one (an import). A recorded text that no longer validates is one SessionFormatError
+        naming session.yaml (the file it was once read from may have changed since)."""
+        recorded = self.info.procedure
+        if not recorded.text:
+            return None
+        try:
+            return load_procedure_text(recorded.text, recorded.file or "<session>")
+        except RigInputError as exc:
+            where = f"line {exc.line}: " if exc.line else ""
+            key = f"{exc.key}: " if exc.key else ""
+            raise SessionFormatError(str(self.path / "session.yaml"), None, "procedure.text",
+                                     f"the recorded procedure (from {recorded.file or 'an unnamed file'}) does not "
+                                     f"validate: {where}{key}{exc.message}") from None
+
+    @functools.cached_property
+    def events(self) -> list[dict]:
+        """The session's events (``events.jsonl``), read once; a torn last line (a crash) is skipped."""
+        return read_events(self.path)
 
     def step_samples(self, index: int) -> dict:
         sel = self.samples["step"] == index
@@ -92,7 +113,7 @@ def load_session(path) -> Session:
     for p, expected in ((d, "a session directory"), (d / "session.yaml", "session.yaml"),
                         (d / "samples.csv", "samples.csv")):
         refuse_symlink_loop(p, expected)
-    info, raw = SessionManifest.load(d)
+    info, _ = SessionManifest.load(d)
     check_sensor(d / "session.yaml", info)
     samples, warnings = read_samples(d / "samples.csv", n_steps=len(info.steps))
     check_against_manifest(d / "samples.csv", info, samples)
@@ -101,7 +122,23 @@ def load_session(path) -> Session:
         if len(t) and not np.any(np.isfinite(t)):
             raise SessionFormatError(str(d / "samples.csv"), 1, "temp_c",
                                      "the manifest says the sensor has a thermometer, but there are no temperatures")
-    return Session(d, info, samples, warnings, raw)
+    return Session(d, info, samples, warnings)
+
+
+def read_events(session_dir) -> list[dict]:
+    """The events of a session directory (``events.jsonl``; a torn or damaged line is skipped)."""
+    path = Path(session_dir) / "events.jsonl"
+    out = []
+    if not path.is_file():
+        return out
+    for line in path.read_text().splitlines():
+        try:
+            e = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if isinstance(e, dict):
+            out.append(e)
+    return out
 
 
 def refuse_symlink_loop(path: Path, expected: str) -> None:

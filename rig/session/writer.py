@@ -63,20 +63,16 @@ def new_manifest_dict(session_id: str, manifest, columns: tuple[str, ...]) -> di
 class SessionWriter:
     """Writes one session directory. Create with :meth:`create` or :meth:`resume`.
 
-    ``manifest`` is the plain mapping written to ``session.yaml``; :attr:`info` the typed view.
+    :attr:`info` is the typed manifest (:class:`SessionManifest`) as written to ``session.yaml`` so far;
+    the writer changes it (validated on assignment) and writes it out after every change.
     """
 
-    def __init__(self, session_dir: Path, manifest: dict, columns: tuple[str, ...]) -> None:
+    def __init__(self, session_dir: Path, info: SessionManifest, columns: tuple[str, ...]) -> None:
         self.session_dir = Path(session_dir)
-        self.manifest = manifest
+        self.info = info
         self.columns = columns
         self._samples = open(self.session_dir / "samples.csv", "a", newline="")
         self._events = open(self.session_dir / "events.jsonl", "a")
-
-    @property
-    def info(self) -> SessionManifest:
-        """The manifest as written so far, validated."""
-        return SessionManifest.model_validate(self.manifest)
 
     # -- construction ------------------------------------------------------------------
     @classmethod
@@ -104,7 +100,7 @@ class SessionWriter:
         m["samples_committed_bytes"] = len(header.encode())
         (d / "events.jsonl").touch()
         atomic_write_text(d / "session.yaml", dump_yaml(m))
-        w = cls(d, m, columns)
+        w = cls(d, as_manifest(m), columns)
         w.event("start", session=session_id)
         return w
 
@@ -116,7 +112,7 @@ class SessionWriter:
         discarding any samples of the step that was in progress.
         """
         d = Path(session_dir)
-        info, m = SessionManifest.load(d)
+        info, _ = SessionManifest.load(d)
         if info.status == "complete":
             raise SessionFormatError(str(d / "session.yaml"), None, "status",
                                      "session is already complete; nothing to resume")
@@ -133,8 +129,8 @@ class SessionWriter:
                 fh.flush()
                 os.fsync(fh.fileno())
         first = next((s.index for s in info.steps if s.status not in ("complete", "flagged")), len(info.steps))
-        m["status"] = "running"
-        w = cls(d, m, tuple(info.columns or BASE_COLUMNS))
+        info.status = "running"
+        w = cls(d, info, tuple(info.columns or BASE_COLUMNS))
         w._write_manifest()
         if size > committed:
             w.event("warning", message=f"discarded {size - committed} bytes of samples of the step in progress "
@@ -168,10 +164,10 @@ class SessionWriter:
             raise ValueError(f"unknown step status {status!r}")
         self._samples.flush()
         os.fsync(self._samples.fileno())
-        self.manifest["samples_committed_bytes"] = os.path.getsize(self.session_dir / "samples.csv")
-        step = self.manifest["steps"][index]
-        step["status"] = status
-        step["stats"] = plain(stats)
+        self.info.samples_committed_bytes = os.path.getsize(self.session_dir / "samples.csv")
+        step = self.info.steps[index]
+        step.status = status
+        step.stats = plain(stats)
         self._write_manifest()
 
     def event(self, kind: str, **fields) -> None:
@@ -183,9 +179,9 @@ class SessionWriter:
     def set_status(self, status: str) -> None:
         if status not in STATUSES:
             raise ValueError(f"unknown session status {status!r}")
-        self.manifest["status"] = status
+        self.info.status = status
         if status != "running":
-            self.manifest["ended"] = utc_now()
+            self.info.ended = utc_now()
         self._write_manifest()
         if status != "running":
             self.close()
@@ -198,7 +194,7 @@ class SessionWriter:
                 fh.close()
 
     def _write_manifest(self) -> None:
-        atomic_write_text(self.session_dir / "session.yaml", dump_yaml(plain(self.manifest)))
+        atomic_write_text(self.session_dir / "session.yaml", dump_yaml(plain(self.info.to_dict())))
 
 
 def _format_column(c: str, v: np.ndarray | None, n: int) -> np.ndarray:

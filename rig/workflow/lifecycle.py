@@ -1,7 +1,8 @@
 """The one run-into-session lifecycle that ``rig run`` and ``rig replay`` share.
 
     open a rig -> start (or resume) a session -> engine: preflight, prepare, steps -> close the rig
-    -> solve -> mark the session complete
+    -> the pipeline tail (:func:`rig.workflow.conclude.conclude`: solve, verdict, calibration file,
+    history) -> mark the session complete -> the report, when the procedure asks
 
 Whatever fails on the way, the motors are stopped (by the engine), the session is marked aborted
 and what is on disk stays valid and resumable.
@@ -15,24 +16,34 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from calib.errors import CalibError
-from rig.analysis.solve import solve_session
 from rig.devices.rig import Rig
 from rig.execution.context import EngineOptions, RunAborted, RunError, StepOutcome
 from rig.execution.engine import Engine
 from rig.execution.operator import Operator
+from rig.workflow.conclude import Conclusion, conclude, report_asked, write_conclusion_report
+from rig.session import load_session
 from rig.session import BASE_COLUMNS, MAG_COUNTS_PER_UT, ProcedureInfo, RigInfo, SessionManifest, SessionWriter, StepRecord
 
 
 @dataclass
 class RunResult:
-    """Where a run's session is and how it ended (``calibration`` is None without a solve)."""
+    """Where a run's session is and how it ended; ``conclusion`` is what the pipeline tail made of it
+    (calibration, verdict, history, report), None without a solve."""
 
     session_dir: Path
     status: str  # complete | aborted
     outcomes: list[StepOutcome]
-    calibration_path: Path | None
-    calibration: object | None
+    conclusion: Conclusion | None = None
     warnings: list[str] = field(default_factory=list)
+
+    @property
+    def calibration(self):
+        """The calibration file's content, or None without a solve."""
+        return None if self.conclusion is None else self.conclusion.calibration
+
+    @property
+    def calibration_path(self) -> Path | None:
+        return None if self.conclusion is None else self.conclusion.calibration_path
 
 
 @dataclass(frozen=True)
@@ -138,13 +149,17 @@ def execute(procedure, rig: Rig, writer: SessionWriter, operator: Operator, *, f
         raise
 
 
-def finish(procedure, writer: SessionWriter, outcomes: list[StepOutcome], *, solve: bool = True) -> RunResult:
-    """Solve the session when the procedure asks for it, then mark it complete."""
-    cal = cal_path = None
+def finish(procedure, writer: SessionWriter, outcomes: list[StepOutcome], *, solve: bool = True,
+           history=None) -> RunResult:
+    """The pipeline tail when the procedure asks for a solve (:func:`conclude`: calibration file,
+    verdict, history), then the session marked complete, then the report when the procedure asks.
+    ``history``: the history database (default ``$RIG_HISTORY``, else the user's)."""
+    conclusion = None
     if solve and procedure.solve is not None:
         flagged = [o.index + 1 for o in outcomes if o.status == "flagged"]
         try:
-            cal, cal_path = solve_session(writer.session_dir)
+            session = load_session(writer.session_dir)
+            conclusion = conclude(session, history=history, report=False)
         except CalibError as exc:
             writer.event("error", message=f"cannot solve: {exc}")
             writer.set_status("complete")
@@ -152,9 +167,12 @@ def finish(procedure, writer: SessionWriter, outcomes: list[StepOutcome], *, sol
                 raise RunError(f"cannot solve: {exc} (steps {', '.join(map(str, flagged))} were flagged "
                                f"for bad data; session {writer.session_dir})") from None
             raise
-        writer.event("solve", path=str(cal_path))
+        writer.event("solve", path=str(conclusion.calibration_path))
     writer.set_status("complete")
-    return RunResult(writer.session_dir, "complete", outcomes, cal_path, cal)
+    if conclusion is not None and report_asked(conclusion.session):
+        conclusion.session.info = writer.info  # the session as it ends: complete
+        write_conclusion_report(conclusion, history=history)
+    return RunResult(writer.session_dir, "complete", outcomes, conclusion)
 
 
 def file_sha256(path) -> str | None:

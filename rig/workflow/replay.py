@@ -6,7 +6,6 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from calib.errors import CalibError
-from rig.config.procedure import load_procedure_text
 from rig.devices import open_rig
 from rig.errors import RigInputError
 from rig.execution.operator import Operator, SilentOperator
@@ -15,14 +14,15 @@ from rig.workflow import kinds  # noqa: F401 - registers the "replay" rig kind (
 from rig.workflow.lifecycle import NewSession, RunResult, execute, finish, start_session
 
 
-def replay_session(session_dir, *, out_dir=None, ui: Operator | None = None) -> RunResult:
-    """Replay a session into a new session directory (beside the original by default) and solve it."""
+def replay_session(session_dir, *, out_dir=None, ui: Operator | None = None, history=None) -> RunResult:
+    """Replay a session into a new session directory (beside the original by default) and take it through
+    the pipeline tail (:func:`rig.workflow.conclude.conclude`; ``history``: the history database)."""
     original = load_session(session_dir)
     recorded = original.info.procedure
     if not recorded.text or original.info.rig.turntable is None:
         raise RigInputError(str(session_dir), None, "procedure", "the session has no recorded procedure to replay "
                             "(an imported recording: solve or discover it instead)")
-    procedure = recorded_procedure(Path(session_dir), recorded)
+    procedure = original.procedure
     rig = open_rig("replay", original)
     try:
         stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
@@ -36,19 +36,6 @@ def replay_session(session_dir, *, out_dir=None, ui: Operator | None = None) -> 
     finally:
         rig.close()
     try:
-        return finish(procedure, writer, outcomes)
+        return finish(procedure, writer, outcomes, history=history)
     except CalibError as exc:  # a solve refusal names no file: say which session's replay it was
         raise CalibError(f"{session_dir}: the replay ({writer.session_dir}) cannot be solved: {exc}") from None
-
-
-def recorded_procedure(session_dir: Path, recorded):
-    """The procedure recorded in the session (``procedure.text`` of session.yaml); a refusal names
-    session.yaml, where the text is, not the file it was once read from (which may have changed)."""
-    try:
-        return load_procedure_text(recorded.text, recorded.file or "<session>")
-    except RigInputError as exc:
-        where = f"line {exc.line}: " if exc.line else ""
-        key = f"{exc.key}: " if exc.key else ""
-        raise RigInputError(str(session_dir / "session.yaml"), None, "procedure.text",
-                            f"the recorded procedure (from {recorded.file or 'an unnamed file'}) does not validate: "
-                            f"{where}{key}{exc.message}") from None

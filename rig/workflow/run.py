@@ -39,8 +39,13 @@ def new_session_id(procedure_name: str, seed: int | None) -> str:
 def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, out_dir="sessions",
                   seed: int | None = None, resume_dir=None, ui: Operator | None = None,
                   time_scale: float | None = None, clock: str | None = None, solve: bool = True,
-                  options: EngineOptions = EngineOptions()) -> RunResult:
+                  options: EngineOptions = EngineOptions(), history=None) -> RunResult:
     """Run (or resume) a procedure; return where the session is and how it ended.
+
+    With ``solve`` (and a ``solve:`` section in the procedure) the session goes through the pipeline
+    tail (:func:`rig.workflow.conclude.conclude`): the calibration file, the acceptance verdict, the
+    history record (``history``: the database; default ``$RIG_HISTORY``, else the user's) and the
+    report when the procedure asks: exactly what ``rig run`` prints (``RunResult.conclusion``).
 
     Raises the drivers' errors (TurntableError, SensorError), RigInputError, RunError and
     RunAborted; motors are stopped and the session marked aborted before any of them leaves.
@@ -48,7 +53,7 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     operator = ui or SilentOperator()
     if resume_dir is not None:
         return _resume(resume_dir, rig_spec=rig_spec, seed=seed, operator=operator, time_scale=time_scale,
-                       clock=clock, solve=solve, options=options)
+                       clock=clock, solve=solve, options=options, history=history)
     procedure = load_procedure(procedure_path)
     rig_file = load_rig_file(resolve_rig(rig_spec))
     seed = 0 if seed is None else seed
@@ -66,7 +71,7 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
             outcomes = execute(procedure, rig, writer, operator, checked=True, options=options)
         finally:
             rig.close()
-        return finish(procedure, writer, outcomes, solve=solve)
+        return finish(procedure, writer, outcomes, solve=solve, history=history)
     finally:
         rig.close()
         lock.release()
@@ -97,7 +102,7 @@ def format_duration(seconds: float) -> str:
 
 
 def _resume(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, clock, solve: bool,
-            options: EngineOptions) -> RunResult:
+            options: EngineOptions, history=None) -> RunResult:
     """Continue an interrupted session: lock it first (a second resume touches nothing)."""
     SessionManifest.load(resume_dir)  # a directory that is not a session is refused before it is locked
     with SessionLock(resume_dir) as lock:
@@ -105,11 +110,11 @@ def _resume(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, clock
             operator.warn(f"took over the lock of pid {lock.stale.get('pid', '?')} on {lock.stale.get('host', '?')}, "
                           "which is no longer running")
         return _resume_locked(resume_dir, rig_spec=rig_spec, seed=seed, operator=operator, time_scale=time_scale,
-                              clock=clock, solve=solve, options=options)
+                              clock=clock, solve=solve, options=options, history=history)
 
 
 def _resume_locked(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, clock, solve: bool,
-                   options: EngineOptions) -> RunResult:
+                   options: EngineOptions, history=None) -> RunResult:
     """Open the rig, refuse it if it is not the one recorded, then reopen the session and go on."""
     recorded, _ = SessionManifest.load(resume_dir)  # read only: nothing is touched before the checks
     procedure = load_procedure_text(recorded.procedure.text or "", recorded.procedure.file or "<session>")
@@ -123,19 +128,18 @@ def _resume_locked(resume_dir, *, rig_spec, seed, operator: Operator, time_scale
             raise RigInputError(str(resume_dir), None, "rig", "cannot resume on another rig or sensor: "
                                 + "; ".join(differ) + " (resume with the rig, rig file and --seed it was recorded with)")
         writer, first_step = SessionWriter.resume(resume_dir)
-        time_offset = _resume_time_offset(writer.manifest)
+        time_offset = _resume_time_offset(writer.info)
         writer.event("resume", t_s=time_offset, first_step=first_step)
         operator.info(f"resuming {writer.session_dir} at step {first_step + 1}")
         outcomes = execute(procedure, rig, writer, operator, first_step=first_step, resuming=True,
                            time_offset_s=time_offset, options=options)
     finally:
         rig.close()
-    return finish(procedure, writer, outcomes, solve=solve)
+    return finish(procedure, writer, outcomes, solve=solve, history=history)
 
 
-def _resume_time_offset(manifest: dict) -> float:
+def _resume_time_offset(info: SessionManifest) -> float:
     """Session time to continue from: 1 s after the last recorded step ended."""
-    ends = [s.get("stats", {}).get("t_end_s") for s in manifest.get("steps", [])
-            if s.get("status") in ("complete", "flagged")]
-    ends = [e for e in ends if e is not None]
+    ends = [s.stats.t_end_s for s in info.steps
+            if s.status in ("complete", "flagged") and s.stats is not None and s.stats.t_end_s is not None]
     return (max(ends) + 1.0) if ends else 0.0

@@ -58,8 +58,8 @@ def test_six_position_run_writes_a_complete_session(six_position_session):
 
 def test_each_step_has_exactly_the_dwell_samples_and_sits_at_its_pose(six_position_session):
     s = load_session(six_position_session)
-    rate = s.manifest["rig"]["sensor"]["sample_rate_hz"]
-    for step in s.manifest["steps"]:
+    rate = s.info.to_dict()["rig"]["sensor"]["sample_rate_hz"]
+    for step in s.info.to_dict()["steps"]:
         if step["kind"] != "static":
             continue
         d = s.step_samples(step["index"])

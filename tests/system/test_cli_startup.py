@@ -80,7 +80,8 @@ def six_position_session(tmp_path):
 
 def test_rig_solve_imports_neither_the_simulator_nor_scipy_signal_nor_matplotlib(six_position_session, tmp_path):
     code, loaded = imported_by(["solve", str(six_position_session), "-o", str(tmp_path / "cal.yaml")],
-                               NEVER + ("rig.workflow", "rig.cli.commands.run", "rig.cli.commands.discover"))
+                               NEVER + ("rig.workflow.run", "rig.workflow.kinds", "rig.workflow.lifecycle",
+                                        "rig.cli.commands.run", "rig.cli.commands.discover"))
     assert (code, loaded) == (0, [])
     assert (tmp_path / "cal.yaml").is_file()
 

@@ -107,7 +107,7 @@ def test_a_full_disk_is_one_clear_line_and_loses_nothing_already_written(tmp_pat
     copy = tmp_path / "copy"
     shutil.copytree(d, copy)
     s = load_session(copy)  # the manifest and the committed samples are intact
-    done = [st_["index"] for st_ in s.manifest["steps"] if st_["status"] == "complete"]
+    done = [st_["index"] for st_ in s.info.to_dict()["steps"] if st_["status"] == "complete"]
     assert done, "some steps were written before the disk filled"
     for i in done:
         assert len(s.step_samples(i)["t_s"]) == 1000

@@ -156,8 +156,8 @@ def test_kill_9_then_resume_keeps_every_step_once_and_solves(tmp_path, after_ste
     assert yaml.safe_load((d / "session.yaml").read_text())["status"] == "running"  # it never got to say
     assert main(["run", "--resume", str(d), "--time-scale", "0", "--quiet"]) == 0
     s = load_session(d)
-    assert s.manifest["status"] == "complete"
-    for step in s.manifest["steps"]:
+    assert s.info.to_dict()["status"] == "complete"
+    for step in s.info.to_dict()["steps"]:
         n = len(s.step_samples(step["index"])["t_s"])
         assert n == 1000, f"step {step['index']} has {n} samples"
     t = s.samples["t_s"]

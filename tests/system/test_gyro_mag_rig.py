@@ -137,7 +137,7 @@ def test_with_the_gyros_g_sensitivity_the_bias_and_the_determined_g_column_are_r
 def test_the_rate_steps_capture_only_the_constant_rate_part(runs):
     from rig.session import load_session
     sess = load_session(runs["gyro"])
-    for st in sess.manifest["steps"]:
+    for st in sess.info.to_dict()["steps"]:
         if st["kind"] == "rate":
             s0, s1 = st["stats"]["stage_rate_deg_s"]
             assert s0 == pytest.approx(st["rate_deg_s"], abs=1e-3) and s1 == pytest.approx(st["rate_deg_s"], abs=1e-3)

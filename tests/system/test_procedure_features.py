@@ -81,7 +81,7 @@ def test_temperature_steps_wait_for_the_thermometer_and_the_thermal_model_is_sol
     assert main(["run", str(p), "--out", str(tmp_path / "s"), "--time-scale", "0", "--quiet", "--yes"]) == 0
     d = _session(tmp_path / "s")
     s = load_session(d)
-    temps = [st["stats"]["temp_c"] for st in s.manifest["steps"] if st["kind"] == "static"]
+    temps = [st["stats"]["temp_c"] for st in s.info.to_dict()["steps"] if st["kind"] == "static"]
     assert np.allclose(temps[:6], 25.0, atol=0.35) and np.allclose(temps[6:], 35.0, atol=0.35)
     cal = calfile.read(d / "calibration.yaml").accelerometer
     truth = yaml.safe_load((d / "sim_truth.yaml").read_text())["accelerometer"]

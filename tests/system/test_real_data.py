@@ -34,12 +34,12 @@ def imported(datasets, tmp_path_factory):
 
 def test_imucal_parts_become_six_poses_and_three_rotations_with_counts_unchanged(imported, datasets):
     s = load_session(imported["imucal"])
-    steps = s.manifest["steps"]
+    steps = s.info.to_dict()["steps"]
     static = {st["name"]: st["f_nominal"] for st in steps if st["kind"] == "static"}
     assert static == {"x_p": [1, 0, 0], "x_a": [-1, 0, 0], "y_p": [0, 1, 0], "y_a": [0, -1, 0],
                       "z_p": [0, 0, 1], "z_a": [0, 0, -1]}
     assert sorted(st["name"] for st in steps if st["kind"] == "rotation") == ["x_rot", "y_rot", "z_rot"]
-    assert s.manifest["rig"]["sensor"]["sample_rate_hz"] == 204.8
+    assert s.info.to_dict()["rig"]["sensor"]["sample_rate_hz"] == 204.8
     first = (datasets / "imucal" / "annotated_session.csv").read_text().splitlines()[1].split(",")
     assert s.samples["accel_counts"][0].tolist() == [int(float(x)) for x in first[2:5]]
     assert s.samples["gyro_counts"][0].tolist() == [int(float(x)) for x in first[5:8]]
@@ -75,11 +75,11 @@ def test_xsens_magnitude_calibration_matches_the_datasheet_figures(imported):
     """Golden answer: Xsens figures in the datasets README: 415/413/415 counts per m/s^2, offsets
     33123/33276/32360 counts."""
     s = load_session(imported["imu_tk"])
-    assert s.manifest["rig"]["sensor"]["sample_rate_hz"] == pytest.approx(100.0, rel=1e-3)
+    assert s.info.to_dict()["rig"]["sensor"]["sample_rate_hz"] == pytest.approx(100.0, rel=1e-3)
     steps = s.step_means(s.static_step_indices(unknown_pose=True))
     assert 25 <= len(steps) <= 45
     cal = solve(steps, method="magnitude")
-    g = s.manifest["import"]["g_ms2"]
+    g = s.info.to_dict()["import"]["g_ms2"]
     scale_per_ms2 = cal.scale_counts_per_g / g
     assert np.allclose(scale_per_ms2, [415, 413, 415], atol=3)
     assert np.allclose(cal.bias_counts, [33123, 33276, 32360], atol=10)
@@ -93,8 +93,8 @@ def test_tofupilot_windows_carry_temperature_and_converted_acceleration(imported
     mag = np.linalg.norm(steps.mean_counts, axis=1) / steps.lsb_per_g
     # m/s^2 -> g with the stated g; the uncalibrated sensor reads 0.93..1.0 g over -17..74 C
     assert np.all((mag > 0.9) & (mag < 1.02)) and np.max(mag) > 0.98
-    assert s.manifest["import"]["g_ms2"] == 9.80665 and s.manifest["import"]["units"] == "m/s^2"
-    assert {st.get("pose_group") for st in s.manifest["steps"]} == {0}
+    assert s.info.to_dict()["import"]["g_ms2"] == 9.80665 and s.info.to_dict()["import"]["units"] == "m/s^2"
+    assert {st.get("pose_group") for st in s.info.to_dict()["steps"]} == {0}
 
 
 def test_discover_on_the_tofupilot_thermal_sweep_names_temperature_effects(imported):

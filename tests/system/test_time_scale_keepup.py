@@ -85,8 +85,8 @@ def test_a_run_that_loses_samples_to_the_clock_stops_then_resumes_slower_without
 
     assert main(["run", "--resume", str(d), "--time-scale", "0", "--quiet"]) == 0
     s = load_session(d)
-    assert s.manifest["status"] == "complete"
-    assert [st["status"] for st in s.manifest["steps"]] == ["complete"] * 6
+    assert s.info.to_dict()["status"] == "complete"
+    assert [st["status"] for st in s.info.to_dict()["steps"]] == ["complete"] * 6
     assert [len(s.step_samples(i)["t_s"]) for i in range(6)] == [1000] * 6
     assert (d / "calibration.yaml").is_file()
 
@@ -100,7 +100,7 @@ def test_on_the_default_elastic_clock_the_same_time_scale_completes_with_every_s
     assert "overflow" not in err and "outran" not in err, err
     (d,) = list(out.iterdir())
     s = load_session(d)
-    assert [st["status"] for st in s.manifest["steps"]] == ["complete"] * 6
+    assert [st["status"] for st in s.info.to_dict()["steps"]] == ["complete"] * 6
     for i in range(6):
         t = s.step_samples(i)["t_s"]
         assert len(t) == 1000 and abs(max(t[1:] - t[:-1]) - 1e-3) < 1e-6  # contiguous: no sample lost

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from rig.cli.common import EXIT_OK, conclude, format_calibration
+from rig.cli.common import EXIT_OK, format_calibration, present
 from rig.workflow.replay import replay_session
 
 
@@ -15,8 +15,8 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     result = replay_session(args.session, out_dir=args.out)
     print(f"replayed session: {result.session_dir}")
-    if result.calibration is not None:
+    if result.conclusion is not None:
         print(f"calibration: {result.calibration_path}")
         print(format_calibration(result.calibration))
-        return conclude("replay", result.session_dir, result.calibration_path)
+        return present("replay", result.conclusion)
     return EXIT_OK

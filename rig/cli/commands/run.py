@@ -6,9 +6,8 @@ import math
 import signal
 import sys
 
-from rig.cli.common import EXIT_FAILURE, EXIT_OK, UsageError, conclude, format_calibration
+from rig.cli.common import EXIT_FAILURE, EXIT_OK, UsageError, format_calibration, present
 from rig.cli.console import ConsoleUI
-from rig.lab.report import write_report
 from rig.execution.context import RunAborted
 from rig.session import SessionManifest
 from rig.workflow.run import run_procedure
@@ -64,20 +63,18 @@ def _run_and_report(args) -> int:
         raise
     ui.close(finished=True)
     print(f"session: {result.session_dir}")
-    recorded, _ = SessionManifest.load(result.session_dir)  # the whole session, across resumes
+    recorded = (result.conclusion.session.info if result.conclusion is not None  # the whole session, across resumes
+                else SessionManifest.load(result.session_dir)[0])
     flagged = [s for s in recorded.steps if s.status == "flagged"]
     if flagged:
         print("flagged steps (left out of the solve): " + "; ".join(
             f"{s.index + 1} ({s.name}: {'; '.join(map(str, (s.stats.problems if s.stats else None) or ['bad data']))})"
             for s in flagged))
-    if result.calibration is None:
+    if result.conclusion is None:
         return EXIT_OK
     print(f"calibration: {result.calibration_path}")
     print(format_calibration(result.calibration))
-    code = conclude("run", result.session_dir, result.calibration_path)
-    if recorded.procedure.value("report") is True:  # the procedure asks for rig report at the end
-        print(f"report: {write_report(result.session_dir)}")
-    return code
+    return present("run", result.conclusion)
 
 
 def stop_on_signals():

@@ -6,13 +6,11 @@ import json
 import sys
 from pathlib import Path
 
-from calib.file import calibration as calfile
 from calib.errors import CalibError
 from calib.accel.redundancy import pair_biases
-from rig.analysis.solve import solve_session
-from rig.cli.common import (UsageError, format_calibration, json_default, parse_thermal, conclude,
-                            report_warnings)
+from rig.cli.common import UsageError, format_calibration, json_default, parse_thermal, present, report_warnings
 from rig.session import load_session
+from rig.workflow.conclude import conclude
 
 
 def add_parser(sub) -> None:
@@ -49,11 +47,10 @@ def run(args) -> int:
               f"{', '.join(pending[:10])}{' ...' if len(pending) > 10 else ''}; solving what was recorded",
               file=sys.stderr)
     out = args.output if args.output is not None else default_output(args)
-    cal, path = solve_session(args.session, model=args.model, method=args.method, thermal=thermal, out=out,
-                              session=session)
-    verdict_code = conclude("solve", args.session, path, quiet=args.json, session=session)
-    if args.json:
-        cal = calfile.read(path)  # with the acceptance verdict, when the procedure has limits
+    conclusion = conclude(session, out=out, model=args.model, method=args.method, thermal=thermal, report=False)
+    verdict_code = present("solve", conclusion, quiet=args.json)
+    cal, path = conclusion.calibration, conclusion.calibration_path
+    if args.json:  # the file's content, the acceptance verdict included when the procedure has limits
         print(json.dumps({"calibration": str(path), **cal.to_dict()}, indent=2, default=json_default))
     else:
         print(f"calibration: {path}")

@@ -34,16 +34,20 @@ def report_path(session_dir, out=None) -> Path:
     return p
 
 
-def write_report(session_dir, out=None, *, history_db=None, calibration=None) -> Path:
+def write_report(session_dir, out=None, *, history_db=None, calibration=None, session=None,
+                 calibration_file=None) -> Path:
     """Write the report of ``session_dir`` (default ``SESSION/report.html``); returns its absolute path.
 
     ``history_db``: the history database (default ``$RIG_HISTORY``, else ``~/.local/share/rig/history.sqlite``);
-    ``calibration``: the calibration file to report (default ``SESSION/calibration.yaml``).
+    ``calibration``: the calibration file to report (default ``SESSION/calibration.yaml``);
+    ``session``, ``calibration_file``: the loaded session and the calibration's content, when the caller
+    holds them (neither is read again).
     Raises SessionFormatError / RigInputError / CalibrationFileError for bad input (no calibration yet,
     a report that cannot be written).
     """
     target = report_path(session_dir, out)
-    return write_page(target, page(gather(session_dir, calibration=calibration, history_db=history_db)),
+    return write_page(target, page(gather(session_dir, calibration=calibration, history_db=history_db, session=session,
+                                          calibration_file=calibration_file)),
                       explicit=out is not None)
 
 

@@ -117,14 +117,19 @@ class ReportContent:
 
 # ---------------------------------------------------------------------------------------------- loading
 
-def load(session_dir, calibration=None) -> tuple[Session, object, Path]:
+def load(session_dir, calibration=None, *, session: Session | None = None,
+         calibration_file=None) -> tuple[Session, object, Path]:
     """The session and its calibration file (``SESSION/calibration.yaml`` unless ``calibration``).
+    ``session``, ``calibration_file``: the session and the file's content when the caller holds them
+    (the pipeline tail: then neither is read again).
 
     Raises SessionFormatError (not a session), RigInputError (no calibration yet, another sensor),
     CalibrationFileError (a damaged calibration file): all exit 2.
     """
-    session = load_session(session_dir)
+    session = session if session is not None else load_session(session_dir)
     path = Path(calibration) if calibration is not None else Path(session_dir) / "calibration.yaml"
+    if calibration_file is not None:
+        return session, calibration_file, path
     if not path.exists():
         if calibration is None:
             raise RigInputError(str(path), None, None, f"no calibration yet: run `rig solve {session_dir}` first "
@@ -337,7 +342,7 @@ def discover_outputs(session: Session, others: list[tuple[Path, object]]) -> Dis
 
 def history_view(session: Session, cal, cal_path: Path, history_db=None) -> HistoryView:
     """This sensor's calibrations in the history database; a note instead when there are none."""
-    key = sensor_identity(session.manifest or {}, cal)["key"]
+    key = sensor_identity(session.info.to_dict(), cal)["key"]
     path = default_path(history_db)
     if not path.exists():
         return HistoryView(path=path, key=key, note=f"no history database at {path} (docs/history.md)")
@@ -372,8 +377,9 @@ def attach_changes(params: list[Parameter], hist: HistoryView) -> None:
 
 # ---------------------------------------------------------------------------------------------- all of it
 
-def gather(session_dir, *, calibration=None, history_db=None) -> ReportContent:
-    session, cal, cal_path = load(session_dir, calibration)
+def gather(session_dir, *, calibration=None, history_db=None, session: Session | None = None,
+           calibration_file=None) -> ReportContent:
+    session, cal, cal_path = load(session_dir, calibration, session=session, calibration_file=calibration_file)
     others = other_calibrations(session, cal_path)
     params = parameters(cal)
     hist = history_view(session, cal, cal_path, history_db)

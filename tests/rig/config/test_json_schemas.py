@@ -18,7 +18,7 @@ SCHEMA_DIR = REPO / "docs" / "schemas"
 @pytest.mark.parametrize("name", sorted(SCHEMAS))
 def test_the_committed_schema_is_what_the_code_generates(name):
     committed = (SCHEMA_DIR / name).read_text()
-    assert committed == render(name), f"regenerate: python -m rig.config.schemas docs/schemas ({name})"
+    assert committed == render(name), f"regenerate: python -m rig.cli.schemas docs/schemas ({name})"
 
 
 def _validator(name):
@@ -51,3 +51,15 @@ def test_the_schemas_refuse_what_the_loaders_refuse():
     assert not v.is_valid({**rig, "sim": {"effects": {"telekinesis": 1}}})
     rig["turntable"]["axes"]["a1"]["speed_deg_s"] = 60
     assert not v.is_valid(rig)
+
+
+def test_the_one_schema_writer_finds_every_published_schema_up_to_date(tmp_path, capsys):
+    from rig.cli.schemas import main
+    from conftest import REPO
+
+    assert main(["--check", str(REPO / "docs" / "schemas")]) == 0
+    assert main([str(tmp_path)]) == 0 and sorted(p.name for p in tmp_path.iterdir()) == [
+        "procedure.schema.json", "rig-file.schema.json", "session.schema.json"]
+    (tmp_path / "session.schema.json").write_text("{}")
+    assert main(["--check", str(tmp_path)]) == 1
+    assert "out of date (run python -m rig.cli.schemas" in capsys.readouterr().err

@@ -146,7 +146,7 @@ def _session(tmp_path, n_steps=2, rows=5):
 def test_session_round_trip(tmp_path):
     d = _session(tmp_path)
     s = load_session(d)
-    assert s.manifest["format"] == "rig-session/1" and len(s.samples["t_s"]) == 10 and not s.warnings
+    assert s.info.to_dict()["format"] == "rig-session/1" and len(s.samples["t_s"]) == 10 and not s.warnings
     sm = s.step_means()
     np.testing.assert_allclose(sm.mean_counts, [[1, 2, 8192]] * 2)
 

@@ -56,7 +56,7 @@ def test_static_steps_are_captured_checked_and_recorded_with_their_pose(make_rig
     means = session.step_means()
     f = means.mean_counts / means.lsb_per_g
     assert np.allclose(f[0], [0, 0, 1], atol=0.1) and np.allclose(f[1], [1, 0, 0], atol=0.1)
-    assert session.manifest["steps"][1]["stats"]["angles_measured_deg"] == pytest.approx([0, 0, -90], abs=0.02)
+    assert session.info.to_dict()["steps"][1]["stats"]["angles_measured_deg"] == pytest.approx([0, 0, -90], abs=0.02)
 
 
 def test_an_unreachable_pose_is_refused_before_anything_moves(make_rig, tmp_path):
@@ -105,7 +105,7 @@ def test_a_prompt_waits_for_the_operator_and_an_abort_ends_the_run(make_rig, tmp
                         operator=SilentOperator(answer=True))
     eng.prepare(resuming=False)
     eng.run()
-    assert load_session(writer.session_dir).manifest["steps"][0]["status"] == "complete"
+    assert load_session(writer.session_dir).info.to_dict()["steps"][0]["status"] == "complete"
     eng, _ = start(procedure('  - prompt: "Mount the sensor"\n  - pose: "+Z up"\n'), make_rig(), tmp_path / "no",
                    operator=SilentOperator(answer=False))
     eng.prepare(resuming=False)
@@ -120,7 +120,7 @@ def test_a_rate_step_captures_only_the_constant_rate_part_and_renumbers_the_axis
     eng.prepare(resuming=False)
     outcome = eng.run()[-1]
     assert outcome.status == "complete" and outcome.n_samples == 200
-    stats = load_session(writer.session_dir).manifest["steps"][1]["stats"]
+    stats = load_session(writer.session_dir).info.to_dict()["steps"][1]["stats"]
     assert stats["stage_rate_deg_s"] == pytest.approx([40, 40], abs=0.05)
     assert -180 < rig.axes["a1"].stage.get_position_deg() <= 180
     assert moving(rig) == []
@@ -143,7 +143,7 @@ def test_a_temperature_step_sets_the_chamber_and_waits_until_the_sensor_holds_it
     eng.prepare(resuming=False)
     eng.run()
     session = load_session(writer.session_dir)
-    assert session.manifest["steps"][0]["stats"]["temp_c"] == pytest.approx(30, abs=0.3)
+    assert session.info.to_dict()["steps"][0]["stats"]["temp_c"] == pytest.approx(30, abs=0.3)
     assert np.nanmean(session.step_samples(1)["temp_c"]) == pytest.approx(30, abs=0.5)
     assert '"start_c"' in (writer.session_dir / "events.jsonl").read_text()
 

@@ -83,7 +83,7 @@ def test_samples_lost_to_the_scaled_clock_stop_the_run_and_say_the_clock_outran_
     assert "use --time-scale " in line and "or 0 (virtual time)" in line
     assert re.search(rf"resume with: rig run --resume {re.escape(str(writer.session_dir))} --time-scale [0-9.]+$", line)
     assert moving(rig) == []
-    steps = load_session(writer.session_dir).manifest["steps"]
+    steps = load_session(writer.session_dir).info.to_dict()["steps"]
     assert [s["status"] for s in steps] == ["pending", "pending"]  # nothing recorded with a hole
     events = [json.loads(x) for x in (writer.session_dir / "events.jsonl").read_text().splitlines()]
     again = [e for e in events if e["kind"] == "warning" and e.get("source") == "clock"]
@@ -120,7 +120,7 @@ def test_a_rate_step_that_loses_samples_to_the_scaled_clock_stops_the_run_too(ma
         eng.run()
     assert OUTRAN in str(caught.value)
     assert moving(rig) == []
-    assert load_session(writer.session_dir).manifest["steps"][1]["status"] == "pending"
+    assert load_session(writer.session_dir).info.to_dict()["steps"][1]["status"] == "pending"
 
 
 def test_a_wall_clock_rig_that_loses_samples_blames_this_computer_flags_the_step_and_goes_on(make_rig, tmp_path):

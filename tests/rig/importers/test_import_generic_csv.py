@@ -32,7 +32,7 @@ def test_a_labelled_csv_imports_as_a_session_with_an_import_section(tmp_path):
     s = load_session(d)
     assert s.info.rig.kind == "import" and s.info.rig.turntable is None
     assert s.info.import_.source == "csv" and s.info.import_.lsb_per_g == 16384.0 and s.info.import_.units == "counts"
-    assert s.manifest["import"]["steps_from"] == "labels"
+    assert s.info.to_dict()["import"]["steps_from"] == "labels"
     assert [st.name for st in s.info.steps] == list(POSES) and all(st.status == "complete" for st in s.info.steps)
     np.testing.assert_allclose(step_means(s).f_nominal_g, np.array(list(POSES.values()), float), atol=1e-12)
 

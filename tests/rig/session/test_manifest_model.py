@@ -50,13 +50,14 @@ def test_a_writer_takes_the_model_or_the_mapping_and_writes_the_same_manifest(tm
     assert (a / "samples.csv").read_bytes() == (b / "samples.csv").read_bytes()
 
 
-def test_the_loaded_session_exposes_the_typed_manifest_and_keeps_the_mapping(tmp_path):
+def test_the_loaded_session_exposes_the_typed_manifest_and_writes_it_back_unchanged(tmp_path):
     s = load_session(_record(tmp_path, _model()))
     assert isinstance(s.info, SessionManifest) and s.info.status == "complete"
     assert s.info.rig.sensor.accel_lsb_per_g == 8192.0 and s.info.steps[1].stats.n_samples == 5
     assert s.info.rig.model_extra == {"future_key": {"a": 1}}  # unknown keys are kept
-    assert s.manifest["rig"]["future_key"] == {"a": 1} and s.manifest["steps"][0]["status"] == "complete"
-    assert s.info.to_dict() == s.manifest  # read, then written again: unchanged
+    as_read = yaml.safe_load((s.path / "session.yaml").read_text())
+    assert as_read["rig"]["future_key"] == {"a": 1} and as_read["steps"][0]["status"] == "complete"
+    assert s.info.to_dict() == as_read  # read, then written again: unchanged
     assert s.solve_spec == {"model": "full"}
     np.testing.assert_allclose(step_means(s).mean_counts, [[1, 2, 8192]] * 2)
 
@@ -66,7 +67,8 @@ def test_the_loaded_session_exposes_the_typed_manifest_and_keeps_the_mapping(tmp
      "steps[1].status: expected one of pending, complete, failed, flagged, got 'done'"),
     (lambda m: m["steps"][1].update(index=3), "steps[1]: expected a step mapping with index 1, got index 3"),
     (lambda m: m["steps"][0].update(f_nominal=[0, 1]), "steps[0].f_nominal: expected [x, y, z]"),
-    (lambda m: m["rig"]["sensor"].update(sample_rate_hz="fast"), "rig.sensor.sample_rate_hz: expected a positive number"),
+    (lambda m: m["rig"]["sensor"].update(sample_rate_hz="fast"), "rig.sensor.sample_rate_hz: expected a number, got 'fast'"),
+    (lambda m: m["rig"]["sensor"].update(sample_rate_hz=-5), "rig.sensor.sample_rate_hz: expected a number > 0, got -5"),
     (lambda m: m["rig"]["sensor"].pop("accel_lsb_per_g"), "rig.sensor.accel_lsb_per_g: missing required field"),
     (lambda m: m["rig"].pop("sensor"), "rig.sensor: missing required field"),
     (lambda m: m["rig"].update(site={"field_ut": 50.0}), "rig.site.inclination_deg: missing required field"),
