@@ -14,6 +14,7 @@ from typing_extensions import NotRequired, TypedDict
 
 from calib.discovery.effects import LIBRARY, TIME_EFFECTS, effect_counts, validate_effect
 from calib.errors import CalibError
+from calib.numerics.design import MISFIT_LEVEL, misfit
 from calib.file.section import CalibrationSection, Matrix3, Vector3, array, choice, field_problem, integer, number, unit
 
 MODELS = ("triangular", "full", "diagonal")
@@ -156,6 +157,32 @@ class AccelCalibration(CalibrationSection):
         elif self.misalignment is not None:
             raise field_problem("misalignment", f"expected null for the {self.model} model")
         return self
+
+    def n_parameters(self) -> int:
+        """How many quantities the solve estimated: the bias (3), the free entries of the matrix (those
+        with a sigma: 3 diagonal, 6 triangular, 9 full), the thermal coefficients (3 per order) and each
+        added effect's estimates."""
+        m_sigma = np.asarray((self.sigma or {}).get("matrix_counts_per_g") or np.eye(3), float)
+        n = 3 + int(np.count_nonzero(np.nan_to_num(m_sigma, nan=1.0)))
+        if self.temperature is not None:
+            n += 3 * int(self.temperature.order)
+        for effect in self.effects or ():
+            n += int(np.size(np.asarray(effect.get("estimate", []), dtype=object)))
+        return n
+
+    def misfit(self, level: float = MISFIT_LEVEL) -> tuple[bool, float]:
+        """Whether the fit is worse than its noise explains, by the one rule
+        (:func:`calib.numerics.design.misfit`: chi-square beyond its upper ``level`` quantile), and the
+        upper-tail probability. The solver rescaled the sigmas by the Birge ratio on the same rule, so a
+        True here means "the sigmas carry the misfit". The degrees of freedom: one residual per axis and
+        step (one per step for the magnitude method, which fits |f|) less :meth:`n_parameters`."""
+        fit = self.fit
+        chi2_per_dof = float(fit.chi2_per_dof) if fit.chi2_per_dof is not None else float("nan")
+        per_step = 1 if fit.method == "magnitude" else 3
+        dof = per_step * int(fit.steps) - self.n_parameters()
+        if dof <= 0 or not np.isfinite(chi2_per_dof):
+            return False, 1.0
+        return misfit(chi2_per_dof * dof, dof, level)
 
     def bias_at(self, temp_c=None, n: int = 1) -> np.ndarray:
         """Bias (N, 3) in counts at temperatures ``temp_c`` (N,), C."""

@@ -30,7 +30,7 @@ import numpy as np
 from scipy import linalg, special, stats
 
 from calib.accel.inputs import StepMeans
-from calib.numerics.design import misfit
+from calib.numerics.design import MISFIT_LEVEL, misfit
 from calib.discovery.effects import LIBRARY, EffectInputs
 from calib.frames import AXES
 from calib.numerics.magnitude import fit_magnitude
@@ -40,7 +40,7 @@ from calib.numerics.wander import wander_cov_g2
 TRIANGULAR_COLUMNS = {"x": [0, 1, 2], "y": [1, 2], "z": [2]}
 MIN_JUMP_SIDE = 3  # steps a bias jump needs on each side
 FLOOR_GRID = 200  # conditional quantiles of the residual chi-square averaged over in floored_sf
-SCATTER_LEVEL = 0.01  # a bigger model whose chi-square is beyond this upper quantile leaves more than the noise
+SCATTER_LEVEL = MISFIT_LEVEL  # a bigger model whose chi-square is beyond this upper quantile leaves more than the noise
 COLUMN_TOL = 1e-6  # a whitened column whose part outside the model is below this fraction is dependent
 #: per-step nuisance columns an effect brings with it: thermal_hysteresis leaves the steps before the
 #: first known heating or cooling transition (leg unknown, h = 0) to an offset of their own

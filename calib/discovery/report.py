@@ -15,11 +15,12 @@ from scipy import stats
 
 from calib.accel.inputs import StepMeans
 from calib.discovery.problem import jump_times
+from calib.numerics.design import MISFIT_LEVEL
 from calib.frames import AXES
 
 
 # -- localisation ---------------------------------------------------------------------------
-def localise(steps: StepMeans, ctx, z: np.ndarray, false_alarm: float = 0.01) -> dict:
+def localise(steps: StepMeans, ctx, z: np.ndarray, false_alarm: float = MISFIT_LEVEL) -> dict:
     """Where the baseline disagrees: significant step-axis cells and their poses, axes,
     temperature range, legs and time span; RMS of z by group."""
     k = len(steps)
@@ -76,7 +77,7 @@ def summary_lines(d: dict) -> list[str]:
 
 
 # -- what remains ---------------------------------------------------------------------------
-def unexplained(steps: StepMeans, ctx, z: np.ndarray, false_alarm: float = 0.01) -> dict:
+def unexplained(steps: StepMeans, ctx, z: np.ndarray, false_alarm: float = MISFIT_LEVEL) -> dict:
     """Where the final model's normalised residual ``z`` (K, 3) sits and what structure it has.
 
     Plain data: RMS of z by axis, pose, temperature, leg, time block and outer-axis angle; then

@@ -32,7 +32,7 @@ import numpy as np
 
 from calib.accel.inputs import StepMeans
 from calib.accel.solve import TRIANGULAR_NAMES, assemble
-from calib.numerics.design import AxisFit, misfit
+from calib.numerics.design import MISFIT_LEVEL, AxisFit, misfit
 from calib.discovery.nuisance import lack_of_fit
 from calib.discovery.observe import missing_data, observability, triage
 from calib.discovery.problem import (Fit, Problem, RadialProblem,
@@ -133,7 +133,7 @@ class Discovery:
     where: dict
     history: list = field(default_factory=list)  # (label, rms_g, chi2_per_dof)
     not_named: dict = field(default_factory=dict)  # candidate -> p-value at the last forward pass
-    false_alarm: float = 0.01
+    false_alarm: float = MISFIT_LEVEL
     calibration: object = None  # AccelCalibration or None (unknown poses)
     gap_closed: bool = True  # the final chi2 is consistent with its dof at the false-alarm level
     dof_after: int = 0
@@ -182,7 +182,7 @@ def coverage_problem(name: str, steps: StepMeans, ctx: StepContext, pose_free: b
 
 
 # -- the search -----------------------------------------------------------------------------
-def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: float = 0.01,
+def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: float = MISFIT_LEVEL,
              candidates=None, t0_c: float | None = None) -> Discovery:
     """Run the discrepancy search on a session's step means.
 
@@ -217,7 +217,7 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
 
 
 def candidate_pvalues(steps: StepMeans, ctx: StepContext | None = None, model=("bias_tempco",),
-                      false_alarm: float = 0.01, test: str = "search") -> dict:
+                      false_alarm: float = MISFIT_LEVEL, test: str = "search") -> dict:
     """The p-value of adding each observable candidate, alone, to the baseline plus ``model``.
 
     A calibration check, not part of the search: on sessions whose truth is the baseline plus

@@ -155,7 +155,13 @@ def check_model(designs: dict, cond_max: float = 1e10) -> None:
                                  + (f"; needs {'; '.join(hints)}" if hints else "") + ")")
 
 
-def misfit(chi2: float, dof: int, level: float) -> tuple[bool, float]:
+#: the one misfit level: a weighted fit whose chi-square lies beyond this upper quantile misses something the
+#: noise does not explain. The solvers rescale their sigmas by it (Birge ratio), ``rig solve`` and the report
+#: say so by it, and it is the discovery's default false-alarm rate.
+MISFIT_LEVEL = 0.01
+
+
+def misfit(chi2: float, dof: int, level: float = MISFIT_LEVEL) -> tuple[bool, float]:
     """Whether a weighted fit's chi-square is beyond its upper ``level`` quantile on ``dof`` (the model
     misses something the noise does not explain), and its upper-tail probability (1 when dof <= 0).
 
@@ -167,7 +173,7 @@ def misfit(chi2: float, dof: int, level: float) -> tuple[bool, float]:
     return p < level, p
 
 
-def session_rule(fits, level: float = 0.01):
+def session_rule(fits, level: float = MISFIT_LEVEL):
     """The per-axis fits of one session with the Birge rescale decided on the whole session.
 
     Each axis's fit rescales its covariance when its own misfit is significant at ``level``; over
@@ -189,7 +195,7 @@ def session_rule(fits, level: float = 0.01):
 
 
 def solve_wls(g: np.ndarray, y: np.ndarray, sem: np.ndarray, names: list[str],
-              misfit_p: float = 0.01) -> AxisFit:
+              misfit_p: float = MISFIT_LEVEL) -> AxisFit:
     """Weighted least squares with 1/sem^2 weights.
 
     Covariance: ``(G^T W G)^-1``, the per-step standard errors propagated. It is rescaled by the
@@ -204,7 +210,7 @@ def solve_wls(g: np.ndarray, y: np.ndarray, sem: np.ndarray, names: list[str],
 
 
 def solve_whitened(g: np.ndarray, y: np.ndarray, gw: np.ndarray, yw: np.ndarray, names: list[str],
-                   misfit_p: float = 0.01) -> AxisFit:
+                   misfit_p: float = MISFIT_LEVEL) -> AxisFit:
     """Least squares on the whitened design ``gw`` and data ``yw`` (weighted: rows divided by the
     sem; generalised: premultiplied by the inverse Cholesky factor of the data's covariance), with
     the Birge rescale of :func:`solve_wls`; residuals are ``y - g p`` in the data's own units."""
@@ -220,7 +226,8 @@ def solve_whitened(g: np.ndarray, y: np.ndarray, gw: np.ndarray, yw: np.ndarray,
     return AxisFit(list(names), params, cov, cov0, y - g @ params, chi2, dof, inflated)
 
 
-def solve_gls(g: np.ndarray, y: np.ndarray, cov_y: np.ndarray, names: list[str], misfit_p: float = 0.01) -> AxisFit:
+def solve_gls(g: np.ndarray, y: np.ndarray, cov_y: np.ndarray, names: list[str],
+              misfit_p: float = MISFIT_LEVEL) -> AxisFit:
     """Generalised least squares with the data's covariance ``cov_y`` (K, K) (the step means' standard
     errors on the diagonal plus the sensor's bias wander between the steps, :mod:`calib.numerics.wander`):
     whitened by its Cholesky factor, then as :func:`solve_wls` (rescaled by chi2/dof only when the

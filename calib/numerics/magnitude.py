@@ -19,10 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from calib.numerics.design import misfit
+from calib.numerics.design import MISFIT_LEVEL, misfit
 from calib.errors import ObservabilityError
 
-MISFIT_P = 0.01  # a misfit this improbable rescales the sigmas by chi2/dof
+MISFIT_P = MISFIT_LEVEL  # a misfit this improbable rescales the sigmas by chi2/dof (the one level)
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 from rig.analysis import compare as cmp
+from calib.numerics.design import MISFIT_LEVEL
 from rig.cli.common import EXIT_OK, check_false_alarm, json_default, report_warnings
 
 
@@ -18,7 +19,7 @@ def add_parser(sub) -> None:
     c.add_argument("--calibrated", action="store_true",
                    help="compare specific force calibrated by each session's own calibration.yaml "
                         "(default: raw counts, which needs the same sensor model and range)")
-    c.add_argument("--false-alarm", type=float, default=0.01,
+    c.add_argument("--false-alarm", type=float, default=MISFIT_LEVEL,
                    help="probability of calling two sessions of the same sensor different (default 0.01)")
 
 

@@ -6,6 +6,7 @@ import json
 
 from rig.analysis import discover as dsc
 from rig.analysis import twin as twn
+from calib.numerics.design import MISFIT_LEVEL
 from rig.cli.common import EXIT_OK, check_false_alarm, json_default, report_warnings
 
 
@@ -20,7 +21,7 @@ def add_parser(sub) -> None:
     dc.add_argument("--twin", metavar="RIG.yaml", default=None,
                     help="write the digital twin: a simulated-rig file whose sensor is the fitted model plus the "
                          "named effects, and the session's procedure beside it (docs/twin.md)")
-    dc.add_argument("--false-alarm", type=float, default=0.01,
+    dc.add_argument("--false-alarm", type=float, default=MISFIT_LEVEL,
                     help="probability of naming an effect in a session that has none (default 0.01)")
 
 

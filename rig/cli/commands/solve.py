@@ -61,17 +61,16 @@ def run(args) -> int:
     return verdict_code
 
 
-#: a chi2/dof this large means the model does not describe the data (poses, sensor or effects)
-MISFIT_CHI2 = 10.0
-
-
 def warn_if_misfit(cal) -> None:
-    """Say plainly when the fit is far worse than the noise: the numbers are then not trustworthy."""
+    """Say plainly when the fit is worse than the noise explains, by the solvers' own rule
+    (:meth:`calib.accel.result.AccelCalibration.misfit`, the one the report and discovery use)."""
     fit = cal.accelerometer.fit
-    if fit.chi2_per_dof is not None and fit.chi2_per_dof > MISFIT_CHI2:
-        print(f"rig solve: warning: the model does not fit the data (chi2/dof {fit.chi2_per_dof:.0f}, residual "
-              f"{fit.residual_rms_g * 1e6:.0f} ug rms): poses not where the session says (hand-placed?), another "
-              "sensor, or an effect the model lacks; see rig discover. The sigmas carry the misfit.", file=sys.stderr)
+    significant, p = cal.accelerometer.misfit()
+    if significant:
+        print(f"rig solve: warning: the model does not fit the data (chi2/dof {fit.chi2_per_dof:.2f}, p = {p:.2g}, "
+              f"residual {fit.residual_rms_g * 1e6:.0f} ug rms): poses not where the session says (hand-placed?), "
+              "another sensor, or an effect the model lacks; see rig discover. The sigmas carry the misfit.",
+              file=sys.stderr)
 
 
 def default_output(args) -> Path:
