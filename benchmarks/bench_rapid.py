@@ -49,7 +49,7 @@ from drivers.sensors.base import SensorSettings  # noqa: E402
 from rig.config.procedure import load_procedure  # noqa: E402
 from rig.config.rigfile import load_rig_file  # noqa: E402
 from rig.devices import open_rig_file  # noqa: E402
-from rig.planning.kinematics import AXES, f_nominal  # noqa: E402
+from rig.planning.kinematics import STAGE_AXES, f_nominal  # noqa: E402
 from rig.planning.targets import move_time_s  # noqa: E402
 from rig.session import load_session  # noqa: E402
 from rig.workflow.run import run_procedure  # noqa: E402
@@ -98,7 +98,7 @@ def lower_bound_s(session_dir: Path, rig_file: Path) -> tuple[float, float, floa
     pos, travel = np.zeros(3), 0.0
     for s in statics:  # order: fastest (exact least travel)
         turn = np.abs((np.asarray(s.angles_deg) - pos + 180.0) % 360.0 - 180.0)
-        travel += max(move_time_s(d, axes[n].speed_deg_s, axes[n].accel_deg_s2) for n, d in zip(AXES, turn))
+        travel += max(move_time_s(d, axes[n].speed_deg_s, axes[n].accel_deg_s2) for n, d in zip(STAGE_AXES, turn))
         pos = np.asarray(s.angles_deg)
     settle = sum(2 * s.settle.window_s + s.settle.min_s for s in statics)
     session = load_session(session_dir)

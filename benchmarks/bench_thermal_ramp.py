@@ -48,7 +48,7 @@ os.environ.setdefault("RIG_HISTORY", str(Path(tempfile.mkdtemp(prefix="bench-ram
 import calib  # noqa: E402
 from calib.file import calibration as calfile  # noqa: E402
 from calib.accel.solve import base_model, solve_gls, wander_covariance  # noqa: E402
-from calib.numerics.design import AXES, Inputs, temp_term  # noqa: E402
+from calib.numerics.design import SENSOR_AXES, Inputs, temp_term  # noqa: E402
 from calib.errors import CalibError  # noqa: E402
 from rig.session import load_session, step_means  # noqa: E402
 from rig.workflow.run import run_procedure  # noqa: E402
@@ -93,7 +93,7 @@ def hold_tempco_gls(steps) -> tuple[np.ndarray, np.ndarray]:
     generalised least squares with the bias wander between steps, counts/C."""
     lm, x = base_model("triangular"), Inputs.from_steps(steps)
     est, sig = np.zeros(3), np.zeros(3)
-    for j, a in enumerate(AXES):
+    for j, a in enumerate(SENSOR_AXES):
         lm = lm.with_terms(a, [temp_term(a, 1)])
         fit = solve_gls(lm.design(a, x), steps.mean_counts[:, j], wander_covariance(steps, steps.sem_counts[:, j]),
                         lm.names(a))

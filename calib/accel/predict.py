@@ -36,7 +36,7 @@ import numpy as np
 
 from calib.numerics.stability import BiasStability
 from calib.accel.solve import base_model
-from calib.numerics.design import AXES, Inputs
+from calib.numerics.design import SENSOR_AXES, Inputs
 from calib.errors import CalibError, ObservabilityError
 from calib.evaluation import GIMBAL_LOCK_COS, f_from_roll_pitch
 from calib.numerics.wander import wander_cov_g2
@@ -50,8 +50,8 @@ DRAW_SEED = 2015
 PARAMETERS = {
     "triangular": {"x": ["accel.bias_x", "accel.scale_x", "accel.alpha_yz", "accel.alpha_zy"],
                    "y": ["accel.bias_y", "accel.scale_y", "accel.alpha_zx"], "z": ["accel.bias_z", "accel.scale_z"]},
-    "full": {a: [f"accel.bias_{a}"] + [f"accel.scale_{a}" if a == c else f"accel.m_{a}{c}" for c in AXES]
-             for a in AXES},
+    "full": {a: [f"accel.bias_{a}"] + [f"accel.scale_{a}" if a == c else f"accel.m_{a}{c}" for c in SENSOR_AXES]
+             for a in SENSOR_AXES},
 }
 #: parameters whose sigma is a ratio to the scale (rad), not a design coefficient
 ANGLES = ("accel.alpha_yz", "accel.alpha_zy", "accel.alpha_zx")
@@ -67,7 +67,7 @@ def parameter_names(model: str) -> list[str]:
     """Every parameter a sigma target may name for ``model`` (triangular, full)."""
     if model not in PARAMETERS:
         raise CalibError(f"accuracy targets predict the triangular or full model, not {model!r}")
-    return [n for a in AXES for n in PARAMETERS[model][a]]
+    return [n for a in SENSOR_AXES for n in PARAMETERS[model][a]]
 
 
 @dataclass(frozen=True)
@@ -172,7 +172,7 @@ class Predictor:
         d_pitch[locked] = [0.0, 1.0, 0.0]  # theta = atan2(gy, r) at r = 0
         de_df = np.concatenate([d_roll[~locked], d_pitch])  # (E, 3): error per unit change of f
         x = Inputs(f, None, np.zeros(len(f)))
-        for j, a in enumerate(AXES):
+        for j, a in enumerate(SENSOR_AXES):
             g = self.model.design(a, x)  # (P_poses, P_j): delta a_j at each pose per parameter
             g_e = np.concatenate([g[~locked], g])  # rows matching de_df
             self.rows[a] = -(de_df[:, j:j + 1] * g_e) / self.lsb
@@ -187,7 +187,7 @@ class Predictor:
         x = Inputs(f, None, np.zeros(len(f)))
         wander = self.wander_counts2(len(f))
         out = {}
-        for j, a in enumerate(AXES):
+        for j, a in enumerate(SENSOR_AXES):
             g = self.model.design(a, x)
             if wander is None:
                 info = g.T @ (g / sem[:, j:j + 1] ** 2)
@@ -228,7 +228,7 @@ class Predictor:
 
     def error_covariance(self, covs: dict) -> np.ndarray:
         """Covariance (E, E), rad^2, of the roll and pitch errors at the verification poses."""
-        return sum(self.rows[a] @ covs[a][1] @ self.rows[a].T for a in AXES)
+        return sum(self.rows[a] @ covs[a][1] @ self.rows[a].T for a in SENSOR_AXES)
 
     def attitude_quantile_deg(self, covs: dict) -> float:
         """The ``confidence`` quantile of the largest |roll| or |pitch| error over the poses, deg."""
@@ -241,7 +241,7 @@ class Predictor:
     def parameter_sigmas(self, covs: dict) -> dict[str, float]:
         """1-sigma of every named parameter (counts, counts/g; angles in rad at the nominal scale)."""
         out = {}
-        for a in AXES:
+        for a in SENSOR_AXES:
             _, c = covs[a]
             for name, var in zip(PARAMETERS[self.goal.model][a], np.diag(c)):
                 out[name] = float(np.sqrt(var) / (self.lsb if name in ANGLES else 1.0))
@@ -255,7 +255,7 @@ class Predictor:
         covs = self.covariances(f, sem)
         x = Inputs(f, None, np.zeros(len(f)))
         gains = np.zeros(len(f))
-        for j, a in enumerate(AXES):
+        for j, a in enumerate(SENSOR_AXES):
             g = self.model.design(a, x)
             c = covs[a][1]
             b = self._proxy_metric(a, len(c))

@@ -17,7 +17,7 @@ from calib.numerics.special import chi2_sf
 
 from calib.accel.inputs import StepMeans
 from calib.errors import ObservabilityError
-from calib.frames import AXES
+from calib.frames import SENSOR_AXES
 
 
 
@@ -62,7 +62,7 @@ def pair_biases(steps: StepMeans, tol: float = 0.05) -> Redundancy:
             ap, am = a[plus].mean(axis=0), a[minus].mean(axis=0)
             sp = np.sqrt(np.sum(s[plus] ** 2, axis=0)) / len(plus)
             sm = np.sqrt(np.sum(s[minus] ** 2, axis=0)) / len(minus)
-            pairs.append(PairBias(AXES[k], 0.5 * (ap + am), 0.5 * np.hypot(sp, sm)))
+            pairs.append(PairBias(SENSOR_AXES[k], 0.5 * (ap + am), 0.5 * np.hypot(sp, sm)))
     if len(pairs) < 2:
         raise ObservabilityError("the redundancy check needs at least two pairs of opposite poses")
     b = np.array([p.bias_counts for p in pairs])

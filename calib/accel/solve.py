@@ -27,7 +27,7 @@ import numpy as np
 from calib.accel.combinations import choose_subsets, subset_average_maps
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration, FitSummary, ThermalModel
-from calib.numerics.design import (AXES, AxisFit, Inputs, LinearModel, Term, check_model, check_rank, const_term, force_term,
+from calib.numerics.design import (SENSOR_AXES, AxisFit, Inputs, LinearModel, Term, check_model, check_rank, const_term, force_term,
                           session_rule, solve_gls, solve_wls, temp_term, undetermined)
 from calib.errors import CalibError, ObservabilityError
 from calib.numerics.magnitude import fit_magnitude
@@ -53,7 +53,7 @@ def triangular_model() -> LinearModel:
 
 def full_model() -> LinearModel:
     """Bias + full 3x3 matrix (12 parameters)."""
-    return LinearModel({a: [const_term(a)] + [force_term(f"m_{a}{c}", i) for i, c in enumerate(AXES)] for a in AXES})
+    return LinearModel({a: [const_term(a)] + [force_term(f"m_{a}{c}", i) for i, c in enumerate(SENSOR_AXES)] for a in SENSOR_AXES})
 
 
 def base_model(model: str) -> LinearModel:
@@ -102,7 +102,7 @@ def _model_with_thermal(steps, model, thermal, t0_c):
     order = thermal_order(steps, thermal)
     lm = base_model(model)
     if order:
-        for a in AXES:
+        for a in SENSOR_AXES:
             lm = lm.with_terms(a, [temp_term(a, s) for s in range(1, order + 1)])
     x = Inputs.from_steps(steps, t0_c)
     if order and steps.temp_rate_c_per_s is not None:
@@ -118,7 +118,7 @@ def gradient_term(axis: str, rate_c_per_s: np.ndarray) -> Term:
 
 def scale_tempco_term(axis: str) -> Term:
     """The scale tempco of ``axis`` to first order: ``(T - t0) f_axis``, counts/(g C) (= k s, s in 1/C)."""
-    j = AXES.index(axis)
+    j = SENSOR_AXES.index(axis)
     return Term(f"s_{axis}", "counts/(g C)", lambda x, c=j: (x.temp_c - x.t0_c) * x.f_g[:, c], needs=("temp",),
                 hint=f"poses with gravity along +{axis.upper()} and -{axis.upper()} at several temperatures")
 
@@ -126,7 +126,7 @@ def scale_tempco_term(axis: str) -> Term:
 def with_ramp_terms(lm: LinearModel, x: Inputs, rate_c_per_s: np.ndarray) -> LinearModel:
     """``lm`` with the thermal-gradient term on every axis and the scale tempco on the axes whose poses
     determine it (their design stays of full rank with it)."""
-    for a in AXES:
+    for a in SENSOR_AXES:
         lm = lm.with_terms(a, [gradient_term(a, rate_c_per_s)])
         trial = lm.with_terms(a, [scale_tempco_term(a)])
         if not undetermined(trial.design(a, x), trial.names(a)):
@@ -141,7 +141,7 @@ def ramp_effects(fits: dict, lsb_per_g: float, t0_c: float) -> list[dict]:
         return []
     est = {"g": [None] * 3, "s": [None] * 3}
     sig = {"g": [None] * 3, "s": [None] * 3}
-    for j, a in enumerate(AXES):
+    for j, a in enumerate(SENSOR_AXES):
         fit = fits[a]
         p = dict(zip(fit.names, fit.params))
         sd = dict(zip(fit.names, np.sqrt(np.diag(fit.cov))))
@@ -149,22 +149,22 @@ def ramp_effects(fits: dict, lsb_per_g: float, t0_c: float) -> list[dict]:
         for kind, divisor in (("g", lsb_per_g), ("s", k)):
             if f"{kind}_{a}" in p:
                 est[kind][j], sig[kind][j] = float(p[f"{kind}_{a}"] / divisor), float(sd[f"{kind}_{a}"] / abs(divisor))
-    out = [{"name": "thermal_gradient", "unit": "g/(C/s)", "axes": list(AXES), "estimate": est["g"],
+    out = [{"name": "thermal_gradient", "unit": "g/(C/s)", "axes": list(SENSOR_AXES), "estimate": est["g"],
             "sigma": sig["g"], "rate_window_s": RAMP_RATE_WINDOW_S}]
     if any(v is not None for v in est["s"]):
-        out.append({"name": "scale_tempco", "unit": "1/C", "axes": list(AXES), "estimate": est["s"],
+        out.append({"name": "scale_tempco", "unit": "1/C", "axes": list(SENSOR_AXES), "estimate": est["s"],
                     "sigma": sig["s"], "t0_c": float(t0_c)})
     return out
 
 
 def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> AccelCalibration:
     lm, x, order = _model_with_thermal(steps, model, thermal, t0_c)
-    designs = {a: lm.design(a, x) for a in AXES}
-    check_model({a: (designs[a], lm.names(a), lm.terms[a]) for a in AXES})
+    designs = {a: lm.design(a, x) for a in SENSOR_AXES}
+    check_model({a: (designs[a], lm.names(a), lm.terms[a]) for a in SENSOR_AXES})
     wander = steps.bias_stability is not None
     w_counts2 = wander_counts2(steps) if wander else None  # the same wander for the three axes: computed once
     fits = {}
-    for j, a in enumerate(AXES):
+    for j, a in enumerate(SENSOR_AXES):
         y, sem = steps.mean_counts[:, j], steps.sem_counts[:, j]
         fits[a] = (solve_gls(designs[a], y, wander_covariance(steps, sem, w_counts2), lm.names(a)) if wander
                    else solve_wls(designs[a], y, sem, lm.names(a)))
@@ -207,7 +207,7 @@ def assemble(steps: StepMeans, model: str, fits: dict, order: int, t0_c: float, 
     sb = np.zeros(3)
     coef = np.zeros((3, max(order, 1)))
     scoef = np.zeros((3, max(order, 1)))
-    for j, a in enumerate(AXES):
+    for j, a in enumerate(SENSOR_AXES):
         fit = fits[a]
         p = dict(zip(fit.names, fit.params))
         s = dict(zip(fit.names, np.sqrt(np.diag(fit.cov))))
@@ -220,7 +220,7 @@ def assemble(steps: StepMeans, model: str, fits: dict, order: int, t0_c: float, 
             for name, c in zip(names[1:], cols):
                 m[j, c], sm[j, c] = p[name], s[name]
         elif model == "full":
-            for c, cc in enumerate(AXES):
+            for c, cc in enumerate(SENSOR_AXES):
                 m[j, c], sm[j, c] = p[f"m_{a}{cc}"], s[f"m_{a}{cc}"]
         else:  # diagonal
             m[j, j], sm[j, j] = p[f"k_{a}"], s[f"k_{a}"]
@@ -230,9 +230,9 @@ def assemble(steps: StepMeans, model: str, fits: dict, order: int, t0_c: float, 
     misalignment = smis = None
     if model == "triangular":
         misalignment, smis = _angles(fits)
-    res = np.concatenate([fits[a].residuals for a in AXES])
-    chi2 = sum(fits[a].chi2 for a in AXES)
-    dof = sum(fits[a].dof for a in AXES)
+    res = np.concatenate([fits[a].residuals for a in SENSOR_AXES])
+    chi2 = sum(fits[a].chi2 for a in SENSOR_AXES)
+    dof = sum(fits[a].dof for a in SENSOR_AXES)
     sigma = {"bias_counts": sb.tolist(), "scale_counts_per_g": np.diag(sm).tolist(),
              "matrix_counts_per_g": sm.tolist(), "misalignment": smis,
              "temperature": {"coefficients": scoef[:, :order].tolist()} if order else None}
@@ -288,7 +288,7 @@ def solve_flip(steps: StepMeans, *, thermal="off", tol: float = 0.05) -> AccelCa
         raise CalibError("the flip method has no thermal model: use thermal off")
     f = steps.f_nominal_g
     fits = {}
-    for j, a in enumerate(AXES):
+    for j, a in enumerate(SENSOR_AXES):
         e = np.zeros(3); e[j] = 1
         plus = np.flatnonzero(np.linalg.norm(f - e, axis=1) < tol)
         minus = np.flatnonzero(np.linalg.norm(f + e, axis=1) < tol)
@@ -324,18 +324,18 @@ def solve_combinations(steps: StepMeans, *, model: str = "triangular", thermal="
     """
     lm, x, order = _model_with_thermal(steps, model, thermal, t0_c)
     k = len(steps)
-    n = max(len(lm.terms[a]) for a in AXES)
+    n = max(len(lm.terms[a]) for a in SENSOR_AXES)
     if k < n:
         raise ObservabilityError(f"combinations need at least {n} poses, the session has {k}")
-    designs = {a: lm.design(a, x) for a in AXES}
-    check_model({a: (designs[a], lm.names(a), lm.terms[a]) for a in AXES})
+    designs = {a: lm.design(a, x) for a in SENSOR_AXES}
+    check_model({a: (designs[a], lm.names(a), lm.terms[a]) for a in SENSOR_AXES})
     subsets, total, sampled = choose_subsets(k, n, max_subsets, seed)
-    avg = subset_average_maps([designs[a] for a in AXES], subsets, total, sampled,
+    avg = subset_average_maps([designs[a] for a in SENSOR_AXES], subsets, total, sampled,
                               [steps.mean_counts[:, j] for j in range(3)])
     if avg.count == 0:
         raise ObservabilityError("no subset of the poses determines the model exactly")
     fits = {}
-    for j, a in enumerate(AXES):
+    for j, a in enumerate(SENSOR_AXES):
         amap = avg.maps[j]
         y = steps.mean_counts[:, j]
         params = amap @ y
@@ -352,7 +352,7 @@ def combinations_label(avg, n: int, fits: dict) -> str:
     of them its largest sampling error in units of the parameter's sigma."""
     if not avg.sampled:
         return f"combinations({avg.count} subsets of {n})"
-    ratio = max(float(np.max(se / np.sqrt(np.diag(fits[a].cov)))) for se, a in zip(avg.sampling_se, AXES))
+    ratio = max(float(np.max(se / np.sqrt(np.diag(fits[a].cov)))) for se, a in zip(avg.sampling_se, SENSOR_AXES))
     return (f"combinations({avg.count} subsets of {n}, a random sample of the {avg.total}; "
             f"sampling error up to {ratio:.2g} sigma)")
 
@@ -375,7 +375,7 @@ def solve_batch(mean_counts: np.ndarray, f_nominal_g: np.ndarray, model: str = "
     bsz = y.shape[0]
     bias = np.zeros((bsz, 3))
     mat = np.zeros((bsz, 3, 3))
-    for j, a in enumerate(AXES):
+    for j, a in enumerate(SENSOR_AXES):
         g = lm.design(a, x)
         check_rank(g, lm.names(a), lm.terms[a], a)
         p = np.einsum("pk,bk->bp", np.linalg.pinv(g), y[:, :, j])

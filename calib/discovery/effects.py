@@ -51,7 +51,7 @@ from typing import Callable
 import numpy as np
 
 from calib.errors import CalibError
-from calib.frames import AXES
+from calib.frames import SENSOR_AXES
 
 
 
@@ -183,39 +183,39 @@ def _heating(x):
 
 
 LIBRARY: dict[str, Effect] = {e.name: e for e in [
-    Effect("bias_tempco", "bias linear in temperature", "g/C", AXES, ("temp",),
+    Effect("bias_tempco", "bias linear in temperature", "g/C", SENSOR_AXES, ("temp",),
            "steps spread over at least 2 C", True, _per_axis(lambda x: x.dt_c()[:, None]),
            sim_field="bias_tempco_g_per_c"),
-    Effect("bias_tempco_quadratic", "bias quadratic in temperature", "g/C^2", AXES, ("temp",),
+    Effect("bias_tempco_quadratic", "bias quadratic in temperature", "g/C^2", SENSOR_AXES, ("temp",),
            "steps at 3 or more temperatures spread over at least 2 C", True,
            _per_axis(lambda x: x.dt_c()[:, None] ** 2), sim_field="bias_tempco2_g_per_c2"),
-    Effect("scale_tempco", "scale factor linear in temperature", "1/C", AXES, ("temp",),
+    Effect("scale_tempco", "scale factor linear in temperature", "1/C", SENSOR_AXES, ("temp",),
            "+ and - poses of each axis at 2 or more temperatures", True, _scale_tempco,
            sim_field="scale_tempco_per_c"),
-    Effect("scale_nonlinearity", "output quadratic in the input along the same axis", "1/g", AXES, (),
+    Effect("scale_nonlinearity", "output quadratic in the input along the same axis", "1/g", SENSOR_AXES, (),
            "three or more levels of each axis' input (e.g. -1, 0, +1 g)", True,
            _per_axis(lambda x: x.f_g ** 2), sim_field="scale_nonlinearity"),
     Effect("cross_axis_nonlinearity", "output depending on products of two input components", "1/g",
-           tuple(f"{o}_{q}" for o in AXES for q in ("xy", "yz", "zx")), (),
+           tuple(f"{o}_{q}" for o in SENSOR_AXES for q in ("xy", "yz", "zx")), (),
            "edge or corner poses (two input components non-zero at once)", True, _cross,
            sim_field="cross_axis_nonlinearity"),
     Effect("full_misalignment", "couplings below the triangular model's diagonal (mounting rotation)", "rad",
            ("yx", "zx", "zy"), (), "poses along all three axes", True, _full_mis),
     Effect("table_tilt", "turntable base out of level (about base x, base y)", "deg", ("x", "y"),
            ("rotation",), "the outer axis turned between poses", False, _tilt),
-    Effect("bias_drift", "bias changing linearly with time", "g/s", AXES, (),
+    Effect("bias_drift", "bias changing linearly with time", "g/s", SENSOR_AXES, (),
            "steps spread in time, not in step with temperature", True,
            _per_axis(lambda x: (np.asarray(x.t_s, float) - x.t_ref_s)[:, None]), sim_field="bias_drift_g_per_s"),
-    Effect("thermal_hysteresis", "bias offset after heating versus after cooling (+h/2, -h/2)", "g", AXES,
+    Effect("thermal_hysteresis", "bias offset after heating versus after cooling (+h/2, -h/2)", "g", SENSOR_AXES,
            ("temp", "legs"), "the same temperatures visited on a heating and a cooling leg", True,
            _per_axis(lambda x: 0.5 * _heating(x)[:, None]), sim_field="thermal_hysteresis_g"),
-    Effect("bias_tempco_cubic", "bias cubic in temperature", "g/C^3", AXES, ("temp",),
+    Effect("bias_tempco_cubic", "bias cubic in temperature", "g/C^3", SENSOR_AXES, ("temp",),
            "steps at 4 or more temperatures spread over at least 2 C", True,
            _per_axis(lambda x: x.dt_c()[:, None] ** 3), sim_field="bias_tempco3_g_per_c3"),
-    Effect("thermal_gradient", "bias proportional to the rate of temperature change dT/dt", "g/(C/s)", AXES,
+    Effect("thermal_gradient", "bias proportional to the rate of temperature change dT/dt", "g/(C/s)", SENSOR_AXES,
            ("temp", "rate"), "steps captured at different temperature rates (while the chamber ramps)", True,
            _per_axis(lambda x: _rate(x)[:, None]), sim_field="thermal_gradient_g_per_c_per_s"),
-    Effect("bias_jump", "a bias step at a time found by the search (shock, mode change)", "g", AXES, ("time",),
+    Effect("bias_jump", "a bias step at a time found by the search (shock, mode change)", "g", SENSOR_AXES, ("time",),
            "steps before and after the jump (at least 3 on each side)", True,
            _per_axis(lambda x: _jump(x)[:, None]), sim_field="bias_jump_g"),
 ]}

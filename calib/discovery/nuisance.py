@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from calib.discovery.problem import Problem, f_test, jump_times
-from calib.frames import AXES
+from calib.frames import SENSOR_AXES
 
 TIME_BLOCKS = 6
 FINE_BLOCKS = 12
@@ -77,7 +77,7 @@ def factor_columns(prob: Problem, labels) -> tuple[np.ndarray, list]:
     k = prob.k
     levels = list(dict.fromkeys(np.asarray(labels).tolist()))
     cols, names = [], []
-    for j, a in enumerate(AXES):
+    for j, a in enumerate(SENSOR_AXES):
         for lv in levels:
             c = np.zeros(3 * k)
             c[j * k:(j + 1) * k] = (np.asarray(labels) == lv)

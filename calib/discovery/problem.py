@@ -32,7 +32,7 @@ from scipy import linalg, special, stats
 from calib.accel.inputs import StepMeans
 from calib.numerics.design import MISFIT_LEVEL, misfit
 from calib.discovery.effects import LIBRARY, EffectInputs
-from calib.frames import AXES
+from calib.frames import SENSOR_AXES
 from calib.numerics.magnitude import fit_magnitude
 from calib.numerics.wander import wander_cov_g2
 
@@ -120,7 +120,7 @@ class Problem:
     def _baseline(self):
         k = self.k
         blocks, names = [], []
-        for j, a in enumerate(AXES):
+        for j, a in enumerate(SENSOR_AXES):
             if self.pose_free:
                 groups = np.unique(self.ctx.pose_group) if self.ctx.pose_group is not None else np.array([0])
                 labels = self.ctx.pose_group if self.ctx.pose_group is not None else np.zeros(k, int)
@@ -128,7 +128,7 @@ class Problem:
                 nm = [f"b_{a}[{g}]" for g in groups]
             else:
                 cols = [np.ones(k)] + [self.f[:, c] for c in TRIANGULAR_COLUMNS[a]]
-                nm = [f"b_{a}"] + [f"m_{a}{AXES[c]}" for c in TRIANGULAR_COLUMNS[a]]
+                nm = [f"b_{a}"] + [f"m_{a}{SENSOR_AXES[c]}" for c in TRIANGULAR_COLUMNS[a]]
             for c, n in zip(cols, nm):
                 full = np.zeros(3 * k)
                 full[j * k:(j + 1) * k] = c

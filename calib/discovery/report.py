@@ -16,7 +16,7 @@ from scipy import stats
 from calib.accel.inputs import StepMeans
 from calib.discovery.problem import jump_times
 from calib.numerics.design import MISFIT_LEVEL
-from calib.frames import AXES
+from calib.frames import SENSOR_AXES
 
 
 # -- localisation ---------------------------------------------------------------------------
@@ -30,7 +30,7 @@ def localise(steps: StepMeans, ctx, z: np.ndarray, false_alarm: float = MISFIT_L
     t = np.asarray(steps.t_s, float)
     out: dict = {"z_threshold": zc, "cells": int(sig.sum()), "cells_total": int(3 * k)}
     out["by_axis"] = {a: {"significant": int(sig[:, j].sum()), "rms_z": float(np.sqrt(np.mean(z[:, j] ** 2)))}
-                      for j, a in enumerate(AXES)}
+                      for j, a in enumerate(SENSOR_AXES)}
     rows = np.flatnonzero(sig.any(axis=1))
     out["steps"] = [str(steps.names[i]) for i in rows]
     if len(rows):
@@ -89,7 +89,7 @@ def unexplained(steps: StepMeans, ctx, z: np.ndarray, false_alarm: float = MISFI
     zr = np.sqrt(np.mean(z ** 2, axis=1))
     t = np.asarray(steps.t_s, float)
     out: dict = {"rms_z": float(np.sqrt(np.mean(z ** 2))),
-                 "by_axis": {a: float(np.sqrt(np.mean(z[:, j] ** 2))) for j, a in enumerate(AXES)}}
+                 "by_axis": {a: float(np.sqrt(np.mean(z[:, j] ** 2))) for j, a in enumerate(SENSOR_AXES)}}
     order = np.argsort(-zr)[:5]
     out["worst_steps"] = [{"name": str(steps.names[i]), "t_s": float(t[i]), "z": z[i].tolist()} for i in order]
     groups = _groups(steps, ctx)
@@ -127,7 +127,7 @@ def _structure_tests(steps: StepMeans, ctx, z: np.ndarray, groups: dict) -> list
     if ctx.temp_rate is not None and np.all(np.isfinite(ctx.temp_rate)):
         regressors["temperature_rate"] = np.asarray(ctx.temp_rate, float)
     out = []
-    for j, a in enumerate(AXES):
+    for j, a in enumerate(SENSOR_AXES):
         for kind, x in regressors.items():
             if np.ptp(x) > 0:
                 r, p = stats.pearsonr(x, z[:, j])

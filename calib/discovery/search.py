@@ -40,7 +40,7 @@ from calib.discovery.problem import (Fit, Problem, RadialProblem,
 from calib.discovery.report import localise, unexplained
 from calib.discovery.effects import LIBRARY
 from calib.errors import CalibError
-from calib.frames import AXES
+from calib.frames import SENSOR_AXES
 from calib.numerics.wander import wander_rms_g
 
 __all__ = ["Discovery", "FoundEffect", "StepContext", "StepRow", "candidate_pvalues", "coverage_problem", "discover",
@@ -456,7 +456,7 @@ def _matrix_from(fit: Fit) -> np.ndarray:
     m = np.zeros((3, 3))
     for col, (blk, n) in enumerate(fit.names):
         if blk == "base" and n.startswith("m_"):
-            m[AXES.index(n[2]), AXES.index(n[3])] = fit.theta[col]
+            m[SENSOR_AXES.index(n[2]), SENSOR_AXES.index(n[3])] = fit.theta[col]
     return m
 
 
@@ -471,7 +471,7 @@ ENTRY_FIELDS = {"scale_tempco": ("t0_c", lambda t0, tr, c, p: t0),
 
 def _axis_fit(prob: Problem, final: Fit, cov: np.ndarray, j: int, order: int, chi2: float) -> AxisFit:
     """One output axis's seed parameters and thermal polynomial as the seed solver's AxisFit."""
-    a = AXES[j]
+    a = SENSOR_AXES[j]
     cols, names = [], []
     for col, (blk, n) in enumerate(final.names):
         if blk == "base" and n[2] == a and n.startswith(("b_", "m_")):
@@ -494,7 +494,7 @@ def _calibration(steps, prob, final, cov, selected, t0, t_ref, ctx):
     """The augmented calibration: the seed's model, its thermal polynomial and the other effects."""
     order = 2 if "bias_tempco_quadratic" in selected else (1 if "bias_tempco" in selected else 0)
     chi2 = prob.axis_chi2(final)
-    fits = {a: _axis_fit(prob, final, cov, j, order, float(chi2[j])) for j, a in enumerate(AXES)}
+    fits = {a: _axis_fit(prob, final, cov, j, order, float(chi2[j])) for j, a in enumerate(SENSOR_AXES)}
     assert set(TRIANGULAR_NAMES["x"]) <= set(fits["x"].names)
     sig = np.sqrt(np.diag(cov))
     extra = []

@@ -17,15 +17,15 @@ from pydantic import ConfigDict, field_validator, model_validator, with_config
 from typing_extensions import TypedDict
 
 from calib.file.section import CalibrationSection, Matrix3, Vector3, array, field_problem, integer, number, unit
-from calib.frames import AXES
+from calib.frames import SENSOR_AXES
 
 OFF_DIAGONAL = tuple((i, j) for i in range(3) for j in range(3) if i != j)
-NONORTHOGONALITY_NAMES = tuple(f"m_{AXES[i]}{AXES[j]}" for i, j in OFF_DIAGONAL)
+NONORTHOGONALITY_NAMES = tuple(f"m_{SENSOR_AXES[i]}{SENSOR_AXES[j]}" for i, j in OFF_DIAGONAL)
 
 
 def param_names() -> list[str]:
     """Names of the 12 gyro parameters, in the order b, k, m."""
-    return [f"b_{a}" for a in AXES] + [f"k_{a}" for a in AXES] + list(NONORTHOGONALITY_NAMES)
+    return [f"b_{a}" for a in SENSOR_AXES] + [f"k_{a}" for a in SENSOR_AXES] + list(NONORTHOGONALITY_NAMES)
 
 
 #: ``m_ij = M_ij / M_ii`` for the six i != j, dimensionless
@@ -102,7 +102,7 @@ class GyroCalibration(CalibrationSection):
     @field_validator("g_sensitivity")
     @classmethod
     def _axes(cls, gs: Any) -> Any:
-        if gs is not None and not all(x in AXES for x in gs["inputs"]):
+        if gs is not None and not all(x in SENSOR_AXES for x in gs["inputs"]):
             raise field_problem("inputs", "a list of input axes (x, y, z)")
         return gs
 

@@ -16,7 +16,7 @@ from calib.numerics.affine import fit_affine, input_coverage, solve_axis
 from calib.numerics.design import session_rule
 from calib.errors import ObservabilityError
 from calib.gyro.inputs import RateStepMeans
-from calib.gyro.result import AXES, OFF_DIAGONAL, BiasPair, GyroCalibration, param_names
+from calib.gyro.result import SENSOR_AXES, OFF_DIAGONAL, BiasPair, GyroCalibration, param_names
 
 
 def find_bias_pairs(steps: RateStepMeans, rel_tol: float = 1e-6) -> list[BiasPair]:
@@ -47,7 +47,7 @@ def _pair(steps: RateStepMeans, i: int, j: int, rate_dps: float, wander_counts2:
     """The zero-rate output of steps ``i`` and ``j`` (opposite rates of magnitude ``rate_dps``, deg/s);
     ``wander_counts2`` the variance (counts^2) the wander adds to the sum of their means."""
     dominant = np.abs(steps.rate_nominal_dps[i]) / rate_dps
-    axis = AXES[int(np.argmax(dominant))] if dominant.max() > 1 - 1e-6 else "xyz"
+    axis = SENSOR_AXES[int(np.argmax(dominant))] if dominant.max() > 1 - 1e-6 else "xyz"
     bias = 0.5 * (steps.mean_counts[i] + steps.mean_counts[j])
     sig = 0.5 * np.sqrt(steps.sem_counts[i] ** 2 + steps.sem_counts[j] ** 2 + wander_counts2)
     return BiasPair(axis_spun=axis, rate_dps=rate_dps, bias_counts=bias, sigma_counts=sig)
@@ -56,10 +56,10 @@ def _pair(steps: RateStepMeans, i: int, j: int, rate_dps: float, wander_counts2:
 def _check_observable(w: np.ndarray) -> None:
     missing, full = input_coverage(w)
     if missing:
-        names = "".join(AXES[j] for j in missing)
-        about = " or ".join(AXES[j] for j in missing)
-        scales = ", ".join(f"k_{AXES[j]}" for j in missing)
-        couplings = ", ".join(f"m_{AXES[i]}{AXES[j]}" for j in missing for i in range(3) if i != j)
+        names = "".join(SENSOR_AXES[j] for j in missing)
+        about = " or ".join(SENSOR_AXES[j] for j in missing)
+        scales = ", ".join(f"k_{SENSOR_AXES[j]}" for j in missing)
+        couplings = ", ".join(f"m_{SENSOR_AXES[i]}{SENSOR_AXES[j]}" for j in missing for i in range(3) if i != j)
         raise ObservabilityError(f"the rate steps never spin about {about}: scale {scales} and couplings "
                                  f"{couplings} undetermined; add rate steps about {names if len(names) == 1 else ' and '.join(names)}")
     if not full:
@@ -73,15 +73,15 @@ def _sigmas(matrix: np.ndarray, fits: tuple) -> dict:
     sig = {}
     for i in range(3):
         c = fits[i].cov  # parameters [M_i0, M_i1, M_i2, b_i]
-        sig[f"b_{AXES[i]}"] = float(np.sqrt(c[3, 3]))
-        sig[f"k_{AXES[i]}"] = float(np.sqrt(c[i, i]))
+        sig[f"b_{SENSOR_AXES[i]}"] = float(np.sqrt(c[3, 3]))
+        sig[f"k_{SENSOR_AXES[i]}"] = float(np.sqrt(c[i, i]))
     for i, j in OFF_DIAGONAL:
         c = fits[i].cov
         mii, mij = matrix[i, i], matrix[i, j]
         grad = np.zeros(c.shape[0])
         grad[j] = 1.0 / mii
         grad[i] = -mij / mii**2
-        sig[f"m_{AXES[i]}{AXES[j]}"] = float(np.sqrt(max(grad @ c @ grad, 0.0)))
+        sig[f"m_{SENSOR_AXES[i]}{SENSOR_AXES[j]}"] = float(np.sqrt(max(grad @ c @ grad, 0.0)))
     return {n: sig[n] for n in param_names()}
 
 
@@ -110,11 +110,11 @@ def solve_gyro(steps: RateStepMeans) -> GyroCalibration:
     g_inputs = g_sensitivity_inputs(steps)
     if g_inputs:
         return _solve_with_g(steps, g_inputs)
-    names = [[f"M_{AXES[i]}{a}" for a in AXES] + [f"b_{AXES[i]}"] for i in range(3)]
+    names = [[f"M_{SENSOR_AXES[i]}{a}" for a in SENSOR_AXES] + [f"b_{SENSOR_AXES[i]}"] for i in range(3)]
     fit = fit_affine(w, steps.mean_counts, steps.sem_counts, names, steps.wander_counts2())
     m, b = fit.matrix, fit.offset
     res_dps = np.linalg.solve(m, fit.residuals.T).T
-    nonorth = {f"m_{AXES[i]}{AXES[j]}": float(m[i, j] / m[i, i]) for i, j in OFF_DIAGONAL}
+    nonorth = {f"m_{SENSOR_AXES[i]}{SENSOR_AXES[j]}": float(m[i, j] / m[i, i]) for i, j in OFF_DIAGONAL}
     return GyroCalibration(
         lsb_per_dps=steps.lsb_per_dps, matrix_counts_per_dps=m, bias_counts=b,
         scale_counts_per_dps=np.diag(m).copy(), nonorthogonality=nonorth, sigma=_sigmas(m, fit.axis_fits),
@@ -141,7 +141,7 @@ def _solve_with_g(steps: RateStepMeans, g_inputs: list[int]) -> GyroCalibration:
     wander = steps.wander_counts2()
     fits = []
     for i in range(3):
-        nm = [f"M_{AXES[i]}{a}" for a in AXES] + [f"b_{AXES[i]}"] + [f"G_{AXES[i]}{AXES[k]}" for k in g_inputs]
+        nm = [f"M_{SENSOR_AXES[i]}{a}" for a in SENSOR_AXES] + [f"b_{SENSOR_AXES[i]}"] + [f"G_{SENSOR_AXES[i]}{SENSOR_AXES[k]}" for k in g_inputs]
         fits.append(solve_axis(design, steps.mean_counts[:, i], steps.sem_counts[:, i], wander, nm))
     fits = session_rule(fits)
     m = np.array([ft.params[:3] for ft in fits])
@@ -155,7 +155,7 @@ def _solve_with_g(steps: RateStepMeans, g_inputs: list[int]) -> GyroCalibration:
     res_dps = np.linalg.solve(m, res.T).T
     chi2 = sum(ft.chi2 for ft in fits)
     dof = sum(ft.dof for ft in fits)
-    nonorth = {f"m_{AXES[i]}{AXES[j]}": float(m[i, j] / m[i, i]) for i, j in OFF_DIAGONAL}
+    nonorth = {f"m_{SENSOR_AXES[i]}{SENSOR_AXES[j]}": float(m[i, j] / m[i, i]) for i, j in OFF_DIAGONAL}
     # the +/- pairs, corrected for the g-sensitivity of their own specific force
     pairs = find_bias_pairs(steps)
     return GyroCalibration(
@@ -163,4 +163,4 @@ def _solve_with_g(steps: RateStepMeans, g_inputs: list[int]) -> GyroCalibration:
         nonorthogonality=nonorth, sigma=_sigmas(m, tuple(fits)), bias_pairs=pairs,
         residual_rms_dps=float(np.sqrt(np.mean(res_dps**2))), chi2_per_dof=chi2 / dof if dof > 0 else float("nan"),
         n_steps=len(steps),
-        g_sensitivity={"inputs": [AXES[k] for k in g_inputs], "matrix_counts_per_g": gm, "sigma_counts_per_g": gs})
+        g_sensitivity={"inputs": [SENSOR_AXES[k] for k in g_inputs], "matrix_counts_per_g": gm, "sigma_counts_per_g": gs})

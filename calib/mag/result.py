@@ -15,14 +15,14 @@ from pydantic import ConfigDict, model_validator, with_config
 from typing_extensions import TypedDict
 
 from calib.file.section import CalibrationSection, Matrix3, Vector3, choice, field_problem, integer, number, unit
-from calib.frames import AXES
+from calib.frames import SENSOR_AXES
 
 METHODS = ("positions", "ellipsoid")
 
 
 def sigma_names() -> list[str]:
     """Names of the 12 magnetometer parameters: ``hard_iron_x..z`` (uT), ``a_xx..a_zz`` (-)."""
-    return [f"hard_iron_{a}" for a in AXES] + [f"a_{r}{c}" for r in AXES for c in AXES]
+    return [f"hard_iron_{a}" for a in SENSOR_AXES] + [f"a_{r}{c}" for r in SENSOR_AXES for c in SENSOR_AXES]
 
 
 #: 1-sigma of ``hard_iron_x..z`` (uT) and ``a_xx..a_zz`` (-)

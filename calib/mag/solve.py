@@ -21,7 +21,7 @@ import numpy as np
 from calib.numerics.affine import fit_affine, input_coverage
 from calib.errors import CalibError, ObservabilityError
 from calib.mag.inputs import MagStepMeans
-from calib.mag.result import AXES, MagCalibration, sigma_names
+from calib.mag.result import SENSOR_AXES, MagCalibration, sigma_names
 from calib.mag.ellipsoid import fit_ellipsoid
 
 
@@ -62,14 +62,14 @@ def solve_mag_positions(steps: MagStepMeans) -> MagCalibration:
                          "needs the true field per position (use solve_mag_ellipsoid without poses)")
     h = steps.field_nominal_ut
     _check_positions(h)
-    names = [[f"a_{AXES[i]}{c}" for c in AXES] + [f"hard_iron_{AXES[i]}"] for i in range(3)]
+    names = [[f"a_{SENSOR_AXES[i]}{c}" for c in SENSOR_AXES] + [f"hard_iron_{SENSOR_AXES[i]}"] for i in range(3)]
     fit = fit_affine(h, steps.mean_ut, steps.sem_ut, names, steps.wander_ut2())
     sig = {}
     for i in range(3):
         s = np.sqrt(np.diag(fit.axis_fits[i].cov))
-        sig[f"hard_iron_{AXES[i]}"] = float(s[3])
+        sig[f"hard_iron_{SENSOR_AXES[i]}"] = float(s[3])
         for j in range(3):
-            sig[f"a_{AXES[i]}{AXES[j]}"] = float(s[j])
+            sig[f"a_{SENSOR_AXES[i]}{SENSOR_AXES[j]}"] = float(s[j])
     return MagCalibration(method="positions", matrix=fit.matrix, hard_iron_ut=fit.offset,
                           sigma={n: sig[n] for n in sigma_names()},
                           residual_rms_ut=float(np.sqrt(np.mean(fit.residuals**2))),
@@ -111,8 +111,8 @@ def solve_mag_ellipsoid(steps: MagStepMeans, field_ut: float) -> MagCalibration:
     if not (np.isfinite(f) and f > 0):
         raise CalibError(f"solve_mag_ellipsoid: field_ut must be a finite number > 0 (uT), got {field_ut!r}")
     fit = fit_ellipsoid(steps.mean_ut, steps.sem_ut, f, steps.wander_ut2())
-    sig = {f"hard_iron_{AXES[i]}": float(fit.sigma_bias[i]) for i in range(3)}
-    sig.update({f"a_{AXES[i]}{AXES[j]}": float(fit.sigma_matrix[i, j]) for i in range(3) for j in range(3)})
+    sig = {f"hard_iron_{SENSOR_AXES[i]}": float(fit.sigma_bias[i]) for i in range(3)}
+    sig.update({f"a_{SENSOR_AXES[i]}{SENSOR_AXES[j]}": float(fit.sigma_matrix[i, j]) for i in range(3) for j in range(3)})
     return MagCalibration(method="ellipsoid", matrix=np.asarray(fit.matrix, float),
                           hard_iron_ut=np.asarray(fit.bias, float), sigma={n: sig[n] for n in sigma_names()},
                           residual_rms_ut=float(fit.residual_rms), chi2_per_dof=float(fit.chi2_per_dof),

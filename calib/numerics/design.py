@@ -22,7 +22,7 @@ import numpy as np
 from calib.numerics.special import chi2_sf
 
 from calib.errors import ObservabilityError
-from calib.frames import AXES
+from calib.frames import SENSOR_AXES
 
 if TYPE_CHECKING:  # type hints only: calib.accel imports this module
     from calib.accel.inputs import StepMeans
@@ -69,7 +69,7 @@ def const_term(axis: str) -> Term:
 
 
 def force_term(name: str, component: int) -> Term:
-    ax = AXES[component]
+    ax = SENSOR_AXES[component]
     return Term(name, "counts/g", lambda x, c=component: x.f_g[:, c],
                 hint=f"poses with gravity along +{ax.upper()} and -{ax.upper()}")
 

@@ -30,7 +30,7 @@ from calib.file import calibration as calfile
 from calib.accel.inputs import StepMeans
 from calib.numerics.design import misfit
 from calib.discovery.report import unexplained, unexplained_lines
-from calib.frames import AXES
+from calib.frames import SENSOR_AXES
 from calib.numerics.wander import wander_cov_g2
 from rig.analysis.discover import step_context
 from rig.errors import RigInputError
@@ -90,7 +90,7 @@ class Comparison:
 
     def largest(self) -> dict:
         k, j = np.unravel_index(int(np.argmax(np.abs(self.z))), self.z.shape)
-        return {"index": int(self.indices[k]), "step": str(self.names[k]), "axis": AXES[j], "z": float(self.z[k, j])}
+        return {"index": int(self.indices[k]), "step": str(self.names[k]), "axis": SENSOR_AXES[j], "z": float(self.z[k, j])}
 
     def where(self) -> dict:
         """The disagreeing cells: steps (index and name), axes, temperature range and time span."""
@@ -98,7 +98,7 @@ class Comparison:
         rows = np.flatnonzero(f.any(axis=1))
         out = {"cells": int(f.sum()), "steps": [str(self.names[k]) for k in rows],
                "indices": [int(self.indices[k]) for k in rows],
-               "axes": [a for j, a in enumerate(AXES) if f[:, j].any()]}
+               "axes": [a for j, a in enumerate(SENSOR_AXES) if f[:, j].any()]}
         if len(rows):
             out["time_span_s"] = [float(self.a.t_s[rows].min()), float(self.a.t_s[rows].max())]
             if self.a.temp_c is not None:
@@ -107,7 +107,7 @@ class Comparison:
 
     def by_axis(self) -> dict:
         return {a: {"rms_z": float(np.sqrt(np.mean(self.z[:, j] ** 2))), "disagreeing": int(self.flagged[:, j].sum())}
-                for j, a in enumerate(AXES)}
+                for j, a in enumerate(SENSOR_AXES)}
 
     def by_load(self) -> dict | None:
         """RMS z on the axes carrying gravity in a step (|f_j| >= 0.5 g) and on the others: a difference on

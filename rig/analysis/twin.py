@@ -34,7 +34,7 @@ from drivers.sensors.regs.mpu9150 import DLPF_BW_HZ
 from rig.analysis.discover import step_context
 from rig.config.rigfile import AxisConfig, load_rig_file, parse_rig_file
 from rig.errors import RigInputError
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 from rig.session import Session, load_session, step_means
 
 #: bias polynomial effects -> power of (T - t0)
@@ -322,7 +322,7 @@ def rig_settings(session: Session) -> tuple[dict, str, dict, list]:
     original = _original_rig_file(session)
     axes, notes = {}, []
     recorded = session.info.rig.turntable.axes if session.info.rig.turntable is not None else None
-    for name in AXES:
+    for name in STAGE_AXES:
         ax = original.axes[name] if original is not None else AxisConfig(slip_ring=True)
         doc = {k: getattr(ax, k) for k in AXIS_KEYS}
         doc["soft_limits_deg"] = list(doc["soft_limits_deg"])

@@ -27,7 +27,7 @@ from rig.config.schema import (Strict, check_mapping, choice, fail, flag, label,
 from rig.config.sections import SectionUnavailable, section
 from rig.config.yamlload import read_source
 from rig.errors import RigInputError
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 
 FORMAT = "rig-file/1"
 STAGE_MAX_SPEED_DEG_S = MR191.max_speed_deg_s  # 8MR191: NomSpeed 4800 full steps/s at 0.01 deg/step
@@ -143,7 +143,7 @@ class Axes(Strict):
     @classmethod
     def _known_keys(cls, data, info):
         data = check_mapping(cls, data, info)
-        for name in AXES:
+        for name in STAGE_AXES:
             if isinstance(data, dict) and name not in data:
                 raise fail("missing axis", at=(name,))
         return data
@@ -173,7 +173,7 @@ class RigFileDoc(Strict):
     def _hardware_needs_ports(self):
         if self.kind != "hardware":
             return self
-        for name in AXES:
+        for name in STAGE_AXES:
             port = getattr(self.turntable.axes, name).port
             if not isinstance(port, str) or not port:
                 raise fail("expected the controller's serial port, e.g. /dev/ximc/00003A5C",
@@ -209,7 +209,7 @@ def parse_rig_file(text: str, path: str = "<rig>") -> RigFile:
                                        "expected a mapping with format, name, turntable, sensor")
     sections = {name: _section(name, spec.kind, doc, path, loc) for name in ("sim", "faults")
                 if doc.get(name) is not None}
-    axes = {n: dataclasses.replace(getattr(spec.turntable.axes, n), name=n) for n in AXES}
+    axes = {n: dataclasses.replace(getattr(spec.turntable.axes, n), name=n) for n in STAGE_AXES}
     sensor = spec.sensor
     if "bus" not in doc["sensor"]:
         sensor = dataclasses.replace(sensor, bus="sim" if spec.kind == "sim" else 1)

@@ -10,14 +10,14 @@ from drivers.ximc.stage import Stage
 from rig.devices.buses import open_bus
 from rig.devices.registry import register_rig_kind
 from rig.devices.rig import Axis, Rig
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 
 
 def open_stages(axes_config: dict, clock: Clock, on_event=None) -> dict[str, Axis]:
     """Open one ``Stage`` per axis on its configured port; close the opened ones on failure."""
     axes: dict[str, Axis] = {}
     try:
-        for name in AXES:
+        for name in STAGE_AXES:
             config = axes_config[name]
             stage = Stage(config.port, clock=clock, name=name, on_event=on_event)
             stage.open()

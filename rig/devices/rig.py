@@ -15,7 +15,7 @@ from typing import Any, Callable, Protocol
 
 from drivers.clock import Clock
 from rig.config.rigfile import AxisConfig
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 
 
 @dataclass(frozen=True)
@@ -153,7 +153,7 @@ class Rig:
     def describe(self) -> dict:
         """Identity of every device, for the session manifest's ``rig`` section."""
         axes = {}
-        for name in AXES:
+        for name in STAGE_AXES:
             axis = self.axes[name]
             ident = axis.stage.identify()
             axes[name] = {"port": axis.config.port, "serial": ident.serial_number, "firmware": ident.firmware,

@@ -16,7 +16,7 @@ from rig.execution.estimate import step_durations_s
 from rig.execution.executors import executor_for
 from rig.execution.motion import check_reachable, stop_motors
 from rig.execution.operator import Operator, OperatorAbsent, SilentOperator
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 from rig.session.writer import SessionWriter
 
 
@@ -98,18 +98,18 @@ class Engine:
         settings and the rig's home/zero policy."""
         rig = self.ctx.rig
         if preflight:
-            self.preflight({n: rig.axes[n].stage.get_position_deg() for n in AXES} if resuming else None)
+            self.preflight({n: rig.axes[n].stage.get_position_deg() for n in STAGE_AXES} if resuming else None)
         for axis in rig.axes.values():
             axis.stage.set_speed_deg_s(axis.config.speed_deg_s, accel_deg_s2=axis.config.accel_deg_s2)
         if rig.home_policy == "home":
-            for name in AXES:
+            for name in STAGE_AXES:
                 self.ctx.event("home", axis=name)
                 rig.axes[name].stage.command_home()
-            for name in AXES:
+            for name in STAGE_AXES:
                 rig.axes[name].stage.command_wait_for_stop(10, timeout_s=self.ctx.options.move_timeout_s)
                 rig.axes[name].stage.command_zero()
         elif rig.home_policy == "zero" and not resuming:
-            for name in AXES:
+            for name in STAGE_AXES:
                 self.ctx.event("zero", axis=name)
                 rig.axes[name].stage.command_zero()
         if resuming:

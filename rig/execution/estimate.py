@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.execution.capture import nominal_dwell_s
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 from rig.planning.targets import move_time_s
 
 SETTLE_GUESS_S = 1.0
@@ -31,7 +31,7 @@ def step_durations_s(steps, rig) -> list[float]:
             continue
         angles = np.asarray(step.angles_deg, float)
         move = max(move_time_s(abs(b - a), rig.axes[n].config.speed_deg_s, rig.axes[n].config.accel_deg_s2)
-                   for n, a, b in zip(AXES, previous, angles))
+                   for n, a, b in zip(STAGE_AXES, previous, angles))
         dwell = TARGET_DWELL_GUESS_S if step.dwell_rule == "target" else nominal_dwell_s(step, rate)
         out.append(move + SETTLE_GUESS_S + dwell)
         previous = angles

@@ -12,7 +12,7 @@ from drivers.ximc.stage import TurntableError
 from rig.errors import RigInputError
 from rig.execution.context import RunContext
 from rig.planning import targets as planning
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 
 
 def plan_targets(rig, angles_deg, current_deg: dict[str, float]) -> dict[str, float]:
@@ -24,7 +24,7 @@ def plan_targets(rig, angles_deg, current_deg: dict[str, float]) -> dict[str, fl
         The pose is beyond an axis' soft limits or cable wrap (``key`` names the axis).
     """
     out = {}
-    for i, name in enumerate(AXES):
+    for i, name in enumerate(STAGE_AXES):
         axis = rig.axes[name]
         wanted = axis.stage_angle_deg(float(angles_deg[i]))
         out[name] = planning.plan_axis_target(current_deg[name], wanted, axis.config.soft_limits_deg,
@@ -36,14 +36,14 @@ def move_to(ctx: RunContext, step) -> None:
     """Move every axis to the step's pose at once; raise ``TurntableError`` if one falls short."""
     ctx.progress(step, "move")
     rig = ctx.rig
-    current = {name: rig.axes[name].stage.get_position_deg() for name in AXES}
+    current = {name: rig.axes[name].stage.get_position_deg() for name in STAGE_AXES}
     targets = plan_targets(rig, step.angles_deg, current)
-    for name in AXES:
+    for name in STAGE_AXES:
         if abs(targets[name] - current[name]) > 1e-6:
             ctx.event("move", step=step.index, axis=name, from_deg=current[name], to_deg=targets[name])
             rig.axes[name].stage.move_deg(targets[name])
     _coarse_wait(rig, targets)
-    for name in AXES:
+    for name in STAGE_AXES:
         stage = rig.axes[name].stage
         stage.command_wait_for_stop(50, timeout_s=ctx.options.move_timeout_s)
         reached = stage.get_position_deg()
@@ -72,7 +72,7 @@ def _coarse_wait(rig, targets: dict[str, float]) -> None:
 
 def angles_now_deg(rig) -> np.ndarray:
     """The kinematic angles the controllers report now, deg (3,)."""
-    return np.array([rig.axes[n].kinematic_angle_deg(rig.axes[n].stage.get_position_deg()) for n in AXES])
+    return np.array([rig.axes[n].kinematic_angle_deg(rig.axes[n].stage.get_position_deg()) for n in STAGE_AXES])
 
 
 def wrap_position(ctx: RunContext, name: str) -> None:
@@ -100,7 +100,7 @@ def stop_motors(rig, soft: bool) -> None:
 def check_reachable(procedure, steps, rig, start_deg: dict[str, float] | None) -> None:
     """Plan every move before anything moves: an unreachable pose is refused up front, naming the
     step and the axis (RigInputError)."""
-    current = dict(start_deg or {n: 0.0 for n in AXES})
+    current = dict(start_deg or {n: 0.0 for n in STAGE_AXES})
     for step in steps:
         if step.angles_deg is None or step.kind not in ("static", "rate"):
             continue

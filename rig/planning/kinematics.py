@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 #: The turntable's axes, outer to inner (the one definition; everything else imports it).
-AXES: tuple[str, str, str] = ("a1", "a2", "a3")
+STAGE_AXES: tuple[str, str, str] = ("a1", "a2", "a3")
 
 
 def _stack(c, s, kind):

@@ -20,7 +20,7 @@ from rig.config.rigfile import AxisConfig
 from rig.devices.hardware import open_stages
 from rig.devices.registry import register_rig_kind
 from rig.devices.rig import Rig
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 from rig.session import MAG_COUNTS_PER_UT
 from rig.simulation.simulated import TRANSPORT_OPENERS, default_transport
 
@@ -157,7 +157,7 @@ def open_replay_rig(session, *, seed: int | None = None, time_scale: float | Non
     closers = [e.stop for e in emulators]
     try:
         ports, closers = TRANSPORT_OPENERS[default_transport()](emulators, vclock)
-        axes = open_stages({n: _replay_axis(ports[n], emulators[i].serial_number) for i, n in enumerate(AXES)},
+        axes = open_stages({n: _replay_axis(ports[n], emulators[i].serial_number) for i, n in enumerate(STAGE_AXES)},
                            vclock)
     except Exception:
         for close in closers:

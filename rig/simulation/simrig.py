@@ -24,7 +24,7 @@ from drivers.sensors.sim.faults import SensorFaults
 from drivers.sensors.sim.mpu9150 import Mpu9150Model
 from drivers.ximc.sim.emulator import ControllerEmulator, XimcFaults
 from rig.errors import RigInputError
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 from rig.simulation.settings import EFFECT_FIELDS, EFFECT_PARAMS, SimSettings  # noqa: F401 - SimSettings re-exported
 from rig.simulation.world import AxisLink, SimChamber, WorldModel
 
@@ -63,7 +63,7 @@ class SimulatedRig:
         self.chamber = SimChamber(self.clock, settings.chamber)
         ximc_faults = ximc_faults or {}
         self.emulators: list[ControllerEmulator] = []
-        for i, name in enumerate(AXES):
+        for i, name in enumerate(STAGE_AXES):
             faults = XimcFaults(**ximc_faults[name]) if name in ximc_faults else None
             emu = ControllerEmulator(settings.serial_base + i, clock=self.clock, faults=faults,
                                      seed=self.seed * 10 + i)
@@ -116,7 +116,7 @@ class SimulatedRig:
     # -- lifecycle ----------------------------------------------------------------------
     def start(self) -> dict[str, str]:
         """Start the emulators; return axis -> device path."""
-        for name, emu in zip(AXES, self.emulators):
+        for name, emu in zip(STAGE_AXES, self.emulators):
             self.ports[name] = emu.start()
         return dict(self.ports)
 

@@ -22,7 +22,7 @@ from rig.devices.registry import register_rig_kind
 from rig.devices.rig import LostSamples, Rig
 from rig.errors import RigInputError
 from rig.execution.capture import poll_interval_s
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 from rig.simulation.simrig import SimSettings, SimulatedRig
 
 #: the share of this machine a capture's FIFO reads may take at a time scale it keeps up with; the other half
@@ -166,8 +166,8 @@ def start_simulated_rig(rig_file, *, seed: int, time_scale: float | None = None,
     faults = rig_file.faults or {}
     sim = SimulatedRig(settings, seed=seed, sensor_model=rig_file.sensor.model,
                        sensor_address=rig_file.sensor.address,
-                       axis_signs=[rig_file.axes[n].sign for n in AXES],
-                       home_offsets_deg=[rig_file.axes[n].home_offset_deg for n in AXES],
+                       axis_signs=[rig_file.axes[n].sign for n in STAGE_AXES],
+                       home_offsets_deg=[rig_file.axes[n].home_offset_deg for n in STAGE_AXES],
                        ximc_faults=faults.get("ximc"), sensor_faults=faults.get("sensor"))
     if start:
         sim.start()
@@ -186,7 +186,7 @@ def open_simulated_rig(rig_file, *, seed: int | None = None, time_scale: float |
         ports, closers = TRANSPORT_OPENERS[sim.settings.transport](sim.emulators, sim.clock)
         sim.ports = dict(ports)
         axes_config = {n: rig_file.axes[n].with_port(ports[n], sim.emulators[i].serial_number)
-                       for i, n in enumerate(AXES)}
+                       for i, n in enumerate(STAGE_AXES)}
         axes = open_stages(axes_config, sim.clock)
     except Exception:
         for close in closers:
@@ -225,7 +225,7 @@ def default_transport() -> str:
 def _pty_transport(emulators, clock) -> tuple[dict[str, str], list]:
     """The emulators on pseudo-terminals (their serving threads started): axis -> device path, and what
     stops them."""
-    ports = {n: emu.start() for n, emu in zip(AXES, emulators)}
+    ports = {n: emu.start() for n, emu in zip(STAGE_AXES, emulators)}
     return ports, [emu.stop for emu in emulators]
 
 
@@ -236,7 +236,7 @@ _MEMORY_RIGS = itertools.count(1)
 def _memory_transport(emulators, clock) -> tuple[dict[str, str], list]:
     """The emulators in process: axis -> ``ximcsim://`` URL, and what detaches them. The wire's own faults
     (answer latency, a vanishing port) need a wire: refused here, one line."""
-    for n, emu in zip(AXES, emulators):
+    for n, emu in zip(STAGE_AXES, emulators):
         f = emu.faults
         wire = [k for k, on in (("latency_s", f.latency_s > 0), ("vanish_at_s", f.vanish_at_s is not None)) if on]
         if wire:
@@ -245,8 +245,8 @@ def _memory_transport(emulators, clock) -> tuple[dict[str, str], list]:
     if isinstance(clock, VirtualClock):
         clock.yields = False  # no emulator thread to yield to
     rig_no = next(_MEMORY_RIGS)
-    names = {n: f"sim{rig_no}-{n}" for n in AXES}
-    ports = {n: attach(names[n], emu.controller) for n, emu in zip(AXES, emulators)}
+    names = {n: f"sim{rig_no}-{n}" for n in STAGE_AXES}
+    ports = {n: attach(names[n], emu.controller) for n, emu in zip(STAGE_AXES, emulators)}
     return ports, [lambda name=name: detach(name) for name in names.values()]
 
 
@@ -273,11 +273,11 @@ def open_in_process_rig(sim: SimulatedRig, name: str = "mem") -> Rig:
     talk to the emulated controllers in memory (``ximcsim://`` URLs) through the real ``Stage``
     driver: the engine's unit tests run through hardware code in milliseconds."""
     axes_config = {}
-    for i, n in enumerate(AXES):
+    for i, n in enumerate(STAGE_AXES):
         url = attach(f"{name}-{n}", sim.emulators[i].controller)
         axes_config[n] = AxisConfig(port=url, serial=sim.emulators[i].serial_number)
     rig = Rig(kind="sim", clock=rig_clock(sim, None), axes=open_stages(axes_config, sim.clock), sensor=None,
               turntable="sim:8smc5-controller-in-memory", chamber=sim.chamber, seed=sim.seed)
-    rig.closers.extend(lambda n=n: detach(f"{name}-{n}") for n in AXES)
+    rig.closers.extend(lambda n=n: detach(f"{name}-{n}") for n in STAGE_AXES)
     attach_sensors(rig, sim.sensor_model, sim.bus, sim.sensor_address)
     return rig

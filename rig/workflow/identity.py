@@ -7,7 +7,7 @@ resume on is compared with that record and every difference is named.
 from __future__ import annotations
 
 from rig.devices.rig import Rig
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 from rig.session import SessionManifest
 
 
@@ -22,7 +22,7 @@ def differences(recorded: SessionManifest, rig: Rig, rig_file_sha256: str | None
                    f"(sha256 {rig_file_sha256[:12]}, recorded {was[:12]})")
     now = rig.describe()
     axes = (recorded.rig.turntable.axes or {}) if recorded.rig.turntable else {}
-    for name in AXES:
+    for name in STAGE_AXES:
         if name in axes and axes[name].serial is not None and axes[name].serial != now["turntable"]["axes"][name]["serial"]:
             out.append(f"{name} controller serial {now['turntable']['axes'][name]['serial']} "
                        f"(recorded {axes[name].serial})")

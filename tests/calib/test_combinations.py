@@ -14,7 +14,7 @@ import pytest
 import calib
 from calib.accel.combinations import choose_subsets, subset_average_maps
 from calib.accel.solve import COMBINATIONS_MAX_SUBSETS, _model_with_thermal, solve_combinations
-from calib.numerics.design import AXES
+from calib.numerics.design import SENSOR_AXES
 from calib.synthetic import Truth, make_steps, six_faces, triangular_matrix
 
 TRUTH = Truth(triangular_matrix([8200.0, 8150.0, 8250.0], 0.004, -0.003, 0.002), np.array([300.0, -200.0, 500.0]),
@@ -25,8 +25,8 @@ def reference_maps(steps, model: str, thermal) -> tuple[list, int]:
     """The definition, one subset at a time (the solver's loop before it was batched): every subset of N
     steps whose design on every axis has a singular-value ratio of at least 1e-9, ``pinv`` per axis."""
     lm, x, _ = _model_with_thermal(steps, model, thermal, None)
-    k, n = len(steps), max(len(lm.terms[a]) for a in AXES)
-    designs = [lm.design(a, x) for a in AXES]
+    k, n = len(steps), max(len(lm.terms[a]) for a in SENSOR_AXES)
+    designs = [lm.design(a, x) for a in SENSOR_AXES]
     sums = [np.zeros((d.shape[1], k)) for d in designs]
     count = 0
     for subset in itertools.combinations(range(k), n):
@@ -58,11 +58,11 @@ def test_every_subset_batched_equals_the_subset_by_subset_definition(poses, mode
     expected, count = reference_maps(steps, model, thermal)
     cal = solve_combinations(steps, model=model, thermal=thermal)
     lm, x, _ = _model_with_thermal(steps, model, thermal, None)
-    n = max(len(lm.terms[a]) for a in AXES)
+    n = max(len(lm.terms[a]) for a in SENSOR_AXES)
     assert cal.fit.method == f"combinations({count} subsets of {n})"
     subsets, total, sampled = choose_subsets(len(steps), n, COMBINATIONS_MAX_SUBSETS)
     assert not sampled and total == math.comb(len(steps), n)
-    got = subset_average_maps([lm.design(a, x) for a in AXES], subsets, total, sampled)
+    got = subset_average_maps([lm.design(a, x) for a in SENSOR_AXES], subsets, total, sampled)
     assert got.count == count
     for g, e in zip(got.maps, expected):
         np.testing.assert_allclose(g, e, rtol=1e-9, atol=1e-12 * np.max(np.abs(e)))
@@ -84,7 +84,7 @@ def test_subsets_drawn_are_distinct_uniform_and_in_range():
 
 def sampled_and_full(steps, thermal, max_subsets: int, seed: int):
     lm, x, _ = _model_with_thermal(steps, "triangular", thermal, None)
-    designs = [lm.design(a, x) for a in AXES]
+    designs = [lm.design(a, x) for a in SENSOR_AXES]
     n = max(d.shape[1] for d in designs)
     data = [steps.mean_counts[:, j] for j in range(3)]
     full_subsets, total, _ = choose_subsets(len(steps), n, math.comb(len(steps), n))

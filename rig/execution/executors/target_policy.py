@@ -26,7 +26,7 @@ from rig.config.procedure import Procedure
 from rig.devices.rig import Rig
 from rig.execution.capture import nominal_dwell_s
 from rig.execution.context import RunContext, RunError
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 from rig.planning.targets import move_time_s
 from rig.session import load_session
 from rig.session.adapter import accel_stability, chip_of
@@ -93,7 +93,7 @@ class TargetSetup:
         a = np.asarray(before[-1].angles_deg if before else (0.0, 0.0, 0.0), float)
         turn = np.abs((np.asarray(step.angles_deg, float) - a + 180.0) % 360.0 - 180.0)
         axes = self.rig.axes
-        move = max(move_time_s(d, axes[n].config.speed_deg_s, axes[n].config.accel_deg_s2) for n, d in zip(AXES, turn))
+        move = max(move_time_s(d, axes[n].config.speed_deg_s, axes[n].config.accel_deg_s2) for n, d in zip(STAGE_AXES, turn))
         settle = 2 * step.settle.window_s + step.settle.min_s if self.rig.settle == "accelerometer" else 0.0
         return move + settle + STEP_MARGIN_S
 

@@ -18,7 +18,7 @@ from rig.execution.context import EngineOptions, RunAborted, RunError
 from rig.execution.engine import Engine
 from rig.execution.executors import temperature
 from rig.execution.operator import OperatorAbsent, SilentOperator
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 from rig.session import SessionWriter, load_session
 from rig.simulation.world import ChamberConfig
 
@@ -43,7 +43,7 @@ def start(proc, rig, tmp_path, operator=None, **kw) -> tuple[Engine, SessionWrit
 
 
 def moving(rig) -> list[str]:
-    return [n for n in AXES if rig.axes[n].stage.get_status().running]
+    return [n for n in STAGE_AXES if rig.axes[n].stage.get_status().running]
 
 
 def test_static_steps_are_captured_checked_and_recorded_with_their_pose(make_rig, tmp_path):

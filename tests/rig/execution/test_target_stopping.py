@@ -21,7 +21,7 @@ from rig.execution.engine import Engine
 from rig.execution.executors import targeted
 from rig.execution.executors.target_policy import BLOCK_S, MIN_DWELL_S
 from rig.execution.operator import SilentOperator
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 from rig.session import SessionWriter, load_session
 
 from conftest import SIX_FACES_STEPS
@@ -129,7 +129,7 @@ def test_a_target_out_of_reach_even_at_the_datasheet_noise_is_refused_before_any
     with pytest.raises(RigInputError, match=r"out of reach within max_seconds 60: even at the MPU-9150's datasheet") as exc:
         eng.prepare(resuming=False)
     assert exc.value.key == "target"
-    assert [rig.axes[n].stage.get_position_deg() for n in AXES] == [0.0, 0.0, 0.0]
+    assert [rig.axes[n].stage.get_position_deg() for n in STAGE_AXES] == [0.0, 0.0, 0.0]
     assert load_session(writer.session_dir).info.steps[0].status == "pending"
 
 
@@ -150,7 +150,7 @@ def test_a_target_the_measured_noise_puts_out_of_reach_stops_at_the_first_pose_w
     assert message.startswith("target cannot be met within max_seconds 45: with the noise measured so far")
     assert "the best reachable is max roll/pitch error" in message and "it needs about" in message
     assert "Stopped at the first pose" in message
-    assert [rig.axes[n].stage.get_position_deg() for n in AXES] == [0.0, 0.0, 0.0]  # nothing moved after +Z
+    assert [rig.axes[n].stage.get_position_deg() for n in STAGE_AXES] == [0.0, 0.0, 0.0]  # nothing moved after +Z
     assert all(s.status == "pending" for s in load_session(writer.session_dir).info.steps)
 
 

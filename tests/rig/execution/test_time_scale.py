@@ -22,7 +22,7 @@ from rig.errors import RigInputError
 from rig.execution.capture import SamplesLost
 from rig.execution.engine import Engine, check_before_recording
 from rig.execution.operator import SilentOperator
-from rig.planning.kinematics import AXES
+from rig.planning.kinematics import STAGE_AXES
 from rig.session import SessionWriter, load_session
 from rig.simulation.simrig import SimSettings, SimulatedRig
 from rig.simulation.simulated import ScaledClock, nice_below, open_in_process_rig
@@ -68,7 +68,7 @@ def start(proc, rig, tmp_path, first_step: int = 0) -> tuple[Engine, SessionWrit
 
 
 def moving(rig) -> list[str]:
-    return [n for n in AXES if rig.axes[n].stage.get_status().running]
+    return [n for n in STAGE_AXES if rig.axes[n].stage.get_status().running]
 
 
 def test_samples_lost_to_the_scaled_clock_stop_the_run_and_say_the_clock_outran_the_machine(make_rig, tmp_path):
