@@ -12,19 +12,22 @@ get no verdict.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from calib.acceptance import Acceptance, Drift, evaluate, largest_drift
 from calib.evaluation import evaluate as evaluate_poses
 from calib.file.parameters import at_common_temperature
-from rig.config.procedure_schema import AcceptSpec
 from rig.lab.drift import sensor_history
 from rig.lab.history import HistoryError, calibration_row, open_history
 from rig.session import Session
 
+if TYPE_CHECKING:  # type hints only: the procedure's models load when a procedure is validated
+    from rig.config.procedure_schema import AcceptSpec
 
-def recorded_limits(session: Session) -> AcceptSpec | None:
+
+def recorded_limits(session: Session) -> "AcceptSpec | None":
     """The ``accept:`` section of the procedure recorded in the session (validated with it), or None."""
     if session.info.procedure.value("accept") is None:  # the raw text asked (an import's text need not validate)
         return None

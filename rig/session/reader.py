@@ -1,6 +1,7 @@
 """Reading a session: :func:`load_session` (manifest and samples) and :func:`read_samples`.
 
-``samples.csv`` is read with pandas: CRLF line endings, a UTF-8 byte-order mark, quoted fields and
+``samples.csv`` is read with numpy's C reader when every cell is a number (the file ``rig run`` writes
+for a sensor with a thermometer), else with pandas: CRLF line endings, a UTF-8 byte-order mark, quoted fields and
 columns in any order, with extra (even non-numeric) columns, load like the plain file. Every refusal
 is one :class:`rig.errors.SessionFormatError` line naming the file and the line: a bad header, a
 ragged row, a non-numeric cell, an empty or NaN ``t_s``/``step``/``ax``/``ay``/``az``, non-integer
@@ -17,16 +18,18 @@ import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from drivers.sensors.chips import CHIPS
-from rig.config.procedure import Procedure, load_procedure_text
 from rig.config.yamlload import SymlinkLoop
 from rig.errors import RigInputError, SessionFormatError
 from rig.session import adapter
 from rig.session.manifest import BASE_COLUMNS, OPTIONAL_COLUMNS, SessionManifest, StepRecord
+
+if TYPE_CHECKING:  # type hints only
+    from rig.config.procedure import Procedure
 
 REQUIRED_COLUMNS = ("t_s", "step", "ax", "ay", "az")
 _BOM = b"\xef\xbb\xbf"
@@ -71,13 +74,15 @@ class Session:
         return self.info.procedure.solve_spec()
 
     @functools.cached_property
-    def procedure(self) -> Procedure | None:
+    def procedure(self) -> "Procedure | None":
         """The procedure the session recorded (``procedure.text``), validated once; None for a session
         without one (an import). A recorded text that no longer validates is one SessionFormatError
         naming session.yaml (the file it was once read from may have changed since)."""
         recorded = self.info.procedure
         if not recorded.text:
             return None
+        from rig.config.procedure import load_procedure_text  # deferred: the procedure models, only when asked
+
         try:
             return load_procedure_text(recorded.text, recorded.file or "<session>")
         except RigInputError as exc:
@@ -432,6 +437,15 @@ def _parse(text: _Body, header: list[str], known: list[str]) -> dict[str, np.nda
     """The known columns as float arrays (empty cells are NaN)."""
     if not text.body.strip():
         return {c: np.empty(0) for c in known}
+    if not text.quoted:  # the common file (every cell a number): numpy's C reader, no pandas to import
+        try:
+            values = np.loadtxt(io.BytesIO(text.body), delimiter=",", dtype=float, comments=None, ndmin=2,
+                                usecols=[header.index(c) for c in known], encoding="utf-8")
+            return {c: values[:, j] for j, c in enumerate(known)}
+        except ValueError:
+            pass  # an empty cell (no temperature, a row without a magnetometer reading), or a bad one: pandas
+    import pandas as pd  # deferred: 0.16 s to import; only for a file with empty or quoted cells, or a bad one
+
     try:
         df = pd.read_csv(io.BytesIO(text.body), header=None, names=header, usecols=known,
                          dtype={c: _FLOAT64 for c in known}, na_values=_NA, keep_default_na=False,

@@ -21,7 +21,6 @@ from calib.file.calibration import CalibrationFile
 from rig.analysis.solve import calibrate_session
 from rig.lab.acceptance import judge
 from rig.lab.history import record_calibration
-from rig.lab.report import write_report
 from rig.session import Session
 
 
@@ -99,6 +98,8 @@ def report_asked(session: Session) -> bool:
 def write_conclusion_report(conclusion: Conclusion, *, history=None, session: Session | None = None) -> Path:
     """Write the conclusion's HTML report (``SESSION/report.html``) from what is in memory; ``session``:
     a fresher view of the same session (its final status), when the caller has one."""
+    from rig.lab.report import write_report  # deferred: the page and its figures, only when a report is asked
+
     if session is not None:
         conclusion.session = session
     conclusion.report_path = write_report(conclusion.session.path, history_db=history,

@@ -72,16 +72,18 @@ def six_position_session(tmp_path):
     rng = np.random.default_rng(3)
     for i, f in enumerate(faces):
         counts = np.round(np.array(f) * 8200 + [60, -40, 110] + rng.normal(0, 25, (300, 3))).astype(int)
-        writer.append_samples(i, i * 10 + np.arange(300) * 0.01, counts, temp_c=np.full(300, 25.0))
+        writer.append_samples(i, i * 10 + np.arange(300) * 0.01, counts, temp_c=np.full(300, 25.0),
+                              angles_deg=np.zeros((300, 3)))  # every cell a number, as rig run writes it
         writer.complete_step(i, {"n_samples": 300})
     writer.set_status("complete")
     return tmp_path / "six"
 
 
-def test_rig_solve_imports_neither_the_simulator_nor_scipy_signal_nor_matplotlib(six_position_session, tmp_path):
+def test_rig_solve_imports_neither_the_simulator_nor_scipy_signal_nor_matplotlib_nor_pandas(six_position_session, tmp_path):
     code, loaded = imported_by(["solve", str(six_position_session), "-o", str(tmp_path / "cal.yaml")],
                                NEVER + ("rig.workflow.run", "rig.workflow.kinds", "rig.workflow.lifecycle",
-                                        "rig.cli.commands.run", "rig.cli.commands.discover"))
+                                        "rig.cli.commands.run", "rig.cli.commands.discover",
+                                        "pandas", "rig.lab.report", "rig.config.procedure"))
     assert (code, loaded) == (0, [])
     assert (tmp_path / "cal.yaml").is_file()
 
