@@ -1080,7 +1080,7 @@ def option_cases(ws: Workspace) -> list[Case]:
                     if hashlib.sha256(junk_db.read_bytes()).hexdigest() != junk_hash else None)
         check = None
         if name == "--version":
-            check = lambda out: None if out.startswith("rig ") else f"stdout {out[:40]!r}"  # noqa: E731
+            check = lambda out: None if out.startswith("rig ") else f"stdout {out[:40]!r}"
         cases.append(Case("option", name, args, expect, hint=hint, post=post, check=check, timeout=40))
     return cases
 

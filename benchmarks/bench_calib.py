@@ -20,14 +20,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import calib  # noqa: E402
-from calib.accel import StepMeans, solve_batch  # noqa: E402
-from calib.evaluation import roll_pitch_deg  # noqa: E402
-from calib.evaluation import f_from_roll_pitch  # noqa: E402
-from calib.synthetic import six_faces  # noqa: E402
-from calib.numerics.uncertainty import step_standard_errors  # noqa: E402
-from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
-from drivers.sensors.sim.noise import NoiseConfig, NoiseProcess  # noqa: E402
+import calib
+from calib.accel import StepMeans, solve_batch
+from calib.evaluation import roll_pitch_deg
+from calib.evaluation import f_from_roll_pitch
+from calib.synthetic import six_faces
+from calib.numerics.uncertainty import step_standard_errors
+from drivers.sensors.sim.error_model import AccelErrorModel
+from drivers.sensors.sim.noise import NoiseConfig, NoiseProcess
 
 #: "white" (the seed table as first reported) or "dlpf" (issue 14: DLPF + bias instability + random walk)
 NOISE = {"model": "white"}
@@ -124,7 +124,7 @@ def monte_carlo(n: int = 400):
     rng = np.random.default_rng(7)
     err = AccelErrorModel.draw(rng, "MPU-9150")
     lsb = 8192.0
-    truth_b = lambda t: (np.asarray(err.bias_g) + np.asarray(err.bias_tempco_g_per_c) * (t - err.t_ref_c)) * lsb  # noqa: E731
+    truth_b = lambda t: (np.asarray(err.bias_g) + np.asarray(err.bias_tempco_g_per_c) * (t - err.t_ref_c)) * lsb
     cases = {
         "six-position pinv": (six_faces(), np.full(6, 27.6), "off", "pinv"),
         "thermal (36 steps) pinv": (np.repeat(six_faces(), 6, axis=0), np.tile(27.6 + 5.0 * np.arange(6), 6), 1, "pinv"),

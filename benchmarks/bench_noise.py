@@ -19,11 +19,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from drivers.clock import VirtualClock  # noqa: E402
-from drivers.sensors.regs.mpu9150 import ACCEL_LSB_PER_G  # noqa: E402
-from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
-from drivers.sensors.sim.mpu9150 import Mpu9150Model  # noqa: E402
-from drivers.sensors.sim.physics import StaticPhysics  # noqa: E402
+from drivers.clock import VirtualClock
+from drivers.sensors.regs.mpu9150 import ACCEL_LSB_PER_G
+from drivers.sensors.sim.error_model import AccelErrorModel
+from drivers.sensors.sim.mpu9150 import Mpu9150Model
+from drivers.sensors.sim.physics import StaticPhysics
 
 TAUS_REPORTED = (0.01, 0.1, 1.0, 10.0, 100.0)
 DENSITY = 400e-6  # g/sqrt(Hz), MPU-9150 accelerometer

@@ -10,14 +10,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from drivers.clock import VirtualClock  # noqa: E402
-from drivers.sensors import SensorSettings, open_sensor  # noqa: E402
-from drivers.sensors.chips import CHIPS  # noqa: E402
-from drivers.sensors.sim.adxl345 import Adxl345Model  # noqa: E402
-from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
-from drivers.sensors.sim.bus import SimulatedI2CBus  # noqa: E402
-from drivers.sensors.sim.mpu9150 import Mpu9150Model  # noqa: E402
-from drivers.sensors.sim.physics import StaticPhysics  # noqa: E402
+from drivers.clock import VirtualClock
+from drivers.sensors import SensorSettings, open_sensor
+from drivers.sensors.chips import CHIPS
+from drivers.sensors.sim.adxl345 import Adxl345Model
+from drivers.sensors.sim.error_model import AccelErrorModel
+from drivers.sensors.sim.bus import SimulatedI2CBus
+from drivers.sensors.sim.mpu9150 import Mpu9150Model
+from drivers.sensors.sim.physics import StaticPhysics
 
 
 def run(model: str, rate_hz: float, seconds: float = 60.0, poll_s: float = 0.02) -> None:

@@ -76,7 +76,7 @@ def in_process_solve(session_dir: Path, tmp: Path, **options):
     ``solve_session`` with the file's write skipped)."""
     if hasattr(analysis_solve, "calibrate_session"):
         return lambda: analysis_solve.calibrate_session(session_dir, **options)
-    analysis_solve.calfile.write = lambda path, cal: None  # noqa: ARG005 - older code: time the solve alone
+    analysis_solve.calfile.write = lambda path, cal: None
     return lambda: analysis_solve.solve_session(session_dir, out=tmp / "scratch.yaml", **options)[0]
 
 

@@ -11,10 +11,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from drivers.ximc import protocol as P  # noqa: E402
-from drivers.ximc.sim.controller import Controller  # noqa: E402
-from drivers.ximc.sim.emulator import ControllerEmulator  # noqa: E402
-from drivers.ximc.stage import Stage  # noqa: E402
+from drivers.ximc import protocol as P
+from drivers.ximc.sim.controller import Controller
+from drivers.ximc.sim.emulator import ControllerEmulator
+from drivers.ximc.stage import Stage
 
 
 def in_memory(n: int = 20000) -> None:

@@ -276,7 +276,7 @@ class SimSettings:
     def from_mapping(cls, m, where: str = "sim") -> "SimSettings":
         """From a ``sim:`` mapping (or an already validated :class:`SimSection`); errors name ``where``."""
         s = m if isinstance(m, SimSection) else validate_plain(SimSection, dict(m or {}), where)
-        given = lambda model: model.model_dump(exclude_unset=True)  # noqa: E731 - the keys the file set
+        given = lambda model: model.model_dump(exclude_unset=True)
         return cls(time_scale=s.time_scale, clock=s.clock, transport=s.transport, chamber=ChamberConfig(**s.chamber.model_dump()),
                    ringing=RingingConfig(**s.ringing.model_dump()),
                    magnetic_field=FieldConfig(**s.field.model_dump()),

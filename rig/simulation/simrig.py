@@ -25,7 +25,7 @@ from drivers.sensors.sim.mpu9150 import Mpu9150Model
 from drivers.ximc.sim.emulator import ControllerEmulator, XimcFaults
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
-from rig.simulation.settings import EFFECT_FIELDS, EFFECT_PARAMS, SimSettings  # noqa: F401 - SimSettings re-exported
+from rig.simulation.settings import EFFECT_FIELDS, EFFECT_PARAMS, SimSettings
 from rig.simulation.world import AxisLink, SimChamber, WorldModel
 
 

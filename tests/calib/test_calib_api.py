@@ -18,7 +18,7 @@ def test_every_public_name_is_the_object_its_module_defines(name):
 
 def test_an_unknown_name_is_an_attribute_error():
     with pytest.raises(AttributeError, match="no attribute 'solver'"):
-        calib.solver  # noqa: B018
+        calib.solver
 
 
 def test_importing_the_errors_loads_no_solver():

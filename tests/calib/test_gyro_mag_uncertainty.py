@@ -25,7 +25,7 @@ from rig.session import adapter
 from conftest import REPO
 
 sys.path.insert(0, str(REPO / "benchmarks"))
-import bench_uncertainty as bench  # noqa: E402
+import bench_uncertainty as bench
 
 #: sessions per Monte Carlo: the ratio of a scatter to a sigma to about 4 % (1 / sqrt(2 n))
 SESSIONS = 300

@@ -29,7 +29,7 @@ COMMANDS: dict[str, str] = {
 }
 
 
-def load(name: str) -> ModuleType:  # noqa: C901 - one branch per command, nothing else
+def load(name: str) -> ModuleType:
     """The module of command ``name``, imported now (deferred imports: only the command given runs)."""
     if name == "run":
         from rig.cli.commands import run as module

@@ -11,11 +11,11 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))
 
-import calib  # noqa: E402
-from bench_uncertainty import simulate  # noqa: E402
-from calib.synthetic import six_faces  # noqa: E402
-from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
-from rig.session import adapter  # noqa: E402
+import calib
+from bench_uncertainty import simulate
+from calib.synthetic import six_faces
+from drivers.sensors.sim.error_model import AccelErrorModel
+from rig.session import adapter
 
 ERR = AccelErrorModel.draw(np.random.default_rng(14), "MPU-9150")
 
@@ -61,7 +61,7 @@ def test_white_noise_sem_equals_the_classic_one():
     flicker components would correlate 100 Hz samples by a few per cent): the VIF is 1 within a few %."""
     for k in range(3):
         sess = simulate(ERR, six_faces(), 100.0, 1e6, 900 + k, wander=False)
-        sess.samples["accel_counts"] = sess.samples["accel_counts"]  # noqa: PLW0127
+        sess.samples["accel_counts"] = sess.samples["accel_counts"]
         new = adapter.step_means(sess).sem_counts
         assert np.allclose(new, _old_sem(sess), rtol=0.04)
 
