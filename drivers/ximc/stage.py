@@ -4,7 +4,7 @@ Method names follow libximc (``get_status``, ``command_move``, ``command_wait_fo
 Degrees at the degree API (``move_deg``, ``set_position_deg``, ``get_speed_deg_s``, ...), full
 steps + microsteps on the wire. Transactions, retries and resynchronisation are
 :class:`~drivers.ximc.link.XimcLink`'s; stage facts (0.01 deg/step, 48 deg/s) are in
-:mod:`drivers.ximc.stages`.
+:mod:`drivers.ximc.stage_spec`.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from drivers.clock import Clock, MonotonicClock
 from drivers.ximc import protocol as P
 from drivers.ximc.errors import TurntableError
 from drivers.ximc.link import RECOVERABLE, XimcLink
-from drivers.ximc.stages import MR191
+from drivers.ximc.stage_spec import MR191
 
 __all__ = ["RECOVERABLE", "Stage", "StageIdentity", "TurntableError"]
 

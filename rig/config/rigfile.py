@@ -21,7 +21,7 @@ from pydantic.dataclasses import dataclass as schema_dataclass
 from pydantic.json_schema import SkipJsonSchema
 
 from drivers.sensors.chips import CHIPS, SENSOR_MODELS
-from drivers.ximc.stages import MR191
+from drivers.ximc.stage_spec import MR191
 from rig.config.schema import (Strict, check_mapping, choice, fail, flag, label, number, validate_document,
                               validate_located)
 from rig.config.sections import SectionUnavailable, section

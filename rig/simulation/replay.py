@@ -14,7 +14,7 @@ import numpy as np
 from drivers.clock import VirtualClock
 from drivers.sensors.base import CaptureStats, SampleBlock, SensorError, SensorIdentity
 from drivers.ximc.sim.emulator import ControllerEmulator
-from drivers.ximc.stages import MAX_SPEED_DEG_S
+from drivers.ximc.stage_spec import MAX_SPEED_DEG_S
 from drivers.sensors.regs.ak8975 import DEFAULT_ADDRESS as AK8975_ADDRESS
 from rig.config.rigfile import AxisConfig
 from rig.devices.hardware import open_stages

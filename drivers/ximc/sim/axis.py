@@ -15,7 +15,7 @@ import numpy as np
 from drivers.ximc import protocol as P
 from drivers.ximc.sim.faults import XimcFaults
 from drivers.ximc.sim.motion import Profile
-from drivers.ximc.stages import MR191
+from drivers.ximc.stage_spec import MR191
 
 #: microsteps per full step in the emulator's fixed microstep mode (MICROSTEP_MODE_FRAC_256)
 USTEPS = 1 << (P.MICROSTEP_MODE_FRAC_256 - 1)

@@ -13,7 +13,7 @@ from drivers.sensors.base import SampleBlock
 from rig.execution.capture import capture
 from rig.execution.context import RunContext, RunError
 from rig.execution.motion import move_to, wrap_position
-from drivers.ximc.stages import MAX_SPEED_DEG_S as STAGE_MAX_SPEED_DEG_S
+from drivers.ximc.stage_spec import MAX_SPEED_DEG_S as STAGE_MAX_SPEED_DEG_S
 
 
 def preflight(procedure, step, rig) -> None:

@@ -15,7 +15,7 @@ from drivers.clock import VirtualClock
 from drivers.ximc import protocol as P
 from drivers.ximc.sim.controller import REQUEST_GAP_S, Controller
 from drivers.ximc.sim.faults import XimcFaults
-from drivers.ximc.stages import MR191
+from drivers.ximc.stage_spec import MR191
 
 
 @pytest.fixture

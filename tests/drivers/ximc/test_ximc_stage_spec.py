@@ -1,4 +1,4 @@
-"""Stage facts live in one place (drivers.ximc.stages) and the driver and the emulator agree with them."""
+"""Stage facts live in one place (drivers.ximc.stage_spec) and the driver and the emulator agree with them."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 
 from drivers.ximc.sim.emulator import StageModel
 from drivers.ximc.stage import Stage
-from drivers.ximc.stages import MAX_SPEED_DEG_S, MR191, StageSpec
+from drivers.ximc.stage_spec import MAX_SPEED_DEG_S, MR191, StageSpec
 
 
 def test_the_8mr191_turns_at_most_48_deg_per_second():
