@@ -19,9 +19,8 @@ import sqlite3
 from datetime import datetime, timezone
 from pathlib import Path
 
-import yaml
-
 from calib.file import calibration as calfile
+from calib.file import yamlsafe
 from calib.file.parameters import finite_or_none as _fnum
 from calib.file.parameters import sensor_parameters
 from rig import __version__
@@ -178,16 +177,13 @@ def _migrate(conn: sqlite3.Connection, path: Path) -> None:
 
 # ---------------------------------------------------------------------------------------------- recording
 
-_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml when present: 10x faster
-
-
 def _read_manifest(session_dir) -> dict:
     p = Path(session_dir) / "session.yaml"
     try:
-        doc = yaml.load(p.read_text(), Loader=_LOADER)
+        doc = yamlsafe.load(p.read_text())
     except FileNotFoundError:
         raise RigInputError(str(p), None, None, "no session manifest (session.yaml)") from None
-    except yaml.YAMLError:
+    except yamlsafe.HostileYaml:
         raise RigInputError(str(p), None, None, "session manifest is not valid YAML") from None
     if not isinstance(doc, dict):
         raise RigInputError(str(p), None, None, "session manifest is not a mapping")

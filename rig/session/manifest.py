@@ -2,7 +2,9 @@
 
 :class:`SessionManifest` validates a loaded manifest (every problem is one
 :class:`rig.errors.SessionFormatError` line naming the file and the key path, e.g.
-``steps[3].status``) and is what a writer builds a new session from. Keys the
+``steps[3].status``, in the field dialect of every format, :mod:`calib.file.fields`) and is what a
+writer builds a new session from. ``session.yaml`` is read by the one guarded YAML loader
+(:mod:`calib.file.yamlsafe`). Keys the
 model does not know are kept (forward compatible): ``model_extra`` holds them and
 :meth:`SessionManifest.to_dict` writes them back.
 """
@@ -18,12 +20,12 @@ from datetime import date, datetime, timezone
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-import yaml
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
-from yaml.cyaml import CParser
 
+from calib.file import yamlsafe
+from calib.file.fields import Index, describe, fail, number
 from rig import __version__
-from rig.config.yamlload import MAX_DEPTH, MAX_INT_DIGITS, load_located, read_source
+from rig.config.yamlload import input_error, read_source
 from rig.errors import RigInputError, SessionFormatError
 
 FORMAT = "rig-session/1"
@@ -39,129 +41,17 @@ SOFTWARE_NAME = "rig-calibration"
 REQUIRED = ("id", "created", "status", "procedure", "rig", "software", "steps")
 
 
-# -- reading the manifest's YAML fast ------------------------------------------------------------------
-# ``rig.config.yamlload.load_located`` (pure-Python scanner, located values, every hostile-YAML guard) is
-# the one YAML reader; a session.yaml is read on every solve and it took most of the solve's time. The
-# manifest needs no line marks, so :func:`load_yaml` takes libyaml's events (``yaml.cyaml.CParser``: the
-# scanner and parser in C, one event at a time, nothing recursive) and builds the plain values itself,
-# for the documents ``yaml.safe_dump`` writes: printable text, mappings, lists and scalars, no anchors,
-# aliases or tags, no duplicate keys, at most ``MAX_DEPTH`` deep, integers of at most ``MAX_INT_DIGITS``
-# digits. Anything else (or anything libyaml refuses) goes to ``load_located``, whose value or one-line
-# error is then the answer: the fast path only ever answers what ``load_located`` answers the same
-# (tests/rig/session/test_manifest_yaml.py).
-
-_INT, _FLOAT, _STR = "tag:yaml.org,2002:int", "tag:yaml.org,2002:float", "tag:yaml.org,2002:str"
-_RESOLVERS = yaml.SafeLoader.yaml_implicit_resolvers
-_SIMPLE_INT = re.compile(r"[-+]?(?:0|[1-9][0-9]*)\Z")
-_SIMPLE_FLOAT = re.compile(r"[-+]?[0-9][0-9.eE+-]*\Z")
-#: where a plain scalar in a flow collection ends at one of these, libyaml and PyYAML differ
-_FLOW_INDICATORS = re.compile(r"[?:#,\[\]{}]")
-#: the fast path reads newlines and printable characters only (no tabs, carriage returns, control characters,
-#: byte-order marks or the Unicode line and paragraph separators: libyaml and PyYAML differ on some of them)
-_NOT_PLAIN_TEXT = re.compile("[^\n\x20-\x7e\xa0-\u2027\u202a-\ud7ff\ue000-\ufefe\uff00-\ufffd]")
-
-
-class _NotPlain(Exception):
-    """The document is not one the fast path reads: ``load_located`` decides."""
+#: session.yaml may be larger than the files a person writes (yamlsafe.MAX_BYTES): about 470 bytes a step
+MAX_BYTES = 4 * 1024 * 1024
 
 
 def load_yaml(text: str, path: str):
-    """The plain value of YAML ``text`` (dict, list, str, int, float, bool, None), as
-    :func:`rig.config.yamlload.load_located` gives it (and its errors, naming ``path``), faster."""
+    """The plain value of YAML ``text`` by the one guarded loader (:func:`calib.file.yamlsafe.load`: libyaml's
+    speed for the documents the writer writes); its refusals as one RigInputError naming ``path``."""
     try:
-        return _load_plain(text)
-    except (_NotPlain, yaml.YAMLError, ValueError, TypeError, RecursionError, MemoryError):
-        return load_located(text, path)[0]
-
-
-def _load_plain(text: str):
-    """``text``'s value by the fast path (:class:`_NotPlain` or libyaml's error when it does not read it)."""
-    if _NOT_PLAIN_TEXT.search(text):
-        raise _NotPlain
-    parser = CParser(text)
-    constructor = yaml.SafeLoader("")  # scalar constructors of the tags other than int, float and str
-    try:
-        return _build_events(parser, constructor)
-    finally:
-        parser.dispose()
-
-
-def _build_events(parser, constructor):
-    """The single document's value from the parser's events (:class:`_NotPlain` for anything else)."""
-    stack: list = []  # [container, pending key or _NO_KEY, flow style]
-    root = _NO_KEY
-    seen: dict = {}  # (text, plain) -> value: keys and repeated values resolved once (all immutable)
-    flows = 0  # flow collections open
-    while True:
-        event = parser.get_event()
-        kind = type(event)
-        if kind is yaml.ScalarEvent:
-            if event.anchor is not None or event.tag is not None or len(stack) >= MAX_DEPTH or (
-                    flows and event.implicit[0] and _FLOW_INDICATORS.search(event.value)):
-                raise _NotPlain
-            memo = (event.value, event.implicit[0])
-            value = seen[memo] if memo in seen else seen.setdefault(memo, _scalar(event, constructor))
-        elif kind is yaml.MappingStartEvent or kind is yaml.SequenceStartEvent:
-            if event.anchor is not None or event.tag is not None or len(stack) >= MAX_DEPTH:
-                raise _NotPlain
-            stack.append([{} if kind is yaml.MappingStartEvent else [], _NO_KEY, bool(event.flow_style)])
-            flows += stack[-1][2]
-            continue
-        elif kind is yaml.MappingEndEvent or kind is yaml.SequenceEndEvent:
-            value, _, flow = stack.pop()
-            flows -= flow
-        elif kind is yaml.StreamEndEvent:
-            return None if root is _NO_KEY else root
-        elif kind is yaml.StreamStartEvent or kind is yaml.DocumentEndEvent:
-            continue
-        elif kind is yaml.DocumentStartEvent:
-            if root is not _NO_KEY or event.explicit or event.version or event.tags:
-                raise _NotPlain  # a second document, directives: load_located decides
-            continue
-        else:  # an alias
-            raise _NotPlain
-        if not stack:
-            root = value
-        else:
-            _add(stack[-1], value)
-
-
-_NO_KEY = object()
-
-
-def _add(top: list, value) -> None:
-    """Put ``value`` into the open container ``top`` ([container, pending key, flow style])."""
-    container = top[0]
-    if isinstance(container, list):
-        container.append(value)
-    elif top[1] is _NO_KEY:
-        if isinstance(value, (dict, list)) or value in container:
-            raise _NotPlain  # a key that is a collection, a duplicate key
-        top[1] = value
-    else:
-        container[top[1]] = value
-        top[1] = _NO_KEY
-
-
-def _scalar(event, constructor):
-    """A scalar's value as SafeLoader resolves and constructs it (int, float and str directly)."""
-    value = event.value
-    tag = _STR
-    if event.implicit[0]:
-        for tag_, regexp in _RESOLVERS.get(value[:1], []) + _RESOLVERS.get(None, []):
-            if regexp.match(value):
-                tag = tag_
-                break
-    if tag is _STR or tag == _STR:
-        return value
-    if tag == _INT:
-        if len(value.replace("_", "").lstrip("+-")) > MAX_INT_DIGITS:
-            raise _NotPlain
-        if _SIMPLE_INT.match(value):
-            return int(value)
-    elif tag == _FLOAT and _SIMPLE_FLOAT.match(value):
-        return float(value)
-    return constructor.construct_object(yaml.ScalarNode(tag, value, event.start_mark, event.end_mark), deep=True)
+        return yamlsafe.load(text)
+    except yamlsafe.HostileYaml as exc:
+        raise input_error(exc, path) from None
 
 
 def utc_now() -> str:
@@ -179,41 +69,17 @@ def _finite3(v):
         return v
     if not (isinstance(v, (list, tuple)) and len(v) == 3 and all(
             isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)):
-        raise ValueError("expected [x, y, z] (three finite numbers), or null")
+        raise fail("expected [x, y, z] (three finite numbers), or null")
     return [float(x) for x in v]
 
 
-def _number(v):
-    """An int or a float kept as it is (so a manifest read and written again is unchanged)."""
-    if v is None:
-        return v
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise ValueError(f"expected a number, got {_short(v)}")
-    return v
-
-
-def _positive(v):
-    if v is None:
-        return v
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0 or not math.isfinite(v):
-        raise ValueError(f"expected a positive number, got {_short(v)}")
-    return v
-
-
-def _required(check):
-    def strict(v):
-        if v is None:
-            raise ValueError("expected a number, got None")
-        return check(v)
-    return strict
-
-
+# numbers are kept as they are (an int stays an int: a manifest read and written again is unchanged)
 Timestamp = Annotated[str, BeforeValidator(_iso)]
 Vec3 = Annotated[list[float] | None, BeforeValidator(_finite3)]
-Number = Annotated[float | int | None, BeforeValidator(_number)]
-RequiredNumber = Annotated[float | int, BeforeValidator(_required(_number))]
-PositiveNumber = Annotated[float | int | None, BeforeValidator(_positive)]
-RequiredPositive = Annotated[float | int, BeforeValidator(_required(_positive))]
+Number = number(keep_type=True, optional=True, finite=False)
+RequiredNumber = number(keep_type=True, finite=False)
+PositiveNumber = number(keep_type=True, optional=True, gt=0)
+RequiredPositive = number(keep_type=True, gt=0)
 
 
 class _Section(BaseModel):
@@ -424,7 +290,7 @@ class SessionManifest(_Section):
     def _checked(self):
         for i, s in enumerate(self.steps):
             if s.index != i:
-                raise ValueError(f"steps[{i}]: expected a step mapping with index {i}, got index {s.index}")
+                raise fail(f"expected a step mapping with index {i}, got index {s.index}", at=("steps", Index(i)))
         self.mark_set("format", "id", "created", "status", "procedure", "software", "steps", "rig")
         return self
 
@@ -455,7 +321,7 @@ class SessionManifest(_Section):
         try:
             return cls.model_validate(doc)
         except ValidationError as exc:
-            key, message = describe_error(exc)
+            _, key, message = describe(exc, doc)
             raise SessionFormatError(where, None, key, message) from None
 
     @classmethod
@@ -467,8 +333,8 @@ class SessionManifest(_Section):
             raise SessionFormatError(str(d), None, None, "no such session directory")
         if not path.is_file():
             raise SessionFormatError(str(path), None, None, "missing: not a rig-session/1 directory")
-        try:  # the hostile-YAML guards of every other loader: size, depth, aliases, duplicate keys, digits
-            doc = load_yaml(read_source(path, "session manifest", "missing"), str(path))
+        try:  # the one guarded loader: size, depth, aliases, tags, duplicate keys, digits
+            doc = load_yaml(read_source(path, "session manifest", "missing", MAX_BYTES), str(path))
         except RigInputError as exc:
             raise SessionFormatError(exc.path, exc.line, exc.key, exc.message) from None
         manifest = cls.from_mapping(doc, path)
@@ -492,55 +358,3 @@ def as_manifest(manifest, path=None) -> SessionManifest:
     if isinstance(manifest, SessionManifest):
         return manifest
     return SessionManifest.from_mapping(manifest, path)
-
-
-_TYPE_TAGS = {"int", "str", "float", "bool", "none", "list", "dict"}
-_MESSAGES = {
-    "missing": "missing required field",
-    "literal_error": None,  # replaced by the allowed values
-    "model_type": "expected a mapping",
-    "model_attributes_type": "expected a mapping",
-    "dict_type": "expected a mapping",
-    "list_type": "expected a list",
-    "greater_than": "expected a positive number",
-    "greater_than_equal": "expected a number >= 0",
-    "string_type": "expected text",
-    "int_type": "expected an integer",
-    "int_from_float": "expected an integer",
-    "int_parsing": "expected an integer",
-    "float_type": "expected a number",
-    "bool_type": "expected true or false",
-    "bool_parsing": "expected true or false",
-}
-
-
-def describe_error(exc: ValidationError) -> tuple[str | None, str]:
-    """(key path, one-line message) of a validation error's first problem."""
-    err = exc.errors(include_url=False)[0]
-    key = ""
-    for part in err["loc"]:
-        if isinstance(part, str) and (part in _TYPE_TAGS or "[" in part or "(" in part):
-            continue  # a union member's or a validator's tag, not a key
-        if isinstance(part, int):
-            key += f"[{part}]"
-        else:
-            key += ("." if key else "") + str(part)
-    kind = err["type"]
-    got = _short(err.get("input"))
-    if kind == "literal_error":
-        allowed = STEP_STATUSES if key.endswith("].status") else STATUSES if key == "status" else None
-        message = f"expected one of {', '.join(allowed)}, got {got}" if allowed else f"{err['msg']}, got {got}"
-    elif kind == "value_error":
-        message = str(err["msg"]).removeprefix("Value error, ")
-        if message.startswith("steps["):  # the step check of the whole manifest names its own key
-            key, _, message = message.partition(": ")
-    elif kind in _MESSAGES:
-        message = _MESSAGES[kind] + ("" if kind == "missing" else f", got {got}")
-    else:
-        message = f"{err['msg']}, got {got}"
-    return key or None, " ".join(message.split())
-
-
-def _short(v) -> str:
-    text = repr(v)
-    return text if len(text) <= 60 else text[:57] + "..."

@@ -77,8 +77,8 @@ def test_the_verdict_round_trips_through_the_calibration_file(cal, tmp_path):
 
 @pytest.mark.parametrize("edit, message", [
     (lambda d: d.update(acceptance={"passed": "yes", "limits": []}), "acceptance.passed"),
-    (lambda d: d.update(gyroscpe=None), "gyroscpe: unknown field"),
-    (lambda d: d["accelerometer"].update(bias_count=[1, 2, 3]), "accelerometer.bias_count: unknown field"),
+    (lambda d: d.update(gyroscpe=None), "gyroscpe: unknown key (allowed: accelerometer, acceptance, coverage, created, format"),
+    (lambda d: d["accelerometer"].update(bias_count=[1, 2, 3]), "accelerometer.bias_count: unknown key (allowed: bias_counts, effects, fit"),
     (lambda d: d["accelerometer"]["bias_counts"].__setitem__(0, "34.2"), "numbers, got the string '34.2'"),
     (lambda d: d.update(coverage={"complete": False, "status": "aborted", "steps_planned": 6, "steps_recorded": -1,
                                   "pending_steps": []}), "coverage.steps_recorded"),

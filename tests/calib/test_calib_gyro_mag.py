@@ -16,7 +16,7 @@ from calib.mag import MagCalibration, MagStepMeans, sigma_names, solve_mag_ellip
 from calib.numerics.stability import BiasStability
 from drivers.sensors.sim.error_model import GyroErrorModel, MagErrorModel
 
-AXES = "xyz"
+SENSOR_AXES = "xyz"
 LSB_PER_DPS = 131.0  # +-250 deg/s range
 NOISE_DPS = 0.005 * np.sqrt(5.0)  # 0.005 deg/s/rtHz at 10 Hz sampling (5 Hz bandwidth), per sample
 N_GYRO = 1000  # 100 s at 10 Hz
@@ -37,7 +37,7 @@ def seed_rate_modes(axes: str = "xyz") -> tuple[tuple, np.ndarray]:
         for r in (25.0, 40.0, 63.0):
             for s in (+1, -1):
                 w = np.zeros(3)
-                w[AXES.index(a)] = s * r
+                w[SENSOR_AXES.index(a)] = s * r
                 names.append(f"{a}{'+' if s > 0 else '-'}{r:g}")
                 rates.append(w)
     return tuple(names), np.array(rates)
@@ -59,15 +59,15 @@ def gyro_steps(model: GyroErrorModel, rng: np.random.Generator, axes: str = "xyz
 
 
 def gyro_named_truth(m: np.ndarray, b: np.ndarray) -> dict:
-    out = {f"b_{a}": b[i] for i, a in enumerate(AXES)}
-    out.update({f"k_{a}": m[i, i] for i, a in enumerate(AXES)})
-    out.update({f"m_{AXES[i]}{AXES[j]}": m[i, j] / m[i, i] for i in range(3) for j in range(3) if i != j})
+    out = {f"b_{a}": b[i] for i, a in enumerate(SENSOR_AXES)}
+    out.update({f"k_{a}": m[i, i] for i, a in enumerate(SENSOR_AXES)})
+    out.update({f"m_{SENSOR_AXES[i]}{SENSOR_AXES[j]}": m[i, j] / m[i, i] for i in range(3) for j in range(3) if i != j})
     return out
 
 
 def gyro_named_estimate(cal: GyroCalibration) -> dict:
-    out = {f"b_{a}": cal.bias_counts[i] for i, a in enumerate(AXES)}
-    out.update({f"k_{a}": cal.scale_counts_per_dps[i] for i, a in enumerate(AXES)})
+    out = {f"b_{a}": cal.bias_counts[i] for i, a in enumerate(SENSOR_AXES)}
+    out.update({f"k_{a}": cal.scale_counts_per_dps[i] for i, a in enumerate(SENSOR_AXES)})
     out.update(cal.nonorthogonality)
     return out
 
@@ -136,9 +136,9 @@ def test_gyro_plus_minus_pair_biases_agree_with_the_least_squares_bias():
     cal = solve_gyro(gyro_steps(model, np.random.default_rng(32)))
     assert len(cal.bias_pairs) == 9
     assert sorted((p.axis_spun, p.rate_dps) for p in cal.bias_pairs) == sorted(
-        (a, r) for a in AXES for r in (25.0, 40.0, 63.0))
+        (a, r) for a in SENSOR_AXES for r in (25.0, 40.0, 63.0))
     b_ls = cal.bias_counts
-    sig_ls = np.array([cal.sigma[f"b_{a}"] for a in AXES])
+    sig_ls = np.array([cal.sigma[f"b_{a}"] for a in SENSOR_AXES])
     for p in cal.bias_pairs:
         assert np.all(p.sigma_counts > 0)
         tol = 4 * np.sqrt(p.sigma_counts**2 + sig_ls**2)
@@ -173,9 +173,9 @@ def test_mag_eight_positions_recover_a_and_b_within_4_sigma():
     a_true, b_true = np.asarray(model.soft_iron), np.asarray(model.hard_iron_ut)
     assert cal.method == "positions" and cal.n_steps == 8 and cal.field_ut is None
     assert set(cal.sigma) == set(sigma_names())
-    for i, a in enumerate(AXES):
+    for i, a in enumerate(SENSOR_AXES):
         assert abs(cal.hard_iron_ut[i] - b_true[i]) < 4 * cal.sigma[f"hard_iron_{a}"]
-        for j, c in enumerate(AXES):
+        for j, c in enumerate(SENSOR_AXES):
             assert abs(cal.matrix[i, j] - a_true[i, j]) < 4 * cal.sigma[f"a_{a}{c}"], f"a_{a}{c}"
     np.testing.assert_allclose(cal.apply(model.output_ut(h)), h, atol=0.05)
 
@@ -203,7 +203,7 @@ def test_mag_ellipsoid_recovers_hard_iron_and_the_field_up_to_one_rotation():
     sem = MAG_NOISE_UT / np.sqrt(N_MAG)
     assert cal.method == "ellipsoid" and cal.field_ut == FIELD_UT and cal.n_steps == 30
     b_true = np.asarray(model.hard_iron_ut)
-    for i, a in enumerate(AXES):
+    for i, a in enumerate(SENSOR_AXES):
         assert abs(cal.hard_iron_ut[i] - b_true[i]) < 4 * cal.sigma[f"hard_iron_{a}"]
     corrected = cal.apply(steps.mean_ut)
     norms = np.linalg.norm(corrected, axis=1)
@@ -316,10 +316,10 @@ def test_gyro_from_dict_names_a_missing_field(field_name):
 def test_gyro_from_dict_names_wrongly_shaped_or_inconsistent_fields():
     base = _gyro_cal().to_dict()
     cases = [
-        ("matrix_counts_per_dps", [[1.0, 0.0], [0.0, 1.0]], r"matrix_counts_per_dps: shape \[3, 3\]"),
-        ("bias_counts", [1.0, 2.0], r"bias_counts: shape \[3\]"),
+        ("matrix_counts_per_dps", [[1.0, 0.0], [0.0, 1.0]], r"matrix_counts_per_dps: expected shape \[3, 3\]"),
+        ("bias_counts", [1.0, 2.0], r"bias_counts: expected shape \[3\]"),
         ("scale_counts_per_dps", [1.0, 2.0, 3.0], "diagonal"),
-        ("lsb_per_dps", "fast", "lsb_per_dps: a number"),
+        ("lsb_per_dps", "fast", "lsb_per_dps: expected a number"),
     ]
     for key, value, match in cases:
         d = {**base, key: value}
@@ -348,9 +348,9 @@ def test_mag_from_dict_names_a_missing_field(field_name):
 
 def test_mag_from_dict_names_wrongly_shaped_fields():
     base = _mag_cals()[1].to_dict()
-    for key, value, match in [("matrix", [1.0, 2.0, 3.0], r"matrix: shape \[3, 3\]"),
-                              ("hard_iron_ut", [[1.0, 2.0, 3.0]], r"hard_iron_ut: shape \[3\]"),
-                              ("method", "guess", "method: one of"),
+    for key, value, match in [("matrix", [1.0, 2.0, 3.0], r"matrix: expected shape \[3, 3\]"),
+                              ("hard_iron_ut", [[1.0, 2.0, 3.0]], r"hard_iron_ut: expected shape \[3\]"),
+                              ("method", "guess", "method: expected one of"),
                               ("matrix", np.zeros((3, 3)).tolist(), "invertible")]:
         with pytest.raises(CalibrationFileError, match=match):
             MagCalibration.from_dict({**base, key: value}, path="mag.yaml")
@@ -410,7 +410,7 @@ def test_the_wander_between_steps_enters_the_gyro_fit_and_the_pair_sigmas():
     plain, wandering = solve_gyro(steps), solve_gyro(timed)
     w = timed.wander_counts2()
     assert w.shape == (k, k) and np.allclose(w, LSB_PER_DPS**2 * stab.cov(timed.t_s, timed.duration_s))
-    for a in AXES:
+    for a in SENSOR_AXES:
         assert wandering.sigma[f"b_{a}"] > 3 * plain.sigma[f"b_{a}"]
     first = wandering.bias_pairs[0]
     expected = 0.5 * np.sqrt(timed.sem_counts[0] ** 2 + timed.sem_counts[1] ** 2 + w[:2, :2].sum())

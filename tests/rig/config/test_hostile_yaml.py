@@ -1,4 +1,5 @@
-"""Hostile or broken YAML is refused at parse time with one line naming the file (exit 2), quickly."""
+"""Hostile or broken YAML is refused at parse time with one line naming the file (exit 2), quickly: procedures,
+rig files and session manifests all go through the one guarded loader (calib.file.yamlsafe)."""
 
 from __future__ import annotations
 
@@ -6,9 +7,11 @@ import time
 
 import pytest
 
+from calib.file.yamlsafe import MAX_DEPTH, MAX_INT_DIGITS
 from rig.config.procedure import load_procedure, load_procedure_text
 from rig.config.rigfile import load_rig_file, parse_rig_file
-from rig.errors import RigInputError
+from rig.errors import RigInputError, SessionFormatError
+from rig.session import SessionManifest
 
 from conftest import PROCEDURES, RIGS
 
@@ -81,3 +84,71 @@ def test_binary_garbage_through_the_command_line_is_exit_2(tmp_path, capsys):
     code = main(["run", str(p), "--out", str(tmp_path / "s")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "garbage.yaml" in err[0]
+
+
+#: name -> (text appended to a document, what its one line says, the line's offset from the document's end)
+HOSTILE = {
+    "an alias bomb": (BOMB.replace("a:", "zz:", 1), "aliases are not allowed", 8),
+    "an alias": ("zz: &x 1\nzy: *x\n", "aliases are not allowed", 1),
+    "nesting one level too deep": ("zz: " + "[" * (MAX_DEPTH - 1) + "1" + "]" * (MAX_DEPTH - 1) + "\n",
+                                   f"nested more than {MAX_DEPTH} levels deep", 1),
+    "an integer of too many digits": ("zz: " + "9" * (MAX_INT_DIGITS + 1) + "\n", "digits", 1),
+    "a tag on a mapping": ("zz: !!set {a, b}\n", "is not allowed (plain YAML only)", 1),
+    "a python tag": ("zz: !!python/object/apply:os.system [ls]\n", "is not allowed (plain YAML only)", 1),
+    "an empty !!int": ("zz: !!int ''\n", "not valid YAML: '' is not a valid !!int value", 1),
+    "an empty !!float": ("zz: !!float ''\n", "is not a valid !!float value", 1),
+    "a list as a key": ("? [a, b]\n: 1\n", "a key must be a plain value", 2),
+    "a control character": ("zz: \x07\n", "not valid YAML", 1),
+}
+
+
+def _line(doc: str, offset: int) -> int:
+    return doc.count("\n") - offset + 1
+
+
+@pytest.mark.parametrize("name", HOSTILE)
+def test_every_limit_in_a_procedure_is_exit_2_and_one_line_with_its_line(tmp_path, capsys, name):
+    from rig.cli import main
+    text, says, offset = HOSTILE[name]
+    p = tmp_path / "p.yaml"
+    p.write_text(SIX + text)
+    assert main(["run", str(p), "--out", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"rig run: {p}:{_line(SIX + text, offset)}: ") and says in err[0], err
+
+
+@pytest.mark.parametrize("name", HOSTILE)
+def test_every_limit_in_a_rig_file_is_one_line_with_its_line(name):
+    text, says, offset = HOSTILE[name]
+    msg = _one_line(parse_rig_file, RIG + text, "r.yaml")
+    assert msg.startswith(f"r.yaml:{_line(RIG + text, offset)}: ") and says in msg, msg
+
+
+@pytest.mark.parametrize("name", HOSTILE)
+def test_every_limit_in_a_session_manifest_is_one_line_with_its_line(tmp_path, name):
+    text, says, offset = HOSTILE[name]
+    manifest = "format: rig-session/1\nid: s\nstatus: complete\n" + text
+    (tmp_path / "session.yaml").write_text(manifest)
+    with pytest.raises(SessionFormatError) as exc:
+        SessionManifest.load(tmp_path)
+    msg = str(exc.value)
+    assert msg.startswith(f"{tmp_path / 'session.yaml'}:{_line(manifest, offset)}: ") and says in msg, msg
+    assert "\n" not in msg
+
+
+def test_a_procedure_over_the_size_limit_is_one_line(tmp_path, capsys):
+    from rig.cli import main
+    p = tmp_path / "big.yaml"
+    p.write_text(SIX + "# " + "x" * (1024 * 1024) + "\n")
+    assert main(["run", str(p), "--out", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"rig run: {p}: larger than 1 MiB: not a procedure"]
+
+
+def test_the_history_reads_a_manifest_through_the_guarded_loader_too(tmp_path):
+    from rig.lab.history import _read_manifest
+    (tmp_path / "session.yaml").write_text("format: rig-session/1\n" + BOMB)
+    t0 = time.perf_counter()
+    with pytest.raises(RigInputError, match="session manifest is not valid YAML"):
+        _read_manifest(tmp_path)
+    assert time.perf_counter() - t0 < 0.5

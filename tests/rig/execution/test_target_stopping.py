@@ -198,12 +198,12 @@ def test_a_resumed_run_plans_from_the_poses_already_recorded(make_rig, tmp_path)
 
 @pytest.mark.parametrize("target, key, message", [
     ("{max_seconds: 60}", "target", "give attitude_error_deg or sigma"),
-    ("{attitude_error_deg: 0.03}", "target", "missing required key 'max_seconds'"),
+    ("{attitude_error_deg: 0.03}", "target.max_seconds", "missing required field"),
     ("{attitude_error_deg: 0.03, confidence: 1, max_seconds: 60}", "target.confidence", "expected < 1"),
     ("{attitude_error_deg: 0, max_seconds: 60}", "target.attitude_error_deg", "expected a number > 0"),
     ("{attitude_error_deg: 0.03, max_seconds: 0}", "target.max_seconds", "expected a number > 0"),
     ("{sigma: {gyro.bias_x: 1}, max_seconds: 60}", "target.sigma.gyro.bias_x", "unknown parameter"),
-    ("{attitude_error_deg: 0.03, poses: [[0, 1]], max_seconds: 60}", "target.poses.0", r"expected \[a1, a2, a3\]"),
+    ("{attitude_error_deg: 0.03, poses: [[0, 1]], max_seconds: 60}", "target.poses[0]", r"expected \[a1, a2, a3\]"),
 ])
 def test_a_bad_target_is_one_line_naming_the_key(target, key, message):
     with pytest.raises(RigInputError, match=message) as exc:

@@ -1,6 +1,7 @@
-"""The manifest's fast YAML reader answers exactly as ``rig.config.yamlload.load_located``: the same value
-for every document, the same one-line error for every bad or hostile one (the fast path reads only the
-plain documents ``yaml.safe_dump`` writes and hands everything else to ``load_located``)."""
+"""The one guarded loader's fast path (``calib.file.yamlsafe.load``, libyaml's events) answers exactly as
+its located path (``load_located``): the same value for every document, the same one-line refusal for every
+bad or hostile one (the fast path reads only the plain documents ``yaml.safe_dump`` writes, every session
+manifest and calibration file, and hands everything else to ``load_located``)."""
 
 from __future__ import annotations
 
@@ -11,8 +12,9 @@ import random
 import pytest
 import yaml
 
-from rig.config.yamlload import load_located
-from rig.session.manifest import _load_plain, _NotPlain, load_yaml
+from calib.file.yamlsafe import _load_plain, _NotPlain, load, load_located
+from rig.errors import RigInputError
+from rig.session.manifest import load_yaml
 
 MANIFEST = """format: rig-session/1
 id: six_position-20261125T152726Z-s1-22e5
@@ -58,9 +60,9 @@ SNIPPETS = ["[", "]", "{", "}", ":", ": ", "- ", "\t", "&a ", "*a", "!!str ", "!
             "9" * 40, "-0", "+5", "1.", ".5"]
 
 
-def outcome(load, text: str):
+def outcome(reader, text: str):
     try:
-        return "ok", load(text)
+        return "ok", reader(text)
     except Exception as exc:  # noqa: BLE001 - whatever load_located raises, the fast reader must raise too
         return "error", f"{type(exc).__name__}: {exc}"
 
@@ -79,21 +81,21 @@ def same(a, b) -> bool:
 
 
 def assert_answers_alike(text: str) -> None:
-    slow = outcome(lambda t: load_located(t, "session.yaml")[0], text)
-    fast = outcome(lambda t: load_yaml(t, "session.yaml"), text)
+    slow = outcome(lambda t: load_located(t)[0], text)
+    fast = outcome(load, text)
     assert slow[0] == fast[0], (text, slow, fast)
     assert same(slow[1], fast[1]) if slow[0] == "ok" else slow[1] == fast[1], (text, slow, fast)
 
 
 def test_a_manifest_is_read_by_the_fast_path_to_the_same_values():
-    assert same(_load_plain(MANIFEST), load_located(MANIFEST, "session.yaml")[0])
+    assert same(_load_plain(MANIFEST), load_located(MANIFEST)[0])
 
 
 @pytest.mark.parametrize("text", [
     "a: 1\na: 2\n",  # duplicate key
     "[" * 70 + "]" * 70,  # nested too deep (flow)
     "".join("  " * i + "- \n" for i in range(70)) + "  " * 70 + "x\n",  # nested too deep (block)
-    "a: &x [1, 2]\nb: *x\n",  # aliases are expanded by load_located
+    "a: &x [1, 2]\nb: *x\n",  # an alias
     "a: !!python/object:os.system x\n",  # a tag
     "a: !!binary aGVsbG8=\n",
     "? [1, 2]\n: x\n",  # a key that is a list
@@ -148,3 +150,10 @@ def test_the_fast_path_declines_what_it_does_not_read():
     for text in ("a: &x 1\nb: *x\n", "a: !!str 1\n", "a:\tb\n", "a: 1\na: 2\n", "--- a\n"):
         with pytest.raises(_NotPlain):
             _load_plain(text)
+
+
+def test_the_manifest_reader_names_the_file_and_line_of_a_refusal():
+    with pytest.raises(RigInputError) as exc:
+        load_yaml("a: 1\nb: *x\n", "s/session.yaml")
+    assert str(exc.value) == "s/session.yaml:2: not valid here: aliases are not allowed (plain YAML only)"
+    assert load_yaml(MANIFEST, "s/session.yaml")["rig"]["odd"]["ratio"] == 90  # 1:30 is sexagesimal in YAML 1.1
