@@ -15,8 +15,8 @@ import sys
 from pathlib import Path
 
 from rig.composition import wire
-from rig.config import schemas as config_schemas
-from rig.session import schema as session_schema
+from rig.config import json_schema as config_schemas
+from rig.session import json_schema as session_schema
 
 PROG = "python -m rig.cli.schemas"
 

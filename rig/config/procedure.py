@@ -18,11 +18,11 @@ from drivers.sensors.base import SensorSettings
 from drivers.sensors.chips import CHIPS
 from calib.accel.predict import Predictor
 from calib.errors import CalibError
-from rig.config.procedure_schema import (ACCEL_RANGES_G, ADXL345_RATES_HZ, FORMAT, GYRO_RANGES_DPS, METHODS, AcceptSpec,
+from rig.config.procedure_model import (ACCEL_RANGES_G, ADXL345_RATES_HZ, FORMAT, GYRO_RANGES_DPS, METHODS, AcceptSpec,
                                          MIN_DWELL_SAMPLES, MODELS, RATE_MAX_DEG_S, AnglesStep, Dwell,
                                          ProcedureDoc, PoseStep, RampStep, RateStep, RepeatStep, SensorSpec, Settle,
                                          SolveSpec, TargetSpec, TemperatureStep, TemperatureTarget, PromptStep)
-from rig.config.schema import validate_document
+from rig.config.validate import validate_document
 from rig.config.yamlload import read_source
 from rig.errors import RigInputError
 from rig.planning.kinematics import f_nominal, rot_x, rot_y

@@ -22,7 +22,7 @@ from pydantic.json_schema import SkipJsonSchema
 
 from drivers.sensors.chips import CHIPS, SENSOR_MODELS
 from drivers.ximc.stage_spec import MR191
-from rig.config.schema import (Strict, check_mapping, choice, fail, flag, label, number, validate_document,
+from rig.config.validate import (Strict, check_mapping, choice, fail, flag, label, number, validate_document,
                               validate_located)
 from rig.config.sections import SectionUnavailable, section
 from rig.config.yamlload import read_source

@@ -24,7 +24,7 @@ from rig.lab.history import HistoryError, calibration_row, open_history
 from rig.session import Session
 
 if TYPE_CHECKING:  # type hints only: the procedure's models load when a procedure is validated
-    from rig.config.procedure_schema import AcceptSpec
+    from rig.config.procedure_model import AcceptSpec
 
 
 def recorded_limits(session: Session) -> "AcceptSpec | None":

@@ -21,7 +21,7 @@ from pydantic import BeforeValidator, WithJsonSchema, create_model
 from calib.discovery.effects import LIBRARY
 from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, MagErrorModel
 from drivers.sensors.sim.noise import NOISE_MODELS
-from rig.config.schema import Strict, choice, fail, flag, number, validate_plain
+from rig.config.validate import Strict, choice, fail, flag, number, validate_plain
 from rig.config.sections import register_section
 from rig.simulation.world import ChamberConfig, FieldConfig, RingingConfig
 

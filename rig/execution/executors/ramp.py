@@ -20,7 +20,7 @@ from typing import Callable
 import numpy as np
 
 from rig.config.procedure import PlannedStep, Procedure, RampPlan
-from rig.config.procedure_schema import TemperatureTarget
+from rig.config.procedure_model import TemperatureTarget
 from rig.devices.rig import Rig
 from rig.execution.capture import settle_and_capture
 from rig.execution.context import RunAborted, RunContext, StepOutcome

@@ -7,7 +7,7 @@ import json
 import pytest
 import yaml
 
-from rig.config.schemas import SCHEMAS, render
+from rig.config.json_schema import SCHEMAS, render
 
 from conftest import PROCEDURES, REPO, RIGS
 

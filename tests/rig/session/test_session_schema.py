@@ -5,7 +5,7 @@ from __future__ import annotations
 import jsonschema
 import yaml
 
-from rig.session.schema import FILE_NAME, render, session_schema
+from rig.session.json_schema import FILE_NAME, render, session_schema
 from rig.workflow.run import run_procedure
 
 from conftest import REPO

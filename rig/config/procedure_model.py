@@ -18,7 +18,7 @@ from calib.acceptance import AcceptanceLimits, known_pattern
 from calib.accel.predict import Goal, parameter_names, seed_table_f
 from drivers.sensors.chips import CHIPS, SENSOR_MODELS
 from drivers.ximc.stage_spec import MR191
-from rig.config.schema import Strict, choice, fail, flag, label, number, text
+from rig.config.validate import Strict, choice, fail, flag, label, number, text
 from rig.planning.kinematics import f_nominal
 from rig.planning.poses import POSE_NAMES
 

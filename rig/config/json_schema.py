@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import json
 
-from rig.config.procedure_schema import ProcedureDoc
+from rig.config.procedure_model import ProcedureDoc
 from rig.config.rigfile import RigFileDoc
-from rig.config.schema import adapter
+from rig.config.validate import adapter
 from rig.config.sections import section, section_names
 
 DIALECT = "https://json-schema.org/draft/2020-12/schema"
