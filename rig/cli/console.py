@@ -3,7 +3,9 @@
 On a terminal the progress is a ``rich.progress`` bar: the step, its phase, temperature and noise,
 and the run's end as a wall-clock time; warnings and information print above the bar and the result
 below it once the run ends; nothing is redrawn over stale characters. Elsewhere (CI, logs, pipes)
-it degrades to one plain line per phase change.
+it degrades to one plain line per phase change. The console is a view: when it is gone (a closed
+terminal, EIO; a closed pipe, EPIPE) it falls silent and the run goes on, or stops as it was asked
+to; a write never aborts a run (:class:`QuietOnFailure`).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn
 from rich.text import Text
 
+from rig.cli.main import silence
 from rig.execution.operator import OperatorAbsent, StepProgress
 
 
@@ -48,7 +51,7 @@ class ConsoleUI:
 
     def __init__(self, out: TextIO | None = None, *, assume_yes: bool = False,
                  interactive: bool | None = None, quiet: bool = False) -> None:
-        self.out = out or sys.stderr
+        self.out = QuietOnFailure(out or sys.stderr)
         self.assume_yes = assume_yes
         self.interactive = sys.stdin.isatty() if interactive is None else interactive
         self.quiet = quiet
@@ -114,6 +117,38 @@ class ConsoleUI:
             self._live.print(text)
         else:
             print(text, file=self.out, flush=True)
+
+
+class QuietOnFailure:
+    """A text stream (the console's) whose writes cannot fail: the first that does (OSError: EIO from a
+    terminal that hung up, EPIPE from a pipe whose reader is gone) silences it for good (its descriptor
+    goes to /dev/null: :func:`rig.cli.main.silence`), and the text is dropped. The progress bar's
+    refresh thread writes through it too."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self.stream.write(text)
+        except OSError:
+            silence(self.stream)
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self.stream.flush()
+        except OSError:
+            silence(self.stream)
+
+    def isatty(self) -> bool:
+        try:
+            return self.stream.isatty()
+        except (OSError, ValueError):
+            return False
+
+    def __getattr__(self, name: str):
+        return getattr(self.stream, name)
 
 
 class _LiveBar:

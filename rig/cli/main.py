@@ -6,18 +6,85 @@ expected. No tracebacks (set ``RIG_DEBUG=1`` to see them). Each command lives in
 table in :mod:`rig.cli.failures`). It imports only the command given: ``rig --help`` and ``rig
 --version`` load no command, no numpy (docs/architecture.md, "Deferred imports"). Once a command is
 given, :func:`main` calls the composition root (:func:`rig.composition.wire`) before running it.
+
+Signals (docs/cli.md): run as the program (``rig ...``, ``python -m rig.cli ...``), a SIGINT, SIGTERM or
+SIGHUP during start-up (imports, parsing, wiring: nothing has been done yet) exits at once with one line,
+``rig COMMAND: interrupted``, exit 1, never a traceback; the handlers are installed when this module is
+imported, before the command's imports. Once the command runs, Ctrl-C is a KeyboardInterrupt (exit 1,
+``interrupted``); ``rig run`` stops the motors on every one of them (:func:`rig.cli.commands.run.stop_on_signals`).
+Python itself cannot be guarded before it has imported ``site`` and this module.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
+import signal
 import sys
-import warnings
 
-from rig import __version__
-from rig.cli.codes import EXIT_BAD_INPUT, EXIT_OK, UsageError
-from rig.cli.commands import COMMANDS, load
+#: the signals that stop ``rig`` (Ctrl-C, kill, a closed terminal or a dropped ssh connection)
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+#: each stop signal's handler before the start-up handlers replaced it (SIG_IGN stays ignored: a
+#: background job's SIGINT, ``nohup``'s SIGHUP)
+_inherited: dict[int, object] = {}
+
+
+def exit_on_stop_signals() -> None:
+    """Start-up: a stop signal exits at once, ``rig COMMAND: interrupted``, exit 1 (nothing has been done
+    yet; a KeyboardInterrupt in the middle of an import would print a traceback instead)."""
+    for sig in STOP_SIGNALS:
+        current = signal.getsignal(sig)
+        if current is _exit_interrupted or current == signal.SIG_IGN:
+            continue
+        _inherited[sig] = current
+        signal.signal(sig, _exit_interrupted)
+
+
+def _exit_interrupted(signum, frame):
+    """Runs before this module's imports are done: it needs nothing but os and sys."""
+    try:
+        words = [a for a in sys.argv[1:] if not a.startswith("-")]  # command_given(), maybe not defined yet
+        say_raw(f"rig {words[0]}: interrupted" if words and words[0].isidentifier() else "rig: interrupted")
+    finally:
+        os._exit(1)  # EXIT_FAILURE (rig.cli.codes), which may not be imported yet
+
+
+def say_raw(line: str) -> None:
+    """One line straight to file descriptor 2, bypassing Python's buffered stderr: safe in a signal
+    handler (a buffered write there may interrupt one in progress: "reentrant call"); never fails."""
+    try:
+        os.write(2, (line + "\n").encode(errors="replace"))
+    except OSError:
+        pass
+
+
+def launched_as_rig() -> bool:
+    """This interpreter was started as the ``rig`` program (the console script, ``python -m rig.cli``),
+    not by a program that imports the CLI (tests call ``main(argv)``)."""
+    if os.path.basename(sys.argv[0]) == "rig":
+        return True
+    names = ("rig.cli", "rig.cli.main")
+    options = iter(getattr(sys, "orig_argv", [])[1:])  # the interpreter's options, up to what it runs
+    for option in options:
+        if option in ("-X", "-W"):
+            next(options, None)
+        elif option == "-m":
+            return next(options, None) in names
+        elif option.startswith("-m"):
+            return option[2:] in names
+        elif not option.startswith("-") or option.startswith("-c") or option == "-":
+            return False
+    return False
+
+
+if __name__ != "__main__" and launched_as_rig():  # first, before any import that takes time
+    exit_on_stop_signals()
+
+import argparse  # noqa: E402 - after the start-up handlers
+import warnings  # noqa: E402
+
+from rig import __version__  # noqa: E402
+from rig.cli.codes import EXIT_BAD_INPUT, EXIT_OK, UsageError  # noqa: E402
+from rig.cli.commands import COMMANDS, load  # noqa: E402
 
 
 class _Parser(argparse.ArgumentParser):
@@ -49,39 +116,94 @@ def command_given(argv: list[str]) -> str | None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``rig ARGV`` (default: the program's own arguments); returns the exit code. Called without
+    ``argv`` it is the program: signals during start-up exit at once (see the module's docstring);
+    with ``argv`` (tests, scripts) it leaves the caller's signal handlers alone."""
+    program = argv is None
+    if program:
+        exit_on_stop_signals()
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(command_given(argv))
     try:
         args = parser.parse_args(argv)
     except UsageError as exc:
-        print(f"rig: {exc}", file=sys.stderr)
+        say(f"rig: {exc}")
         return EXIT_BAD_INPUT
     except SystemExit as exc:  # --help, --version
         return EXIT_BAD_INPUT if exc.code else EXIT_OK
     if not args.command:
-        print("rig: give a command; see rig --help", file=sys.stderr)
+        say("rig: give a command; see rig --help")
         return EXIT_BAD_INPUT
     from rig.cli import failures  # deferred: the error types of every layer (calib, pandas), not for --help
     from rig.composition import wire  # deferred: the composition root, once a command runs, not for --help
     wire()  # the simulator's providers (rig.composition): every command reads rig files alike
+    command = load(args.command)
     held: list[str] = []
     try:
+        if program:
+            interrupt_as_exception()
         with warnings.catch_warnings():
             warnings.showwarning = _one_line_warning(args.command, held)
-            code = load(args.command).run(args)
+            code = command.run(args)
         for line in held:  # shown once the command succeeded; a refusal stays its one line
-            print(line, file=sys.stderr)
+            say(line)
         return code
     except BrokenPipeError:  # `rig ... | head -1`: the reader is gone; nothing to say
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
+        silence(sys.stdout)
         return EXIT_OK
     except BaseException as exc:  # noqa: BLE001 - the one place errors become exit codes
+        if program and isinstance(exc, KeyboardInterrupt):
+            ignore_stop_signals()  # exiting on the signal's behalf: another one must not cut that short
         code, line = failures.classify(exc)
         if os.environ.get("RIG_DEBUG"):
             raise
-        print(f"rig {args.command}: {line}", file=sys.stderr)
+        say(f"rig {args.command}: {line}")
         return code
+
+
+def interrupt_as_exception() -> None:
+    """The command runs: the handlers it inherited are back, except that Ctrl-C raises KeyboardInterrupt
+    once and is ignored after that (the command's cleanup is not cut short)."""
+    for sig, handler in _inherited.items():
+        if signal.getsignal(sig) is _exit_interrupted:
+            inherited = signal.SIG_DFL if handler is None else handler
+            signal.signal(sig, _interrupt_once if sig == signal.SIGINT else inherited)
+
+
+def ignore_stop_signals() -> None:
+    for sig in STOP_SIGNALS:
+        signal.signal(sig, signal.SIG_IGN)
+
+
+def _interrupt_once(signum, frame):
+    signal.signal(signum, signal.SIG_IGN)
+    raise KeyboardInterrupt
+
+
+def say(line: str, stream=None) -> None:
+    """Print one line (to stderr by default) that cannot fail: when the terminal or the pipe is gone
+    (EIO, EPIPE, ...) the stream is silenced and the line dropped. What ``rig`` does (the motors, the
+    session) never depends on its text being read."""
+    stream = sys.stderr if stream is None else stream
+    try:
+        print(line, file=stream, flush=True)
+    except OSError:
+        silence(stream)
+
+
+def silence(stream) -> None:
+    """From now on ``stream`` writes to /dev/null: its descriptor is replaced, so what it still buffers
+    and everything written later (the interpreter's flush at exit included) succeeds and goes nowhere,
+    instead of failing again (a failed flush at exit would make the exit code 120)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, stream.fileno())
+        finally:
+            os.close(devnull)
+        stream.flush()
+    except (OSError, ValueError, AttributeError):  # no descriptor (a test's capture): nothing to silence
+        pass
 
 
 def _one_line_warning(command: str, held: list[str]):
@@ -95,5 +217,6 @@ def _one_line_warning(command: str, held: list[str]):
     return show
 
 
-if __name__ == "__main__":
-    raise SystemExit(main())
+if __name__ == "__main__":  # python -m rig.cli.main: the module that rig.cli imported holds the handlers
+    from rig.cli.main import main as _main
+    raise SystemExit(_main())

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import math
+import shlex
 import signal
 import sys
 
 from rig.cli.common import EXIT_FAILURE, EXIT_OK, UsageError, format_calibration, present
 from rig.cli.console import ConsoleUI
+from rig.cli.main import say, say_raw
 from rig.execution.context import RunAborted
 from rig.session import SessionManifest
 from rig.workflow.run import run_procedure
@@ -30,6 +32,15 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    stop = stop_on_signals()  # first: from here on a signal stops the run, whatever it is doing
+    try:
+        _check_options(args)
+        return _run_and_report(args, stop)
+    finally:
+        stop.restore()
+
+
+def _check_options(args) -> None:
     if args.procedure is None and args.resume is None:
         raise UsageError("give a procedure file, or --resume DIR")
     if args.procedure is not None and args.resume is not None:
@@ -39,14 +50,9 @@ def run(args) -> int:
         raise UsageError(f"--seed: expected an integer from 0 to {2**32 - 1}, got {args.seed}")
     if args.time_scale is not None and not (math.isfinite(args.time_scale) and 0 <= args.time_scale <= 1000):
         raise UsageError(f"--time-scale: expected 0 (virtual time) or a speed-up from 0 to 1000, got {args.time_scale:g}")
-    restore = stop_on_signals()
-    try:
-        return _run_and_report(args)
-    finally:
-        restore()
 
 
-def _run_and_report(args) -> int:
+def _run_and_report(args, stop: SignalStop) -> int:
     ui = ConsoleUI(assume_yes=args.yes, quiet=args.quiet)
     try:
         result = run_procedure(args.procedure, rig_spec=args.rig, out_dir=args.out, seed=args.seed,
@@ -55,50 +61,69 @@ def _run_and_report(args) -> int:
     except RunAborted as exc:
         ui.close()
         where = getattr(exc, "session_dir", None)
-        resume = f"rig run --resume {where}" if where is not None else "rig run --resume <session dir>"
-        print(f"rig run: aborted: {exc}; motors stopped. Resume with: {resume}", file=sys.stderr)
+        resume = f"rig run --resume {shlex.quote(str(where))}" if where is not None else "rig run --resume <session dir>"
+        by = f" ({signal.Signals(stop.signum).name})" if stop.signum not in (None, signal.SIGINT) else ""
+        say(f"rig run: aborted: {exc}{by}; motors stopped. Resume with: {resume}")  # a closed terminal: no line, same exit
         return EXIT_FAILURE
     except BaseException:
         ui.close()
         raise
     ui.close(finished=True)
-    print(f"session: {result.session_dir}")
+    out = sys.stdout  # the results; nobody reading them (a closed pipe, a hung-up terminal) does not change the exit code
+    say(f"session: {result.session_dir}", out)
     recorded = (result.conclusion.session.info if result.conclusion is not None  # the whole session, across resumes
                 else SessionManifest.load(result.session_dir)[0])
     flagged = [s for s in recorded.steps if s.status == "flagged"]
     if flagged:
-        print("flagged steps (left out of the solve): " + "; ".join(
+        say("flagged steps (left out of the solve): " + "; ".join(
             f"{s.index + 1} ({s.name}: {'; '.join(map(str, (s.stats.problems if s.stats else None) or ['bad data']))})"
-            for s in flagged))
+            for s in flagged), out)
     if result.conclusion is None:
         return EXIT_OK
-    print(f"calibration: {result.calibration_path}")
-    print(format_calibration(result.calibration))
+    say(f"calibration: {result.calibration_path}", out)
+    say(format_calibration(result.calibration), out)
     return present("run", result.conclusion)
 
 
-def stop_on_signals():
-    """Ctrl-C (SIGINT) and SIGTERM stop the motors and abort the run, even when the shell that started
-    us ignores SIGINT (a background job does): the turntable must stop whoever asks. A second
-    Ctrl-C while the run is stopping does not cut the cleanup short (motors, session status).
+class SignalStop:
+    """The signals that stop a run, while it runs (:func:`stop_on_signals`): ``signum`` is the one
+    that stopped it (None while none has)."""
 
-    Returns what to call once the run is over: it puts the previous handlers back, unless a signal
-    stopped the run; then the program is exiting on its behalf, and further ones are ignored (Python
-    drops its own handlers while it exits, and a Ctrl-C then would kill it without its exit code)."""
-    stopping = []
-    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    def __init__(self) -> None:
+        self.signum: int | None = None
+        self.previous: dict[int, object] = {}
 
-    def restore() -> None:
-        for sig, handler in previous.items():
-            signal.signal(sig, signal.SIG_IGN if stopping else handler)
-
-    def interrupt(signum, frame):
-        if stopping:
-            print("rig run: stopping the motors and closing the session; please wait", file=sys.stderr)
+    def interrupt(self, signum, frame) -> None:
+        if self.signum is not None:
+            say_raw("rig run: stopping the motors and closing the session; please wait")
             return
-        stopping.append(signum)
+        self.signum = signum
         raise KeyboardInterrupt
 
-    signal.signal(signal.SIGINT, interrupt)
-    signal.signal(signal.SIGTERM, interrupt)
-    return restore
+    def restore(self) -> None:
+        """The run is over: the previous handlers are back, unless a signal stopped the run; then the
+        program is exiting on its behalf and further ones are ignored (Python drops its own handlers
+        while it exits, and a Ctrl-C then would kill it without its exit code)."""
+        for sig, handler in self.previous.items():
+            signal.signal(sig, signal.SIG_IGN if self.signum is not None
+                          else signal.SIG_DFL if handler is None else handler)
+
+
+def stop_on_signals() -> SignalStop:
+    """Ctrl-C (SIGINT), SIGTERM and SIGHUP (a closed terminal, a dropped ssh connection) stop the motors
+    and abort the run, even when the shell that started us ignores SIGINT (a background job does): the
+    turntable must stop whoever asks. SIGHUP stays ignored when it was (``nohup rig run ...``: the
+    operator asked the run to outlive the terminal). Further signals while the run is stopping only say
+    "please wait" (straight to the descriptor: a buffered write in a handler can break the one it
+    interrupts, and a closed terminal must not matter); they never cut the cleanup short (motors,
+    session status).
+
+    Returns the :class:`SignalStop`; call its ``restore`` once the run is over."""
+    stop = SignalStop()
+    signals = [signal.SIGINT, signal.SIGTERM]
+    if signal.getsignal(signal.SIGHUP) != signal.SIG_IGN:
+        signals.append(signal.SIGHUP)
+    for sig in signals:
+        stop.previous[sig] = signal.getsignal(sig)
+        signal.signal(sig, stop.interrupt)
+    return stop
