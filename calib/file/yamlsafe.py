@@ -5,7 +5,8 @@ and hostile or broken YAML is refused while it is parsed, before any value is bu
 :class:`HostileYaml` (the line, and the key where there is one):
 
 - files larger than ``MAX_BYTES`` (:func:`read_text`; a caller may allow a larger kind of file) or not UTF-8;
-- aliases (``*a``: the "billion laughs" bomb; the rig never writes them);
+- aliases that expand to more than ``MAX_ALIAS_VALUES`` values (``*a``: the "billion laughs" bomb is
+  refused while it is expanded; an anchor shared by a few axes of a rig file is fine);
 - nesting deeper than ``MAX_DEPTH`` mappings and lists (block or flow);
 - tags on mappings and lists (``!!set``, ``!!python/...``; plain YAML only);
 - duplicate keys (last-wins would silently pick a value) and keys that are mappings or lists;
@@ -28,6 +29,7 @@ from yaml.cyaml import CParser
 
 MAX_BYTES = 1024 * 1024  # procedures, rig files, calibration files (a session manifest may be larger)
 MAX_DEPTH = 32  # nesting levels of mappings and lists
+MAX_ALIAS_VALUES = 10_000  # values built through aliases (a document may repeat an anchor, not explode)
 MAX_INT_DIGITS = 30  # no field needs more (serial numbers are 32-bit)
 _PLAIN_COLLECTIONS = ("tag:yaml.org,2002:map", "tag:yaml.org,2002:seq", "tag:yaml.org,2002:omap")
 
@@ -111,11 +113,13 @@ def _nested_too_deep(line: int) -> HostileYaml:
 
 
 class _GuardedLoader(yaml.SafeLoader):
-    """SafeLoader whose scanner and composer refuse aliases and documents nested deeper than ``MAX_DEPTH``."""
+    """SafeLoader whose scanner and composer refuse documents nested deeper than ``MAX_DEPTH`` and note
+    which nodes aliases point at (the builder bounds what they expand to)."""
 
     def __init__(self, text: str) -> None:
         super().__init__(text)
         self.depth = 0
+        self.aliased: set[int] = set()  # ids of the nodes an alias refers to
 
     def fetch_flow_collection_start(self, TokenClass):
         # the scanner looks ahead through a whole flow collection: stop "[[[[..." before it does
@@ -124,9 +128,10 @@ class _GuardedLoader(yaml.SafeLoader):
         super().fetch_flow_collection_start(TokenClass)
 
     def compose_node(self, parent, index):
-        if self.check_event(yaml.AliasEvent):  # refused before it is resolved: no bomb is ever built
-            raise HostileYaml("not valid here: aliases are not allowed (plain YAML only)",
-                              self.peek_event().start_mark.line + 1)
+        if self.check_event(yaml.AliasEvent):  # the anchored node, shared: the builder counts its copies
+            node = super().compose_node(parent, index)
+            self.aliased.add(id(node))
+            return node
         self.depth += 1
         try:
             if self.depth > MAX_DEPTH:
@@ -141,12 +146,34 @@ class _Builder:
 
     def __init__(self, loader: yaml.SafeLoader) -> None:
         self.loader, self.lines = loader, LineMap()
+        self.aliased: set[int] = getattr(loader, "aliased", set())
+        self.seen: set[int] = set()  # aliased nodes built once already (a second build is an alias's copy)
+        self.copying = 0  # > 0 while an alias's copy is built
+        self.copied = 0  # values built through aliases
+
+    def build(self, n):
+        """The value of node ``n``; an alias's copy counts towards ``MAX_ALIAS_VALUES``."""
+        if id(n) not in self.aliased:
+            return self._build(n) if not self.copying else self._count(n)
+        copy = id(n) in self.seen
+        self.seen.add(id(n))
+        self.copying += copy
+        try:
+            return self._count(n) if self.copying else self._build(n)
+        finally:
+            self.copying -= copy
+
+    def _count(self, n):
+        self.copied += 1
+        if self.copied > MAX_ALIAS_VALUES:
+            self.fail(n, f"not valid here: aliases expand to more than {MAX_ALIAS_VALUES} values")
+        return self._build(n)
 
     @staticmethod
     def fail(node, message, key=None):
         raise HostileYaml(message, node.start_mark.line + 1, key)
 
-    def build(self, n):
+    def _build(self, n):
         if isinstance(n, (yaml.MappingNode, yaml.SequenceNode)) and n.tag not in _PLAIN_COLLECTIONS:
             self.fail(n, f"not valid YAML here: tag {n.tag!r} is not allowed (plain YAML only)")
         if isinstance(n, yaml.MappingNode):

@@ -88,8 +88,8 @@ def test_binary_garbage_through_the_command_line_is_exit_2(tmp_path, capsys):
 
 #: name -> (text appended to a document, what its one line says, the line's offset from the document's end)
 HOSTILE = {
-    "an alias bomb": (BOMB.replace("a:", "zz:", 1), "aliases are not allowed", 8),
-    "an alias": ("zz: &x 1\nzy: *x\n", "aliases are not allowed", 1),
+    "an alias bomb": (BOMB.replace("a:", "zz:", 1), "aliases expand to more than", 9),
+    "an undefined alias": ("zy: *x\n", "undefined alias", 1),
     "nesting one level too deep": ("zz: " + "[" * (MAX_DEPTH - 1) + "1" + "]" * (MAX_DEPTH - 1) + "\n",
                                    f"nested more than {MAX_DEPTH} levels deep", 1),
     "an integer of too many digits": ("zz: " + "9" * (MAX_INT_DIGITS + 1) + "\n", "digits", 1),
