@@ -95,7 +95,18 @@ class Engine:
 
     def prepare(self, resuming: bool, preflight: bool = True) -> None:
         """Preflight (unless the caller ran :func:`check_before_recording` already), then apply the move
-        settings and the rig's home/zero policy."""
+        settings and the rig's home/zero policy; a Ctrl-C or an error while homing stops the motors, as
+        in :meth:`run`."""
+        try:
+            self._prepare(resuming, preflight)
+        except KeyboardInterrupt:
+            stop_motors(self.ctx.rig, soft=True)
+            raise RunAborted("interrupted by the operator") from None
+        except BaseException:
+            stop_motors(self.ctx.rig, soft=False)
+            raise
+
+    def _prepare(self, resuming: bool, preflight: bool) -> None:
         rig = self.ctx.rig
         if preflight:
             self.preflight({n: rig.axes[n].stage.get_position_deg() for n in STAGE_AXES} if resuming else None)

@@ -139,14 +139,28 @@ def execute(procedure, rig: Rig, writer: SessionWriter, operator: Operator, *, f
         engine.prepare(resuming=resuming, preflight=not checked)
         return engine.run()
     except BaseException as exc:
-        if isinstance(exc, RunAborted):
-            exc.session_dir = writer.session_dir  # for the resume command the user is shown
-        try:  # best effort: on a full disk even this may fail; what is on disk stays valid
-            writer.event("abort", t_s=engine.session_time(), reason=_one_line(exc))
-            writer.set_status("aborted")
-        except OSError:
-            pass
+        abort_session(writer, exc, t_s=engine.session_time())
         raise
+
+
+def abort_session(writer: SessionWriter, exc: BaseException, t_s: float | None = None) -> None:
+    """Mark the session aborted (an ``abort`` event with the reason), so it can be resumed; a
+    :class:`RunAborted` learns the session's directory, for the resume command the user is shown.
+    Best effort: on a full disk even this may fail, and what is on disk stays valid."""
+    if isinstance(exc, RunAborted):
+        exc.session_dir = writer.session_dir
+    try:
+        writer.event("abort", **({"t_s": t_s} if t_s is not None else {}), reason=_one_line(exc))
+        writer.set_status("aborted")
+    except (OSError, ValueError):  # ValueError: the writer's files were closed already
+        pass
+
+
+def interrupted(writer: SessionWriter) -> RunAborted:
+    """The RunAborted a Ctrl-C outside the engine becomes, with the session's directory (to resume it)."""
+    exc = RunAborted("interrupted by the operator")
+    exc.session_dir = writer.session_dir
+    return exc
 
 
 def finish(procedure, writer: SessionWriter, outcomes: list[StepOutcome], *, solve: bool = True,
@@ -160,6 +174,9 @@ def finish(procedure, writer: SessionWriter, outcomes: list[StepOutcome], *, sol
         try:
             session = load_session(writer.session_dir)
             conclusion = conclude(session, history=history, report=False)
+        except KeyboardInterrupt:  # every step is recorded: a resume only solves
+            abort_session(writer, KeyboardInterrupt())
+            raise interrupted(writer) from None
         except CalibError as exc:
             writer.event("error", message=f"cannot solve: {exc}")
             writer.set_status("complete")

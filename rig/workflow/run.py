@@ -18,8 +18,8 @@ from rig.errors import RigInputError
 from rig.session import SessionManifest, SessionWriter
 from rig.workflow import identity
 from rig.workflow import kinds  # noqa: F401 - registers the "sim" rig kind (the simulator loads when it opens)
-from rig.workflow.lifecycle import (NewSession, RunResult, configure_devices, execute, file_sha256, finish,
-                                    start_session)
+from rig.workflow.lifecycle import (NewSession, RunResult, abort_session, configure_devices, execute, file_sha256,
+                                    finish, interrupted, start_session)
 
 DEFAULT_RIG = Path(__file__).resolve().parents[2] / "rigs" / "sim.yaml"
 
@@ -65,8 +65,14 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
         check_before_recording(procedure, rig, operator)
         announce_duration(procedure, rig, operator)
         writer = start_session(procedure, rig, new)
-        lock = SessionLock(writer.session_dir).acquire()
-        operator.info(f"session {writer.session_dir}")
+        try:
+            lock = SessionLock(writer.session_dir).acquire()
+            operator.info(f"session {writer.session_dir}")
+        except BaseException as exc:  # between the session's creation and the engine: still resumable
+            abort_session(writer, exc)
+            if isinstance(exc, KeyboardInterrupt):
+                raise interrupted(writer) from None
+            raise
         try:
             outcomes = execute(procedure, rig, writer, operator, checked=True, options=options)
         finally:
