@@ -90,7 +90,7 @@ class CalibrationSection(BaseModel):
         return data
 
     @classmethod
-    def __get_pydantic_json_schema__(cls, core_schema, handler):  # noqa: ANN001 (pydantic hook)
+    def __get_pydantic_json_schema__(cls, core_schema, handler):
         schema = handler(core_schema)
         target = handler.resolve_ref_schema(schema)
         if cls.FILE_REQUIRED:

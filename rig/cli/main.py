@@ -151,7 +151,7 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # `rig ... | head -1`: the reader is gone; nothing to say
         silence(sys.stdout)
         return EXIT_OK
-    except BaseException as exc:  # noqa: BLE001 - the one place errors become exit codes
+    except BaseException as exc:
         if program and isinstance(exc, KeyboardInterrupt):
             ignore_stop_signals()  # exiting on the signal's behalf: another one must not cut that short
         code, line = failures.classify(exc)
