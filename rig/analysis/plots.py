@@ -11,17 +11,25 @@ The conventions every plot follows:
 - the step axis is labelled with the steps' pose names, in recorded order;
 - one unit per quantity, the same in titles and axis labels (residuals in µg);
 - the legend sits right of the panels, outside every axes, so it never covers data;
-- a panel without data says so (``no temperature data``) instead of staying empty.
+- a panel without data says so (``no temperature data``) instead of staying empty;
+- names are data: every text is drawn as written (no mathtext, no TeX, whatever the user's
+  matplotlibrc says; :func:`new_figure`'s figure switches both off for every text when it draws),
+  control characters and lone surrogates as their escapes (:func:`literal`); a name is shown whole
+  in a title (wrapped, :func:`wrap`) and shortened with ``…`` on an axis (:func:`short_label`), so a
+  long one never squeezes the panels away.
 """
 
 from __future__ import annotations
 
 import base64
+import functools
+import hashlib
 import io
 import math
 import os
 import re
 import textwrap
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -35,11 +43,55 @@ NO_TEMPERATURE = "no temperature data"
 AXIS_COLOURS = {"x": "tab:red", "y": "tab:green", "z": "tab:blue"}
 #: more steps than this: only every k-th pose name is written on the step axis
 MAX_STEP_LABELS = 40
+#: a name on an axis (a step's, a parameter's) longer than this is shortened with "…"; titles show it whole
+MAX_LABEL_CHARS = 32
+#: a title wraps onto at most this many lines (then "…")
+MAX_TITLE_LINES = 8
+#: file-name components longer than this end in a hash of the whole text instead (names are data, file
+#: systems refuse names beyond 255 bytes)
+MAX_FILE_NAME = 80
+#: the settings every drawing runs under: user text is never math or TeX
+LITERAL_RC = {"text.parse_math": False, "text.usetex": False, "axes.formatter.use_mathtext": False}
+#: what is drawn as its escape: control characters but the newline, and lone surrogates (which no font
+#: and no file encoding can carry)
+_UNDRAWABLE = re.compile(r"[\x00-\x09\x0b-\x1f\x7f-\x9f\ud800-\udfff]")
+
+
+def literal(text) -> str:
+    """``text`` as a figure shows it: ``str(text)`` with control characters (but the newline) and lone
+    surrogates written as their Python escapes (``\\x00``, ``\\t``, ``\\udcff``); everything else as is."""
+    return _UNDRAWABLE.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), str(text))
+
+
+def short_label(text, chars: int = MAX_LABEL_CHARS, lines: int = 2) -> str:
+    """``text`` (:func:`literal`) for an axis: at most ``lines`` lines of at most ``chars`` characters,
+    what is cut off marked with ``…``."""
+    rows = literal(text).split("\n")
+    out = [r if len(r) <= chars else r[:chars - 1] + "…" for r in rows[:lines]]
+    if len(rows) > lines:
+        out[-1] = (out[-1][:chars - 1] if len(out[-1]) >= chars else out[-1]) + "…"
+    return "\n".join(out)
+
+
+def wrap(text, width: int, max_lines: int = MAX_TITLE_LINES) -> str:
+    """``text`` (:func:`literal`) wrapped at ``width`` characters, its own line breaks kept, long words
+    (a long name) broken; beyond ``max_lines`` lines the rest is cut off and marked with ``…``."""
+    rows = [w for line in literal(text).split("\n")
+            for w in (textwrap.wrap(line, max(8, width), break_on_hyphens=False) or [""])]
+    if len(rows) > max_lines:
+        rows = rows[:max_lines]
+        rows[-1] = rows[-1][:max(1, width - 1)] + "…"
+    return "\n".join(rows)
 
 
 def safe_name(text: str) -> str:
-    """``text`` as one file-name component (letters, digits, ``.``, ``_``, ``-``)."""
-    return re.sub(r"[^A-Za-z0-9._-]+", "_", str(text)).strip("._") or "plot"
+    """``text`` as one file-name component (letters, digits, ``.``, ``_``, ``-``); beyond
+    :data:`MAX_FILE_NAME` characters, its beginning and a hash of the whole text."""
+    name = re.sub(r"[^A-Za-z0-9._-]+", "_", str(text)).strip("._") or "plot"
+    if len(name) <= MAX_FILE_NAME:
+        return name
+    digest = hashlib.sha256(str(text).encode("utf-8", "backslashreplace")).hexdigest()[:12]
+    return f"{name[:MAX_FILE_NAME - 13].rstrip('._')}-{digest}"
 
 
 def resolve_plot_path(path, default_name: str) -> Path:
@@ -63,12 +115,35 @@ def resolve_plot_path(path, default_name: str) -> Path:
     return p.resolve()
 
 
-def new_figure(width_in: float, height_in: float):
-    """An empty Figure on the Agg canvas, constrained layout (titles, labels and legend never overlap)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
+@functools.cache
+def _literal_figure():
+    """The Figure class whose texts are drawn as written (made on first use: matplotlib loads on request)."""
+    import matplotlib
     from matplotlib.figure import Figure
+    from matplotlib.text import Text
 
-    fig = Figure(figsize=(width_in, height_in), layout="constrained")
+    class LiteralFigure(Figure):
+        """A Figure that draws every text literally: mathtext and TeX off for each text it holds and for
+        those drawing creates (tick labels), whatever the rc settings; a glyph the font lacks (an emoji)
+        is drawn as the font's box, without a warning on the console."""
+
+        def draw(self, renderer):
+            with matplotlib.rc_context(LITERAL_RC), warnings.catch_warnings():
+                warnings.filterwarnings("ignore", message=r"Glyph \d+ .*missing from", category=UserWarning)
+                for t in self.findobj(Text):
+                    t.set_parse_math(False)
+                    t.set_usetex(False)
+                return super().draw(renderer)
+
+    return LiteralFigure
+
+
+def new_figure(width_in: float, height_in: float):
+    """An empty Figure on the Agg canvas, constrained layout (titles, labels and legend never overlap),
+    every text drawn as written (no mathtext, no TeX: names are data)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = _literal_figure()(figsize=(width_in, height_in), layout="constrained")
     FigureCanvasAgg(fig)
     return fig
 
@@ -94,12 +169,12 @@ def _metadata(suffix: str) -> dict:
 
 def step_axis(ax, names) -> None:
     """Label the x axis of ``ax`` with the pose names at 0..N-1 (every k-th one beyond 40 steps)."""
-    names = [str(n) for n in names]
+    names = [short_label(n) for n in names]
     n = len(names)
     every = max(1, math.ceil(n / MAX_STEP_LABELS))
     ticks = list(range(0, n, every))
     size = 8 if n <= 12 else 7 if n <= 26 else 6
-    short = n <= 8 and max((len(s) for s in names), default=0) <= 8
+    short = n <= 8 and max((len(s) for s in names), default=0) <= 8 and not any("\n" in s for s in names)
     ax.set_xticks(ticks, [names[i] for i in ticks], fontsize=size, rotation=0 if short else 45,
                   ha="center" if short else "right", rotation_mode="anchor")
     ax.set_xlim(-0.5, n - 0.5)
@@ -108,7 +183,7 @@ def step_axis(ax, names) -> None:
 
 def no_data(ax, text: str = NO_TEMPERATURE) -> None:
     """A panel that says what is missing instead of an empty frame."""
-    ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", fontsize=11, color="0.35")
+    ax.text(0.5, 0.5, literal(text), transform=ax.transAxes, ha="center", va="center", fontsize=11, color="0.35")
     ax.tick_params(left=False, bottom=False, labelleft=False, labelbottom=False)
     for spine in ax.spines.values():
         spine.set_color("0.8")
@@ -148,7 +223,7 @@ def residuals_figure(title: str, step_names, temps_c, series, *, labels=("x", "y
             top.plot(k, r[:, j], "o", ms=4, color=colour, label=lab)
             if has_t:
                 bottom.plot(temps, r[:, j], "o", ms=4, color=colour, label=lab)
-        top.set_title(textwrap.fill(head, 70 if cols == 1 else 62), fontsize=10)
+        top.set_title(wrap(head, 70 if cols == 1 else 62, 4), fontsize=10)
         step_axis(top, step_names)
         top.axhline(0, color="0.6", lw=0.8, zorder=0)
         if has_t:
@@ -162,7 +237,7 @@ def residuals_figure(title: str, step_names, temps_c, series, *, labels=("x", "y
             a.set_ylabel(f"residual, {unit}")
             a.grid(True, color="0.92")
     legend_outside(fig, panels[0][0])
-    fig.suptitle(textwrap.fill(title, int(fig.get_figwidth() * 11)), fontsize=11)
+    fig.suptitle(wrap(title, int(fig.get_figwidth() * 11)), fontsize=11)
     return fig
 
 
@@ -175,9 +250,9 @@ def parameters_figure(title: str, x_labels, panels, *, footnote: str = "", cols:
     for ax, (name, unit, pts) in zip(axes.ravel(), panels):
         ax.errorbar([p[0] for p in pts], [p[1] for p in pts], yerr=[p[2] or 0.0 for p in pts], fmt="o-",
                     capsize=3, ms=4)
-        ax.set_title(name, fontsize=9)
-        ax.set_ylabel(unit, fontsize=8)
-        ax.set_xticks(range(len(x_labels)), x_labels, fontsize=6)
+        ax.set_title(short_label(name, 48, 1), fontsize=9)
+        ax.set_ylabel(short_label(unit, 24, 1), fontsize=8)
+        ax.set_xticks(range(len(x_labels)), [short_label(x, MAX_LABEL_CHARS, 3) for x in x_labels], fontsize=6)
         ax.set_xlim(-0.5, len(x_labels) - 0.5)
         ax.tick_params(axis="y", labelsize=7)
         ax.ticklabel_format(axis="y", useOffset=False)
@@ -187,7 +262,7 @@ def parameters_figure(title: str, x_labels, panels, *, footnote: str = "", cols:
     if not panels:
         axes[0, 0].set_visible(True)
         no_data(axes[0, 0], "no parameters recorded")
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(wrap(title, int(fig.get_figwidth() * 13)), fontsize=10)
     if footnote:
-        fig.supxlabel(footnote, fontsize=7, color="0.3")
+        fig.supxlabel(wrap(footnote, int(fig.get_figwidth() * 17), 3), fontsize=7, color="0.3")
     return fig

@@ -2,12 +2,19 @@
 
 Drift of a parameter between consecutive calibrations k-1 and k is ``z = (v_k - v_{k-1}) /
 sqrt(s_{k-1}^2 + s_k^2)`` (units of the combined 1-sigma); ``|z| > 3`` is flagged (docs/history.md).
+
+The rows are data: every value read is checked (a number where a number belongs, text that is UTF-8,
+the rig identity as JSON). A damaged value is shown as missing, a damaged parameter is left out, and
+each says so in the record's ``notes`` (printed by ``rig history``, in its JSON, in ``rig report``):
+a damaged row never fails a command, and the acceptance limits that read the history (drift since the
+previous calibration) judge what is left.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import sqlite3
 from dataclasses import dataclass, field
 
 from calib.file.parameters import at_common_temperature
@@ -15,28 +22,72 @@ from rig.analysis import plots
 from rig.lab.history import History, HistoryCorrupt
 
 DRIFT_LIMIT_SIGMA = 3.0
+#: the columns of ``calibrations`` that hold numbers (anything else in them is damage)
+NUMBER_COLUMNS = ("temp_mean_c", "temp_min_c", "temp_max_c", "residual_rms_g", "chi2_per_dof")
+INTEGER_COLUMNS = ("id", "steps")
 
 
 @dataclass
 class CalibrationRecord:
-    """One stored calibration and its parameters ``{name: (value, sigma, unit)}``."""
+    """One stored calibration and its parameters ``{name: (value, sigma, unit)}``; ``notes``: what was
+    damaged in its rows and how it is shown (missing, left out)."""
 
     id: int
     info: dict
     parameters: dict = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+
+def _got(v) -> str:
+    text = repr(v)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _text(v, notes: list[str] | None = None, where: str = ""):
+    """A text column's value: str or None (bytes decoded; not UTF-8: with replacement characters and a note)."""
+    if isinstance(v, (bytes, bytearray, memoryview)):
+        raw = bytes(v)
+        try:
+            return raw.decode("utf-8")
+        except UnicodeDecodeError:
+            if notes is not None:
+                notes.append(f"{where}: not UTF-8 text; shown with replacement characters")
+            return raw.decode("utf-8", "replace")
+    return v if v is None or isinstance(v, str) else str(v)
+
+
+def _number(v) -> int | float | None:
+    """``v`` when it is a finite number (an int or a float), None when it is none (text, a blob, infinity)."""
+    if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v):
+        return float(v) if isinstance(v, float) else v
+    return None
+
+
+def _query(h: History, sql: str, params=()) -> list[sqlite3.Row]:
+    """``h.query`` with text read as bytes (decoded by the caller, so text that is not UTF-8 is a note
+    instead of an error of the whole query)."""
+    before = h.conn.text_factory
+    h.conn.text_factory = bytes
+    try:
+        return h.query(sql, params)
+    finally:
+        h.conn.text_factory = before
 
 
 def list_sensors(h: History) -> list[dict]:
     """Every sensor with its number of calibrations and the first and last calibration time."""
-    rows = h.query("SELECT s.sensor_key, s.model, s.address, s.serial, COUNT(c.id) AS n, "
-                   "MIN(c.calibrated_at) AS first, MAX(c.calibrated_at) AS last FROM sensors s "
-                   "LEFT JOIN calibrations c ON c.sensor_key = s.sensor_key GROUP BY s.sensor_key ORDER BY s.sensor_key")
-    return [dict(r) for r in rows]
+    rows = _query(h, "SELECT s.sensor_key, s.model, s.address, s.serial, COUNT(c.id) AS n, "
+                     "MIN(c.calibrated_at) AS first, MAX(c.calibrated_at) AS last FROM sensors s "
+                     "LEFT JOIN calibrations c ON c.sensor_key = s.sensor_key GROUP BY s.sensor_key "
+                     "ORDER BY s.sensor_key")
+    return [{"sensor_key": _text(r["sensor_key"]) or "", "model": _text(r["model"]), "address": _number(r["address"]),
+             "serial": _text(r["serial"]), "n": r["n"], "first": _text(r["first"]), "last": _text(r["last"])}
+            for r in rows]
 
 
 def resolve_sensor(h: History, sensor: str) -> str:
     """The stored key matching ``sensor`` exactly, else the one key containing it; HistoryCorrupt otherwise."""
-    keys = [r["sensor_key"] for r in h.query("SELECT sensor_key FROM sensors")]
+    keys = [_text(r["sensor_key"]) or "" for r in _query(h, "SELECT sensor_key FROM sensors")]
     if sensor in keys:
         return sensor
     hits = [k for k in keys if sensor.lower() in k.lower()]
@@ -46,17 +97,70 @@ def resolve_sensor(h: History, sensor: str) -> str:
     raise HistoryCorrupt(h.path, f"sensor {sensor!r}: {what} (rig history lists them)")
 
 
+def _calibration_info(row: sqlite3.Row, where: str, notes: list[str]) -> dict:
+    """The ``calibrations`` row as plain values: numbers where numbers belong, text, the rig as a mapping."""
+    info = {}
+    for k in row.keys():
+        v = row[k]
+        if k in NUMBER_COLUMNS or k in INTEGER_COLUMNS:
+            n = _number(v)
+            if v is not None and (n is None or (k in INTEGER_COLUMNS and not isinstance(n, int))):
+                notes.append(f"{where}: {k}: expected a number, got {_got(_text(v))}; shown as missing")
+                n = None
+            info[k] = n
+        elif k == "rig":
+            text = _text(v, notes, f"{where}: rig")
+            try:
+                rig = json.loads(text) if text else None
+            except (ValueError, RecursionError):
+                rig = text
+            if rig is not None and not isinstance(rig, dict):
+                notes.append(f"{where}: rig: expected the rig identity as a JSON mapping, got {_got(text)}; "
+                             "shown as missing")
+                rig = None
+            info[k] = rig
+        else:
+            info[k] = _text(v, notes, f"{where}: {k}")
+    return info
+
+
 def sensor_history(h: History, key: str) -> list[CalibrationRecord]:
-    """Every calibration of sensor ``key``, oldest first (calibration time, then record order)."""
-    cals = h.query("SELECT * FROM calibrations WHERE sensor_key = ? ORDER BY calibrated_at, id", (key,))
-    out = [CalibrationRecord(r["id"], {k: r[k] for k in r.keys()}) for r in cals]
-    by_id = {c.id: c for c in out}
-    for p in h.query("SELECT p.* FROM parameters p JOIN calibrations c ON c.id = p.calibration_id "
-                     "WHERE c.sensor_key = ? ORDER BY p.rowid", (key,)):
-        by_id[p["calibration_id"]].parameters[p["name"]] = (p["value"], p["sigma"], p["unit"])
-    for c in out:
-        c.info["rig"] = json.loads(c.info["rig"]) if c.info.get("rig") else None
+    """Every calibration of sensor ``key``, oldest first (calibration time, then record order); a
+    damaged value is missing, a damaged parameter left out, each with a note in the record's ``notes``."""
+    cals = _query(h, "SELECT * FROM calibrations WHERE sensor_key = ? ORDER BY calibrated_at, id", (key,))
+    out, where = [], {}
+    for i, r in enumerate(cals):
+        notes: list[str] = []
+        here = f"calibration #{i + 1} (history row {_text(r['id'])})"
+        info = _calibration_info(r, here, notes)
+        out.append(CalibrationRecord(info["id"], info, notes=notes))
+        where[info["id"]] = here
+    by_id = {c.id: c for c in out if c.id is not None}
+    for p in _query(h, "SELECT p.* FROM parameters p JOIN calibrations c ON c.id = p.calibration_id "
+                       "WHERE c.sensor_key = ? ORDER BY p.rowid", (key,)):
+        rec = by_id.get(p["calibration_id"])
+        if rec is None:
+            continue
+        here = where[rec.id]
+        name = _text(p["name"], rec.notes, f"{here}: a parameter name")
+        if not name:
+            rec.notes.append(f"{here}: a parameter without a name; left out")
+            continue
+        value, sigma = _number(p["value"]), _number(p["sigma"])
+        if value is None:
+            rec.notes.append(f"{here}: parameter {name}: expected a number, got {_got(_text(p['value']))}; left out")
+            continue
+        if p["sigma"] is not None and (sigma is None or sigma < 0):
+            rec.notes.append(f"{here}: parameter {name}: sigma: expected a number >= 0, got "
+                             f"{_got(_text(p['sigma']))}; shown as missing")
+            sigma = None
+        rec.parameters[name] = (value, sigma, _text(p["unit"], rec.notes, f"{here}: parameter {name}: unit"))
     return out
+
+
+def history_notes(records: list[CalibrationRecord]) -> list[str]:
+    """Every record's notes (what was damaged in the history and how it is shown), oldest first."""
+    return [n for r in records for n in r.notes]
 
 
 def drift(records: list[CalibrationRecord], limit: float = DRIFT_LIMIT_SIGMA) -> dict[str, list[dict | None]]:
@@ -94,8 +198,10 @@ def history_document(key: str, records: list[CalibrationRecord]) -> dict:
                   for n, (v, s, u) in r.parameters.items()}
         cals.append({**r.info, "parameters": params})
     flagged = sorted({n for n, col in d.items() for c in col if c and c["flagged"]})
+    notes = history_notes(records)
     return {"format": "rig-history/1", "sensor": key, "drift_limit_sigma": DRIFT_LIMIT_SIGMA,
-            "calibrations": cals, "flagged": flagged}
+            "calibrations": cals, "flagged": flagged,
+            **({"notes": notes} if notes else {})}
 
 
 def _cell(value: float, sigma, change) -> str:
@@ -135,7 +241,8 @@ def format_history(key: str, records: list[CalibrationRecord]) -> str:
     if moved:
         foot += ("\naccelerometer biases with temperature terms are carried to the other calibration's "
                  "temperature before comparing: " + "; ".join(moved))
-    return "\n".join(head + [""] + lines + ["", foot])
+    notes = [f"note: {n}" for n in history_notes(records)]
+    return "\n".join(head + [""] + lines + ["", foot] + notes)
 
 
 def _unit(records, name) -> str:

@@ -3,12 +3,17 @@ and the calibration history (docs/report.md). No HTML here: :mod:`rig.lab.report
 
 Every part that may be missing (no temperature, no known poses, no discover run, no history) is a
 value with a ``note`` saying why, never an exception: the report always says what it could not show.
+Every auxiliary file read (``rig discover`` documents and augmented calibration files in the session
+folder, the history's rows) is checked first; a damaged one is left out with a note saying what is
+wrong with it (``discover.json: not a rig-discover/4 document (effects: expected a list); left out``),
+never a failed report.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,7 +27,7 @@ from calib.gyro.result import NONORTHOGONALITY_NAMES
 from calib.mag.result import sigma_names as mag_sigma_names
 from calib.file.parameters import accel_parameters
 from rig.errors import RigInputError
-from rig.lab.drift import CalibrationRecord, drift, sensor_history
+from rig.lab.drift import CalibrationRecord, drift, history_notes, sensor_history
 from rig.lab.history import HistoryError, default_path, open_history
 from rig.lab.identity import sensor_identity
 from rig.session import Session, load_session, step_means
@@ -31,6 +36,8 @@ from rig.session import Session, load_session, step_means
 VERIFY_PROCEDURE = "procedures/verify_seed_table.yaml"
 #: files in the session larger than this are not read as discover output
 MAX_DISCOVER_BYTES = 50_000_000
+#: the rig discover contract the report reads (docs/discrepancy.md)
+DISCOVER_FORMAT = "rig-discover/4"
 HISTORY_TIMEOUT_S = 5.0
 
 
@@ -86,6 +93,7 @@ class DiscoverSummary:
     documents: list[tuple[Path, dict]] = field(default_factory=list)
     calibrations: list[tuple[Path, list[dict]]] = field(default_factory=list)
     note: str = ""
+    problems: list[str] = field(default_factory=list)  # damaged documents and calibration files, left out
 
 
 @dataclass
@@ -96,6 +104,7 @@ class HistoryView:
     current: int | None = None  # index of this report's calibration in records
     flagged: list[str] = field(default_factory=list)
     note: str = ""
+    notes: list[str] = field(default_factory=list)  # damaged rows of the history: what is missing or left out
 
 
 @dataclass
@@ -141,17 +150,28 @@ def load(session_dir, calibration=None, *, session: Session | None = None,
     return session, cal, path
 
 
-def other_calibrations(session: Session, main: Path) -> list[tuple[Path, object]]:
-    """The other calibration files in the session folder (re-solves, ``rig discover -o``), readable ones."""
+def other_calibrations(session: Session, main: Path, problems: list[str] | None = None) -> list[tuple[Path, object]]:
+    """The other calibration files in the session folder (re-solves, ``rig discover -o``), readable ones;
+    each unreadable one is a line in ``problems`` (``calibration-x.yaml: not a readable calibration file
+    (...); left out``)."""
     out = []
     for p in sorted(session.path.glob("calibration*.yaml")):
         if p.resolve() == main.resolve():
             continue
         try:
+            if not p.is_file():
+                raise CalibError("not a regular file")
             out.append((p, calfile.read(p)))
-        except CalibError:
-            continue
+        except (CalibError, OSError, ValueError) as exc:
+            if problems is not None:
+                why = _first_line(exc).removeprefix(f"{p}: ").removeprefix(f"{p.resolve()}: ")
+                problems.append(f"{p.name}: not a readable calibration file ({why}); left out")
     return out
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
 
 
 # ---------------------------------------------------------------------------------------------- verdict
@@ -316,24 +336,119 @@ def seed_table(session: Session, cal) -> SeedTable:
 
 # ---------------------------------------------------------------------------------------------- discover
 
-def _discover_document(path: Path) -> dict | None:
+class DamagedDocument(ValueError):
+    """A rig discover document the report cannot show; ``str()`` says where and what (``effects: expected a list``)."""
+
+
+def _got(v) -> str:
+    text = repr(v)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _expect(ok: bool, where: str, what: str, v) -> None:
+    if not ok:
+        raise DamagedDocument(f"{where}: expected {what}, got {_got(v)}")
+
+
+def _optional(doc: dict, key: str, check, what: str, where: str = "") -> None:
+    if key in doc and doc[key] is not None:
+        _expect(check(doc[key]), f"{where}{key}", what, doc[key])
+
+
+def _numbers(v, n: int | None = None) -> bool:
+    return isinstance(v, list) and (n is None or len(v) == n) and all(x is None or _is_number(x) for x in v)
+
+
+def check_discover_document(doc) -> dict:
+    """``doc`` when it is a rig discover document the report can show (what it reads has the contract's
+    types: docs/schemas/discover.schema.json); DamagedDocument saying where it is not."""
+    _expect(isinstance(doc, dict), "the document", "a JSON object", doc)
+    fmt = doc.get("format")
+    _expect(isinstance(fmt, str) and fmt.startswith("rig-discover/"), "format", f"{DISCOVER_FORMAT!r}", fmt)
+    for key in ("rms_before_g", "rms_after_g", "noise_rms_g", "chi2_per_dof_before", "chi2_per_dof_after"):
+        _optional(doc, key, _is_number, "a number")
+    _optional(doc, "gap_closed", lambda v: isinstance(v, bool), "true or false")
+    _optional(doc, "unobservable", lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v),
+              "a list of effect names")
+    _optional(doc, "effects", lambda v: isinstance(v, list), "a list")
+    for i, e in enumerate(doc.get("effects") or []):
+        where = f"effects[{i}]"
+        _expect(isinstance(e, dict), where, "a mapping", e)
+        _expect(isinstance(e.get("name"), str), f"{where}.name", "a text", e.get("name"))
+        _optional(e, "axes", lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v), "a list of axis names",
+                  f"{where}.")
+        for key in ("estimate", "sigma"):
+            _optional(e, key, _numbers, "a list of numbers (null where unknown)", f"{where}.")
+        _optional(e, "unit", lambda v: isinstance(v, str), "a text", f"{where}.")
+        for key in ("p_value", "rms_after_g"):
+            _optional(e, key, _is_number, "a number", f"{where}.")
+    _optional(doc, "steps", lambda v: isinstance(v, list), "a list")
+    for i, st in enumerate(doc.get("steps") or []):
+        where = f"steps[{i}]"
+        _expect(isinstance(st, dict), where, "a mapping", st)
+        _expect(isinstance(st.get("name"), str) or _is_number(st.get("name")), f"{where}.name", "a text",
+                st.get("name"))
+        _optional(st, "temp_c", _is_number, "a number", f"{where}.")
+        for key in ("residual_before_g", "residual_after_g"):
+            _expect(_numbers(st.get(key), 3), f"{where}.{key}", "a list of 3 numbers (x, y, z; null where unknown)",
+                    st.get(key))
+    return doc
+
+
+def _read_json(path: Path):
+    """The JSON value in ``path``; DamagedDocument when it cannot be read or is not JSON."""
     try:
+        if not path.is_file():
+            raise DamagedDocument("not a regular file")
         if path.stat().st_size > MAX_DISCOVER_BYTES:
-            return None
-        doc = json.loads(path.read_text(encoding="utf-8", errors="replace"))
-    except (OSError, ValueError):
+            raise DamagedDocument(f"larger than {MAX_DISCOVER_BYTES // 1_000_000} MB")
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        raise DamagedDocument(f"cannot be read: {exc.strerror or exc}") from None
+    try:
+        return json.loads(text)
+    except (ValueError, RecursionError) as exc:
+        raise DamagedDocument(f"not JSON: {_first_line(exc)}") from None
+
+
+def _discover_document(path: Path, problems: list[str]) -> dict | None:
+    """The rig discover document in ``path``, checked. None for a file that is no such document (a JSON of
+    another format; a file that is not JSON, unless its name starts with ``discover``) and for a damaged
+    one: then a line in ``problems``."""
+    named = path.name.lower().startswith("discover")
+    try:
+        doc = _read_json(path)
+    except DamagedDocument as exc:
+        if named:
+            problems.append(f"{path.name}: not a {DISCOVER_FORMAT} document ({exc}); left out")
         return None
-    return doc if isinstance(doc, dict) and str(doc.get("format", "")).startswith("rig-discover/") else None
+    fmt = doc.get("format") if isinstance(doc, dict) else None
+    claims = isinstance(fmt, str) and fmt.startswith("rig-discover/")
+    if not (named or claims):
+        return None
+    try:
+        return check_discover_document(doc)
+    except DamagedDocument as exc:
+        shown = fmt if claims and re.fullmatch(r"rig-discover/\d+", fmt) else DISCOVER_FORMAT
+        problems.append(f"{path.name}: not a {shown} document ({exc}); left out")
+        return None
 
 
-def discover_outputs(session: Session, others: list[tuple[Path, object]]) -> DiscoverSummary:
-    """``rig discover`` documents (``--json`` saved in the session) and augmented calibration files (``-o``)."""
-    docs = [(p, d) for p in sorted(session.path.glob("*.json")) if (d := _discover_document(p)) is not None]
+def discover_outputs(session: Session, others: list[tuple[Path, object]],
+                     problems: list[str] | None = None) -> DiscoverSummary:
+    """``rig discover`` documents (``--json`` saved in the session) and augmented calibration files (``-o``);
+    ``problems``: the damaged ones found so far (calibration files), the damaged documents are added."""
+    problems = list(problems or [])
+    docs = [(p, d) for p in sorted(session.path.glob("*.json")) if (d := _discover_document(p, problems)) is not None]
     cals = [(p, list(c.accelerometer.effects)) for p, c in others if c.accelerometer.effects]
-    note = "" if docs or cals else (
+    note = "" if docs or cals or problems else (
         "rig discover has not been run on this session, or its output was not saved in the session folder; "
         f"to include it: rig discover {session.path} --json > {session.path}/discover.json")
-    return DiscoverSummary(documents=docs, calibrations=cals, note=note)
+    return DiscoverSummary(documents=docs, calibrations=cals, note=note, problems=problems)
 
 
 # ---------------------------------------------------------------------------------------------- history
@@ -355,7 +470,8 @@ def history_view(session: Session, cal, cal_path: Path, history_db=None) -> Hist
     exact = [i for i in mine if _cal_path(records[i]) == str(cal_path.resolve())]
     current = (exact or mine or [None])[-1]
     flagged = sorted({n for n, col in drift(records).items() for c in col if c and c["flagged"]})
-    return HistoryView(path=path, key=key, records=records, current=current, flagged=flagged)
+    return HistoryView(path=path, key=key, records=records, current=current, flagged=flagged,
+                       notes=history_notes(records))
 
 
 def _cal_path(record: CalibrationRecord) -> str:
@@ -378,11 +494,12 @@ def attach_changes(params: list[Parameter], hist: HistoryView) -> None:
 def gather(session_dir, *, calibration=None, history_db=None, session: Session | None = None,
            calibration_file=None) -> ReportContent:
     session, cal, cal_path = load(session_dir, calibration, session=session, calibration_file=calibration_file)
-    others = other_calibrations(session, cal_path)
+    problems: list[str] = []
+    others = other_calibrations(session, cal_path, problems)
     params = parameters(cal)
     hist = history_view(session, cal, cal_path, history_db)
     attach_changes(params, hist)
     return ReportContent(session=session, calibration=cal, calibration_path=cal_path, verdict=verdict(session, cal),
                          parameters=params, residuals=residuals(session, cal), seed=seed_table(session, cal),
-                         discover=discover_outputs(session, others), history=hist, sensor_key=hist.key,
+                         discover=discover_outputs(session, others, problems), history=hist, sensor_key=hist.key,
                          other_calibrations=others)

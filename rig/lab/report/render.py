@@ -1,5 +1,9 @@
 """The report as one self-contained HTML page: standard library only (``html.escape``), the style in
 the page, every plot a ``data:image/png;base64`` picture, no script and no web address (docs/report.md).
+
+Names are data: every text from the session, the files and the history is escaped, drawn literally in
+the figures (:mod:`rig.analysis.plots`), and a lone surrogate (which UTF-8 cannot carry) is written as
+its escape (``\\udcff``), so no name fails the page.
 """
 
 from __future__ import annotations
@@ -243,13 +247,19 @@ def seed_html(seed: SeedTable) -> str:
     return section("seed-table", "Roll and pitch (the seed paper's table)", body)
 
 
+def _ug(doc: dict, key: str) -> float:
+    """``doc[key]`` (g) in µg; NaN when absent or null."""
+    v = doc.get(key)
+    return float("nan") if v is None else float(v) * 1e6
+
+
 def _effects_rows(doc: dict) -> list[list[str]]:
     rows = []
     for e in doc.get("effects") or []:
         est = ", ".join(f"{a} {fmt_value(v, s)[0]} ± {fmt_value(v, s)[1]}" if v is not None else f"{a} n/a"
                         for a, v, s in zip(e.get("axes") or [], e.get("estimate") or [], e.get("sigma") or []))
         rows.append([f"<code>{escape(str(e.get('name')))}</code>", escape(est), escape(str(e.get("unit", ""))),
-                     _num(e.get("p_value"), ".2g"), _num((e.get("rms_after_g") or float("nan")) * 1e6, ".1f")])
+                     _num(e.get("p_value"), ".2g"), _num(_ug(e, "rms_after_g"), ".1f")])
     return rows
 
 
@@ -260,16 +270,15 @@ def _discover_figure(doc: dict, session_id: str):
     r0 = np.array([[np.nan if x is None else x for x in s.get("residual_before_g") or [None] * 3] for s in steps]) * 1e6
     r1 = np.array([[np.nan if x is None else x for x in s.get("residual_after_g") or [None] * 3] for s in steps]) * 1e6
     names = ", ".join(str(e.get("name")) for e in doc.get("effects") or []) or "nothing added"
-    series = [(f"baseline model: {doc.get('rms_before_g', float('nan')) * 1e6:.1f} µg rms", r0),
-              (f"+ {names}: {doc.get('rms_after_g', float('nan')) * 1e6:.1f} µg rms", r1)]
+    series = [(f"baseline model: {_ug(doc, 'rms_before_g'):.1f} µg rms", r0),
+              (f"+ {names}: {_ug(doc, 'rms_after_g'):.1f} µg rms", r1)]
     return plots.residuals_figure(f"rig discover, session {session_id}: residuals before and after",
                                   [str(s.get("name")) for s in steps], [s.get("temp_c") for s in steps], series)
 
 
 def _discover_document_html(path: Path, doc: dict, session_id: str) -> str:
-    gap = (f"gap: {_num(doc.get('rms_before_g', float('nan')) * 1e6, '.1f')} → "
-           f"{_num(doc.get('rms_after_g', float('nan')) * 1e6, '.1f')} µg rms (noise "
-           f"{_num(doc.get('noise_rms_g', float('nan')) * 1e6, '.1f')} µg), chi2/dof "
+    gap = (f"gap: {_num(_ug(doc, 'rms_before_g'), '.1f')} → {_num(_ug(doc, 'rms_after_g'), '.1f')} µg rms (noise "
+           f"{_num(_ug(doc, 'noise_rms_g'), '.1f')} µg), chi2/dof "
            f"{_num(doc.get('chi2_per_dof_before'), '.2f')} → {_num(doc.get('chi2_per_dof_after'), '.2f')}")
     closed = doc.get("gap_closed")
     verdict = ("" if closed is None else "the model with the named effects explains the data to the noise level"
@@ -294,6 +303,7 @@ def discover_html(d: DiscoverSummary, session_id: str) -> str:
     for p, effects in d.calibrations:
         parts.append(note(f"augmented calibration {p} (rig discover -o): effects "
                           + ", ".join(str(e.get("name")) for e in effects), "muted"))
+    parts += [note(x, "note damaged") for x in d.problems]
     return section("discover", "Discrepancy (rig discover)", "".join(parts))
 
 
@@ -317,6 +327,7 @@ def history_html(h: HistoryView) -> str:
     if len(h.records) >= 2:
         body += figure(plot_history(h.key, h.records), f"parameters of sensor {h.key} over its calibrations",
                        "history-plot")
+    body += "".join(note(x, "note damaged") for x in h.notes)
     return section("history", "History of this sensor", body)
 
 
@@ -327,21 +338,27 @@ CONTENTS = [("verdict", "Verdict"), ("identity", "Sensor, rig and session"), ("p
             ("history", "History")]
 
 
+def writable(text: str) -> str:
+    """``text`` with every lone surrogate (a name no UTF-8 file can hold) written as its escape (``\\udcff``)."""
+    return text.encode("utf-8", "backslashreplace").decode("utf-8")
+
+
 def page(c: ReportContent) -> str:
-    """The whole HTML document."""
+    """The whole HTML document (every lone surrogate in a name written as its escape: :func:`writable`)."""
     info = c.session.info
     now = when(datetime.now(timezone.utc).isoformat(timespec="seconds"))
     subject = " · ".join(x for x in (info.rig.sensor.model, info.procedure.name) if x)
     nav = "".join(f'<a href="#{i}">{escape(t)}</a>' for i, t in CONTENTS)
     body = "".join([verdict_html(c.verdict), identity_html(c), parameters_html(c), residuals_html(c),
                     seed_html(c.seed), discover_html(c.discover, info.id), history_html(c.history)])
-    return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
-            f'<meta name="viewport" content="width=device-width, initial-scale=1">'
-            f"<title>Calibration report: {escape(info.id)}</title><style>{CSS}</style></head><body>"
-            f'<header class="top"><div class="kicker">rig calibration report</div>'
-            f"<h1>{escape(subject or 'calibration')}</h1>"
-            f'<p class="sub">session <code>{escape(info.id)}</code> · calibrated {escape(when(c.calibration.created))}'
-            f" · report written {escape(now)}</p><nav>{nav}</nav></header>"
-            f"<main>{body}</main>"
-            f'<footer>Written by rig {escape(__version__)} (rig report). Self-contained: every figure is inside '
-            f"this file; it loads nothing from the network.</footer></body></html>\n")
+    return writable(
+        f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        f'<meta name="viewport" content="width=device-width, initial-scale=1">'
+        f"<title>Calibration report: {escape(info.id)}</title><style>{CSS}</style></head><body>"
+        f'<header class="top"><div class="kicker">rig calibration report</div>'
+        f"<h1>{escape(subject or 'calibration')}</h1>"
+        f'<p class="sub">session <code>{escape(info.id)}</code> · calibrated {escape(when(c.calibration.created))}'
+        f" · report written {escape(now)}</p><nav>{nav}</nav></header>"
+        f"<main>{body}</main>"
+        f'<footer>Written by rig {escape(__version__)} (rig report). Self-contained: every figure is inside '
+        f"this file; it loads nothing from the network.</footer></body></html>\n")
