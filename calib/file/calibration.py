@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import Any, ClassVar, Iterable, Optional
@@ -201,30 +202,68 @@ def write_json_schema(path=None) -> Path:
     return p
 
 
-def atomic_write_text(path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically: temp file in the same directory, fsync, rename, fsync the directory.
+def atomic_write_text(path, text: str | bytes) -> None:
+    """Write ``text`` (or bytes) to ``path`` atomically: temp file in the same directory, fsync, rename, fsync
+    the directory. A crash leaves either the old file or the new one, never a torn one.
 
-    A crash leaves either the old file or the new one, never a torn one.
+    The file gets the mode of the regular file it replaces, else ``0o666 & ~umask`` (what ``open`` would
+    give; ``mkstemp`` alone gives 0600). Any OSError names ``path``, never the temporary file. ``path`` is
+    replaced whatever it is (a link is replaced, not followed): callers that take a path from a user check
+    it first (``rig.cli.outputs``).
     """
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    target = os.fspath(path)
     try:
-        with os.fdopen(fd, "w") as fh:
+        mode = _mode_for(path)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror or str(exc), target) from exc
+    try:
+        with os.fdopen(fd, "wb" if isinstance(text, bytes) else "w") as fh:
+            os.fchmod(fh.fileno(), mode)
             fh.write(text)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+        dfd = os.open(path.parent, os.O_RDONLY)
+        try:
+            os.fsync(dfd)
+        finally:
+            os.close(dfd)
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except OSError:
             pass
+        if isinstance(exc, OSError):  # named after the file asked for, never the temporary one
+            raise OSError(exc.errno, exc.strerror or str(exc), target) from exc
         raise
-    dfd = os.open(path.parent, os.O_RDONLY)
+
+
+def _mode_for(path: Path) -> int:
+    """The permission bits a file written at ``path`` gets: those of the regular file there, else
+    ``0o666 & ~umask``."""
     try:
-        os.fsync(dfd)
-    finally:
-        os.close(dfd)
+        st = os.lstat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        st = None
+    if st is not None and stat.S_ISREG(st.st_mode):
+        return stat.S_IMODE(st.st_mode)
+    return 0o666 & ~_umask()
+
+
+def _umask() -> int:
+    """The process umask, read without changing it (``/proc/self/status`` on Linux; elsewhere set and restored)."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def write(path, cal: CalibrationFile) -> Path:

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
+import sys
 
 import numpy as np
 import pandas as pd
 
 from calib.file import calibration as calfile
 from rig.analysis.apply import recording_from_session
+from rig.cli import outputs
 from rig.cli.common import EXIT_OK, report_warnings
 from rig.session import load_session
 
@@ -18,10 +18,13 @@ def add_parser(sub) -> None:
     a = sub.add_parser("apply", help="apply a calibration to a session's samples")
     a.add_argument("calibration")
     a.add_argument("session")
-    a.add_argument("-o", "--output", required=True, help="output CSV: t_s,step,fx,fy,fz,temp_c")
+    a.add_argument("-o", "--output", required=True, help="output CSV: t_s,step,fx,fy,fz,temp_c (-: stdout)")
+    a.add_argument("--follow", action="store_true", help=outputs.FOLLOW_HELP)
 
 
 def run(args) -> int:
+    dest = outputs.OutputPolicy(inputs=[args.calibration, args.session], follow=args.follow).file(
+        args.output, what="the calibrated samples", stdout=True)
     cal = calfile.read(args.calibration)
     session = load_session(args.session)
     report_warnings("apply", session)
@@ -35,22 +38,10 @@ def run(args) -> int:
         table.update({f"w{a}_dps": _fmt(out.w_dps[:, j], "%.5f") for j, a in enumerate("xyz")})
     if out.h_ut is not None:
         table.update({f"m{a}_ut": _fmt(out.h_ut[:, j], "%.5f") for j, a in enumerate("xyz")})
-    path = Path(args.output)
-    write_atomically(path, lambda tmp: pd.DataFrame(table).to_csv(tmp, index=False, lineterminator="\r\n"))
-    print(f"wrote {len(f)} rows to {path}")
+    outputs.write(dest, pd.DataFrame(table).to_csv(None, index=False, lineterminator="\r\n"))
+    print(f"wrote {len(f)} rows to {'stdout' if dest.stdout else args.output}",
+          file=sys.stderr if dest.stdout else sys.stdout)
     return EXIT_OK
-
-
-def write_atomically(path: Path, write) -> None:
-    """``write(tmp)`` to a temporary file beside ``path``, then rename: a failure (a full disk) leaves
-    no partial or empty file behind."""
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
 
 
 def _fmt(values, spec: str) -> np.ndarray:

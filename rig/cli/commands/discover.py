@@ -1,12 +1,15 @@
-"""``rig discover SESSION``: where the model and the data disagree, and which effect is missing."""
+"""``rig discover SESSION [--plot FILE] [-o CALIB] [--twin RIG] [--follow]``: where the model and the data disagree,
+and which effect is missing."""
 
 from __future__ import annotations
 
 import json
 
-from rig.analysis import discover as dsc
-from rig.analysis import twin as twn
 from calib.numerics.design import MISFIT_LEVEL
+from rig.analysis import discover as dsc
+from rig.analysis import plots
+from rig.analysis import twin as twn
+from rig.cli import outputs
 from rig.cli.common import EXIT_OK, check_false_alarm, json_default, report_warnings
 
 
@@ -18,6 +21,7 @@ def add_parser(sub) -> None:
                     help="residuals before/after, by pose and temperature (a directory: written inside it)")
     dc.add_argument("-o", "--output", metavar="CALIB.yaml", default=None,
                     help="write the augmented calibration (effects filled in)")
+    dc.add_argument("--follow", action="store_true", help=outputs.FOLLOW_HELP)
     dc.add_argument("--twin", metavar="RIG.yaml", default=None,
                     help="write the digital twin: a simulated-rig file whose sensor is the fitted model plus the "
                          "named effects, and the session's procedure beside it (docs/twin.md)")
@@ -25,17 +29,39 @@ def add_parser(sub) -> None:
                     help="probability of naming an effect in a session that has none (default 0.01)")
 
 
+#: what rig discover -o may write in the session it examines (docs/cli.md, "Output paths"); calibration.yaml is the
+#: solve's and stays
+OWN = ("calibration-*.yaml",)
+#: the resolution rig.analysis.discover.write_plot draws at
+PLOT_DPI = 100
+
+
 def run(args) -> int:
     check_false_alarm(args.false_alarm)
+    policy = outputs.OutputPolicy(inputs=[args.session], session=args.session, follow=args.follow)
+    plot = cal_out = twin = None  # every output checked before the session is read
+    if args.plot is not None:
+        plot = policy.file(args.plot, option="--plot", what="the plot", directory=True)
+        if not plot.directory:
+            plots.resolve_plot_path(args.plot, "unused.png")  # the suffix and the folder, now
+    if args.output is not None:
+        cal_out = policy.file(args.output, what="the calibration", own=OWN, make_parents=True)
+    if args.twin is not None:
+        twin = policy.file(args.twin, option="--twin", what="the twin", directory=True)
     session, d = dsc.discover_session(args.session, false_alarm=args.false_alarm)
     report_warnings("discover", session)
     extra = {}
-    if args.plot:
-        extra["plot"] = str(dsc.write_plot(d, args.plot, session_id=session.id))
-    if args.output:
-        extra["calibration"] = str(dsc.write_calibration(session, d, args.output))
-    if args.twin:
-        extra.update(twn.write_for_discovery(session, d, args.twin))
+    if plot is not None:
+        name = plots.safe_name(f"{session.id or 'session'}-discover") + ".png"
+        if plot.directory:
+            plots.resolve_plot_path(args.plot, name)  # the suffix; a folder given with a trailing / is made
+            plot = plot.inside(name)
+        extra["plot"] = str(outputs.write_figure(plot, dsc.write_plot(d, None, session_id=session.id), PLOT_DPI))
+    if cal_out is not None:
+        with outputs.writing(cal_out):
+            extra["calibration"] = str(dsc.write_calibration(session, d, cal_out.path))
+    if twin is not None:
+        extra.update(write_twin(session, d, twin))
     if args.json:
         print(json.dumps({**d.to_json(), **extra}, indent=2, default=json_default))
     else:
@@ -43,3 +69,17 @@ def run(args) -> int:
         for k, v in extra.items():
             print(f"{k}: {v}")
     return EXIT_OK
+
+
+def write_twin(session, d, out: outputs.Output) -> dict:
+    """``--twin``: the rig file (inside ``out`` when a directory: ``NAME.yaml``) and the procedure beside it,
+    both checked by the output policy before either is written."""
+    if d.calibration is None:  # no poses, no twin: its one-line refusal, nothing written
+        twn.write_for_discovery(session, d, out.path)
+    twin = twn.build_twin(session, d.calibration)
+    rig_file = out.inside(f"{twin.document['name']}.yaml") if out.directory else out
+    if twin.procedure_text:
+        p = rig_file.path
+        rig_file.beside(p.name[:-len(p.suffix)] + ".procedure.yaml" if p.suffix else p.name + ".procedure.yaml")
+    with outputs.writing(rig_file):
+        return twn.write_twin(twin, rig_file.path)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import sys
 
+from rig.analysis import plots
+from rig.cli import outputs
 from rig.cli.common import EXIT_OK, UsageError, json_default
 from rig.lab import (ENV_VAR, HistoryError, default_path, format_history, history_document, list_sensors, open_history,
                      plot_history, resolve_sensor, sensor_history, store_calibration)
@@ -16,6 +18,7 @@ def add_parser(sub) -> None:
     s.add_argument("--json", action="store_true", help="print the rig-history/1 document")
     s.add_argument("--plot", default=None, metavar="FILE.png",
                    help="parameters over time with 1-sigma error bars (a directory: written inside it)")
+    s.add_argument("--follow", action="store_true", help=outputs.FOLLOW_HELP)
     s.add_argument("--history", default=None, metavar="PATH",
                    help=f"database (default ${ENV_VAR}, else ~/.local/share/rig/history.sqlite)")
     s.add_argument("--record", default=None, metavar="SESSION", help="record SESSION's calibration first")
@@ -35,20 +38,32 @@ def run(args) -> int:
 def _run(args) -> int:
     if (args.calibration or args.sensor_id) and not args.record:
         raise UsageError("--calibration and --sensor-id need --record SESSION")
+    if args.plot is not None and args.sensor is None:
+        raise UsageError("--plot needs a SENSOR")
+    plot = None
+    if args.plot is not None:  # checked before anything is recorded or read
+        policy = outputs.OutputPolicy(inputs=[default_path(args.history), args.record, args.calibration],
+                                      follow=args.follow)
+        plot = policy.file(args.plot, option="--plot", what="the plot", directory=True)
+        if not plot.directory:
+            plots.resolve_plot_path(args.plot, "unused.png")  # the suffix and the folder, now
     if args.record:
         calib_path = args.calibration or f"{args.record.rstrip('/')}/calibration.yaml"
         cid, key = store_calibration(args.record, calib_path, history=args.history, sensor_id=args.sensor_id)
         print(f"recorded: calibration {cid} of sensor {key} in {default_path(args.history)}")
-        if args.sensor is None and not args.json and not args.plot:
+        if args.sensor is None and not args.json and args.plot is None:
             return EXIT_OK
-    if args.plot and args.sensor is None:
-        raise UsageError("--plot needs a SENSOR")
     with open_history(args.history, create=False) as h:
         if args.sensor is None:
             return _print_sensors(list_sensors(h), args)
         key = resolve_sensor(h, args.sensor)
         records = sensor_history(h, key)
-    plot = plot_history(key, records, args.plot) if args.plot else None
+    if plot is not None:
+        if plot.directory:
+            name = plots.safe_name(f"history-{key}") + ".png"
+            plots.resolve_plot_path(args.plot, name)  # the suffix; a folder given with a trailing / is made
+            plot = plot.inside(name)
+        plot = outputs.write_figure(plot, plot_history(key, records), PLOT_DPI)
     if args.json:
         print(json.dumps(history_document(key, records), indent=2, default=json_default))
         if plot is not None:  # stdout is the JSON document
@@ -58,6 +73,10 @@ def _run(args) -> int:
         if plot is not None:
             print(f"plot: {plot}")
     return EXIT_OK
+
+
+#: the resolution rig.lab.drift.plot_history draws at
+PLOT_DPI = 110
 
 
 def _print_sensors(sensors: list[dict], args) -> int:

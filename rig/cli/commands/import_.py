@@ -6,6 +6,7 @@ import calib
 from calib.errors import CalibError
 from rig.analysis.discover import discover_session
 from rig.analysis.solve import check_plausible
+from rig.cli import outputs
 from rig.cli.common import EXIT_OK, UsageError
 from rig.errors import RigInputError, SessionFormatError
 from rig.importers.recordings import import_recording
@@ -16,7 +17,8 @@ def add_parser(sub) -> None:
     im = sub.add_parser("import", help="import another tool's recording as a session")
     im.add_argument("--from", dest="source", required=True, choices=["imucal", "imu_tk", "tofupilot", "csv"])
     im.add_argument("src", help="the recording file")
-    im.add_argument("-o", "--out", default="sessions", help="sessions directory (default: sessions/)")
+    im.add_argument("-o", "--out", default="sessions",
+                    help="sessions directory (default: sessions/; created when missing; a link to a folder is one)")
     im.add_argument("--id", default=None, help="session id (default: import-SOURCE-FILESTEM)")
     im.add_argument("--g", type=float, default=9.80665, help="local gravity for m/s^2 sources (default 9.80665)")
     im.add_argument("--window-s", type=float, default=120.0, help="tofupilot: seconds per step window")
@@ -25,6 +27,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     if not args.window_s > 0:
         raise UsageError(f"--window-s: expected a positive number of seconds, got {args.window_s:g}")
+    outputs.OutputPolicy(inputs=[args.src]).directory(args.out, what="the session")
     try:
         path = import_recording(args.source, args.src, args.out, args.id, g_ms2=args.g, window_s=args.window_s)
     except FileExistsError as exc:
@@ -52,7 +55,7 @@ def next_steps(session, path, known: int) -> list[tuple[str, bool]]:
     if known >= 6:
         solve = (f"rig solve {path}", True)
     else:
-        steps = lambda: step_means(session, session.static_step_indices(unknown_pose=True))  # noqa: E731
+        steps = lambda: step_means(session, session.static_step_indices(unknown_pose=True))
         solve = (f"rig solve {path} --method magnitude",
                  _works(lambda: check_plausible(calib.solve(steps(), method="magnitude"), session.lsb_per_g)))
     return [solve, (f"rig discover {path}", _works(lambda: discover_session(path)))]

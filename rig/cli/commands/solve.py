@@ -8,6 +8,7 @@ from pathlib import Path
 
 from calib.errors import CalibError
 from calib.accel.redundancy import pair_biases
+from rig.cli import outputs
 from rig.cli.common import UsageError, format_calibration, json_default, parse_thermal, present, report_warnings
 from rig.session import load_session
 from rig.workflow.conclude import conclude
@@ -17,6 +18,7 @@ def add_parser(sub) -> None:
     s = sub.add_parser("solve", help="solve a recorded session into a calibration file")
     s.add_argument("session")
     s.add_argument("-o", "--output", default=None, help="calibration file (default SESSION/calibration.yaml)")
+    s.add_argument("--follow", action="store_true", help=outputs.FOLLOW_HELP)
     s.add_argument("--model", choices=["triangular", "full"], default=None)
     s.add_argument("--method", choices=["pinv", "flip", "combinations", "magnitude"], default=None,
                    help="magnitude: |f| = 1 g in every static step, poses not needed (imported recordings)")
@@ -39,15 +41,19 @@ def run(args) -> int:
         given = getattr(args, other)
         if getattr(args, key) == value and given is not None and (other_value is None or given == other_value):
             raise UsageError(f"--{key} {value} cannot be combined with --{other} {given}: {why}")
+    out = output(args) if args.output is not None else None  # -o: checked before the session is read
     session = load_session(args.session)
+    if out is None:  # the default, in the session folder: checked once it is known to be a session
+        out = output(args)
     report_warnings("solve", session)
     pending = [f"{s.index + 1} ({s.name})" for s in session.info.steps if s.status == "pending"]
     if pending:
         print(f"rig solve: warning: the session is incomplete ({session.info.status}); steps not recorded: "
               f"{', '.join(pending[:10])}{' ...' if len(pending) > 10 else ''}; solving what was recorded",
               file=sys.stderr)
-    out = args.output if args.output is not None else default_output(args)
-    conclusion = conclude(session, out=out, model=args.model, method=args.method, thermal=thermal, report=False)
+    with outputs.writing(out):  # an error writing the file names the path given
+        conclusion = conclude(session, out=out.path, model=args.model, method=args.method, thermal=thermal,
+                              report=False)
     verdict_code = present("solve", conclusion, quiet=args.json)
     cal, path = conclusion.calibration, conclusion.calibration_path
     if args.json:  # the file's content, the acceptance verdict included when the procedure has limits
@@ -71,6 +77,17 @@ def warn_if_misfit(cal) -> None:
               f"residual {fit.residual_rms_g * 1e6:.0f} ug rms): poses not where the session says (hand-placed?), "
               "another sensor, or an effect the model lacks; see rig discover. The sigmas carry the misfit.",
               file=sys.stderr)
+
+
+#: what rig solve may write in the session it solves (docs/cli.md, "Output paths")
+OWN = ("calibration*.yaml",)
+
+
+def output(args) -> outputs.Output:
+    """The calibration file (``-o``, else :func:`default_output`), checked by the output policy."""
+    policy = outputs.OutputPolicy(inputs=[args.session], session=args.session, follow=args.follow)
+    return policy.file(args.output if args.output is not None else default_output(args), what="the calibration",
+                       own=OWN, make_parents=True)
 
 
 def default_output(args) -> Path:
