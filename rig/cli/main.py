@@ -104,15 +104,21 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     for name, help_line in COMMANDS.items():
         if name == command:
             load(name).add_parser(sub)
-        else:
+        elif command not in COMMANDS:  # rig --help, a mistyped command: every command is listed
             sub.add_parser(name, help=help_line)
     return p
 
 
 def command_given(argv: list[str]) -> str | None:
     """The command word of ``argv``: its first argument that is not an option (``rig`` has no option
-    that takes a value before the command)."""
-    return next((a for a in argv if not a.startswith("-")), None)
+    that takes a value before the command); None when ``--help`` comes first (``rig --help solve``
+    lists every command)."""
+    for a in argv:
+        if a in ("-h", "--help"):
+            return None
+        if not a.startswith("-"):
+            return a
+    return None
 
 
 def main(argv: list[str] | None = None) -> int:
