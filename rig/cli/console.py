@@ -19,7 +19,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn
 from rich.text import Text
 
-from rig.cli.main import silence
+from rig.cli.terminal import silence
 from rig.execution.operator import OperatorAbsent, StepProgress
 
 

@@ -21,6 +21,8 @@ import os
 import signal
 import sys
 
+from rig.cli.terminal import say, say_raw, silence
+
 #: the signals that stop ``rig`` (Ctrl-C, kill, a closed terminal or a dropped ssh connection)
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 #: each stop signal's handler before the start-up handlers replaced it (SIG_IGN stays ignored: a
@@ -46,15 +48,6 @@ def _exit_interrupted(signum, frame):
         say_raw(f"rig {words[0]}: interrupted" if words and words[0].isidentifier() else "rig: interrupted")
     finally:
         os._exit(1)  # EXIT_FAILURE (rig.cli.codes), which may not be imported yet
-
-
-def say_raw(line: str) -> None:
-    """One line straight to file descriptor 2, bypassing Python's buffered stderr: safe in a signal
-    handler (a buffered write there may interrupt one in progress: "reentrant call"); never fails."""
-    try:
-        os.write(2, (line + "\n").encode(errors="replace"))
-    except OSError:
-        pass
 
 
 def launched_as_rig() -> bool:
@@ -186,32 +179,6 @@ def _interrupt_once(signum, frame):
     raise KeyboardInterrupt
 
 
-def say(line: str, stream=None) -> None:
-    """Print one line (to stderr by default) that cannot fail: when the terminal or the pipe is gone
-    (EIO, EPIPE, ...) the stream is silenced and the line dropped. What ``rig`` does (the motors, the
-    session) never depends on its text being read."""
-    stream = sys.stderr if stream is None else stream
-    try:
-        print(line, file=stream, flush=True)
-    except OSError:
-        silence(stream)
-
-
-def silence(stream) -> None:
-    """From now on ``stream`` writes to /dev/null: its descriptor is replaced, so what it still buffers
-    and everything written later (the interpreter's flush at exit included) succeeds and goes nowhere,
-    instead of failing again (a failed flush at exit would make the exit code 120)."""
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        try:
-            os.dup2(devnull, stream.fileno())
-        finally:
-            os.close(devnull)
-        stream.flush()
-    except (OSError, ValueError, AttributeError):  # no descriptor (a test's capture): nothing to silence
-        pass
-
-
 def _one_line_warning(command: str, held: list[str]):
     """numpy/Python warnings as one line each (``rig CMD: warning: ...``), never a raw warning dump;
     held until the command ends (a command that fails says only its one error line)."""
@@ -222,7 +189,3 @@ def _one_line_warning(command: str, held: list[str]):
             held.append(entry)
     return show
 
-
-if __name__ == "__main__":  # python -m rig.cli.main: the module that rig.cli imported holds the handlers
-    from rig.cli.main import main as _main
-    raise SystemExit(_main())

@@ -9,7 +9,7 @@ import sys
 
 from rig.cli.common import EXIT_FAILURE, EXIT_OK, UsageError, format_calibration, present
 from rig.cli.console import ConsoleUI
-from rig.cli.main import say, say_raw
+from rig.cli.terminal import say, say_raw
 from rig.execution.context import RunAborted
 from rig.session import SessionManifest
 from rig.workflow.run import run_procedure
