@@ -3,6 +3,12 @@
 A sample is static when the variance of the signal over a window around it, summed over the three
 axes, is below ``threshold_factor`` times the variance seen in the initial static period. Runs of
 static samples longer than ``min_s`` become intervals.
+
+:class:`StaticDetector` does it on samples fed in chunks (a recording larger than memory): it keeps the
+running sums of the window (a window and a chunk of rows), the variances of the initial period until
+their median is known, and the times it still needs; :func:`detect_static` feeds it one array. Both give
+the same intervals, to the bit, however the samples are cut into chunks (the running sums are the
+whole series' cumulative sums, added in the same order).
 """
 
 from __future__ import annotations
@@ -29,24 +35,135 @@ def detect_static(t_s: np.ndarray, counts: np.ndarray, *, window_s: float = 2.0,
 
     Parameters
     ----------
-    t_s : (N,) sample times, s.  counts : (N, 3) raw samples.
+    t_s : (N,) sample times, s, increasing.  counts : (N, 3) raw samples.
     window_s : variance window.  init_s : the initial period assumed static (noise reference).
     threshold_factor : static when the summed variance < factor x the initial period's.
     min_s : shortest interval kept.  trim_s : trimmed from both ends of every interval.
     """
     t = np.asarray(t_s, float)
-    a = np.asarray(counts, float)
-    dt = float(np.median(np.diff(t)))
-    n = max(3, int(round(window_s / dt)))
-    var = moving_variance(a, n).sum(axis=1)
-    init = t <= t[0] + init_s
-    ref = float(np.median(var[init])) if init.any() else float(np.median(var))
-    static = var < threshold_factor * max(ref, 1e-12)
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], static.astype(int), [0]])))
-    out = []
-    trim = int(round(trim_s / dt))
-    for s, e in zip(edges[0::2], edges[1::2]):
-        s2, e2 = s + trim, e - trim
-        if e2 > s2 and t[e2 - 1] - t[s2] >= min_s:
-            out.append((int(s2), int(e2)))
-    return out
+    det = StaticDetector(float(np.median(np.diff(t))), float(t[0]), window_s=window_s, init_s=init_s,
+                         threshold_factor=threshold_factor, min_s=min_s, trim_s=trim_s)
+    det.feed(t, counts)
+    return det.finish()
+
+
+class StaticDetector:
+    """:func:`detect_static` on samples fed in chunks of any size (:meth:`feed`, then :meth:`finish`).
+
+    ``dt``: the median sample interval of the whole series (s), ``t0``: its first time; the other
+    parameters as :func:`detect_static`'s. Memory: the window and one chunk of rows, plus the variances
+    of the initial period (``init_s`` of samples) until the last of them is known.
+    """
+
+    def __init__(self, dt: float, t0: float, *, window_s: float = 2.0, init_s: float = 30.0,
+                 threshold_factor: float = 6.0, min_s: float = 3.0, trim_s: float = 0.5) -> None:
+        self.n = max(3, int(round(window_s / dt)))
+        self.half = self.n // 2
+        self.trim = int(round(trim_s / dt))
+        self.min_s = min_s
+        self.threshold_factor = threshold_factor
+        self.t_init_end = t0 + init_s
+        self.init_n: int | None = None  # samples in the initial period, once a later one is seen
+        self.ref: float | None = None
+        self.intervals: list[tuple[int, int]] = []
+        self._fed = 0
+        self._c1 = np.zeros((1, 3))  # cumulative sums of x and x^2 from index _c_base (C[k]: sum of x[:k])
+        self._c2 = np.zeros((1, 3))
+        self._c_base = 0
+        self._next = 0  # the first sample whose variance is not yet computed
+        self._pending: list[np.ndarray] = []  # variances waiting for the reference (initial period)
+        self._classified = 0  # the first sample not yet classified static or not
+        self._t = np.empty(0)  # times from index _t_base on
+        self._t_base = 0
+        self._run: int | None = None  # start of the current static run
+        self._t_start: float | None = None  # the time at its trimmed start, once fed
+
+    def feed(self, t_s: np.ndarray, counts: np.ndarray) -> None:
+        """The next samples: times (increasing) and (n, 3) values."""
+        t = np.asarray(t_s, float)
+        x = np.asarray(counts, float)
+        if len(t) == 0:
+            return
+        if self.init_n is None and t[-1] > self.t_init_end:
+            self.init_n = self._fed + int(np.count_nonzero(t <= self.t_init_end))
+        self._t = np.concatenate([self._t, t])
+        c1 = np.cumsum(np.vstack([self._c1[-1:], x]), axis=0)[1:]
+        c2 = np.cumsum(np.vstack([self._c2[-1:], x * x]), axis=0)[1:]
+        self._c1 = np.vstack([self._c1, c1])
+        self._c2 = np.vstack([self._c2, c2])
+        self._fed += len(t)
+        self._catch_t_start()
+        self._variances(self._fed - self.half, self._fed)
+
+    def finish(self) -> list[tuple[int, int]]:
+        """All samples fed: the static intervals."""
+        self._variances(self._fed, self._fed)
+        if self.ref is None:
+            self.init_n = self._fed if self.init_n is None else self.init_n
+            self._take_reference()
+        self._close_run(self._fed)
+        return self.intervals
+
+    # -- the moving variance -----------------------------------------------------------------------
+    def _variances(self, stop: int, n_total: int) -> None:
+        """The summed variances of samples ``_next .. stop-1`` (their windows end by ``n_total``)."""
+        if stop <= self._next:
+            return
+        idx = np.arange(self._next, stop)
+        lo = np.clip(idx - self.half, 0, n_total)
+        hi = np.clip(idx + self.half + 1, 0, n_total)
+        cnt = (hi - lo)[:, None]
+        c1, c2, b = self._c1, self._c2, self._c_base
+        mean = (c1[hi - b] - c1[lo - b]) / cnt
+        var = np.maximum((c2[hi - b] - c2[lo - b]) / cnt - mean**2, 0.0).sum(axis=1)
+        self._next = stop
+        keep = max(0, self._next - self.half) - b  # the sums the next variances need
+        if keep > 0:
+            self._c1, self._c2, self._c_base = self._c1[keep:], self._c2[keep:], b + keep
+        self._pending.append(var)
+        if self.ref is None and self.init_n is not None and self._next >= self.init_n:
+            self._take_reference()
+        elif self.ref is not None:
+            self._classify()
+
+    def _take_reference(self) -> None:
+        var = np.concatenate(self._pending) if self._pending else np.empty(0)
+        self._pending = [var]
+        init = var[:self.init_n]
+        self.ref = float(np.median(init)) if len(init) else float(np.median(var))
+        self._classify()
+
+    # -- runs of static samples --------------------------------------------------------------------
+    def _classify(self) -> None:
+        var = np.concatenate(self._pending) if len(self._pending) != 1 else self._pending[0]
+        self._pending = []
+        first = self._classified
+        static = var < self.threshold_factor * max(self.ref, 1e-12)
+        self._classified += len(var)
+        prev = 1 if self._run is not None else 0
+        change = np.flatnonzero(np.diff(np.concatenate([[prev], static.astype(np.int8)])))
+        for k in change:
+            if static[k]:
+                self._run, self._t_start = first + int(k), None
+                self._catch_t_start()
+            else:
+                self._close_run(first + int(k))
+        drop = max(0, self._classified - self.trim - 1) - self._t_base  # the times a run's end may need
+        if self._run is not None and self._t_start is None:
+            drop = min(drop, self._run + self.trim - self._t_base)
+        if drop > 0:
+            self._t, self._t_base = self._t[drop:], self._t_base + drop
+
+    def _catch_t_start(self) -> None:
+        if self._run is not None and self._t_start is None:
+            s2 = self._run + self.trim
+            if s2 < self._fed:
+                self._t_start = float(self._t[s2 - self._t_base])
+
+    def _close_run(self, end: int) -> None:
+        if self._run is None:
+            return
+        s2, e2 = self._run + self.trim, end - self.trim
+        if e2 > s2 and self._t[e2 - 1 - self._t_base] - self._t_start >= self.min_s:
+            self.intervals.append((int(s2), int(e2)))
+        self._run = self._t_start = None

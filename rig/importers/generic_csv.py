@@ -7,7 +7,8 @@
 
 ``t_s`` (s, increasing), ``ax, ay, az`` required; ``temp_c``, ``label`` optional; other columns ignored.
 Steps from the ``label`` column (a new step at each change; a pose name gives ``f_nominal``; a label
-containing ``rot`` a rotation step), else by static detection.
+containing ``rot`` a rotation step), else by static detection. Read block by block into the spool
+(:mod:`rig.importers.common`); static detection runs chunk by chunk on the spooled counts.
 """
 
 from __future__ import annotations
@@ -17,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from calib.numerics.static_detect import detect_static
+from calib.numerics.static_detect import StaticDetector
 from rig.errors import RigInputError
-from rig.importers.common import COUNTS_PER_G_EQUIVALENT, G_MS2, ImportedStep, Recording, first_decrease, numbers, \
-    table
+from rig.importers.common import (COUNTS_PER_G_EQUIVALENT, G_MS2, ImportedStep, Increasing, Recording, Runs, Spool,
+                                  Table, diffs, exact_median, open_text, read_line)
 from rig.planning.kinematics import f_nominal
 from rig.planning.poses import POSE_NAMES, pose_angles_deg
 
@@ -56,48 +57,56 @@ def counts_per_g(path: Path, meta: dict[str, str]) -> float:
     return lsb
 
 
-def read_csv(path: Path, g_ms2: float = G_MS2, **_) -> Recording:
+def read_csv(path: Path, spool_dir: Path, g_ms2: float = G_MS2, **_) -> Recording:
     """Generic CSV: comment lines, then a header with ``t_s, ax, ay, az`` and optional ``temp_c``, ``label``."""
-    raw_lines = path.read_text(errors="replace").splitlines()
-    meta, skip = read_meta(path, raw_lines)
-    units, lsb = meta.get("units", "counts"), counts_per_g(path, meta)
-    header, body = table(path, "\n".join(raw_lines[skip:]), ["t_s", "ax", "ay", "az"], ",")
-    first = skip + 2
-    data = numbers(path, body, first, [header.index(c) for c in ("t_s", "ax", "ay", "az")], header)
-    temp = numbers(path, body, first, [header.index("temp_c")], header)[:, 0] if "temp_c" in header else None
-    labels = None
-    if "label" in header:
-        j = header.index("label")
-        labels = [r[j].strip() if j < len(r) else "" for r in body]
-    t = data[:, 0]
-    bad = first_decrease(t)
-    if bad is not None:
-        raise RigInputError(str(path), first + bad + 1, "t_s", "time stamps must increase")
-    acc = data[:, 1:4]
-    if units == "g":
-        acc = acc * lsb
-    elif units == "m/s^2":
-        acc = acc / g_ms2 * lsb
-    counts = np.rint(acc).astype(np.int64)
-    rec = Recording("csv", meta.get("sensor", "generic CSV"), lsb, round(float(1.0 / np.median(np.diff(t))), 4),
-                    units, "labels" if labels else "static detection")
-    if labels:
-        rec.steps += labelled_steps(labels, t, counts, temp)
-    else:
-        for k, (a, b) in enumerate(detect_static(t, counts, init_s=min(30.0, 0.2 * (t[-1] - t[0])))):
-            rec.steps.append(ImportedStep(f"static {k + 1}", "static", t[a:b], counts[a:b],
-                                          temp_c=None if temp is None else temp[a:b], pose_group=1000 + k))
+    with open_text(path) as fh:
+        comments, line = [], read_line(path, fh, 1)
+        while line.startswith("#"):
+            comments.append(line.rstrip("\n"))
+            line = read_line(path, fh, len(comments) + 1)
+        meta, skip = read_meta(path, comments)
+        units, lsb = meta.get("units", "counts"), counts_per_g(path, meta)
+        table = Table(path, fh, line, skip + 1, ["t_s", "ax", "ay", "az"], ",", splitlines=True)
+        has_temp, has_label = "temp_c" in table.header, "label" in table.header
+        spool = Spool(spool_dir, {"t": 1, "acc": 3, **({"temp": 1} if has_temp else {})})
+        increasing, runs = Increasing(), Runs(path, "label")
+        numeric = ["t_s", "ax", "ay", "az"] + (["temp_c"] if has_temp else [])
+        for b in table.blocks(numeric, ["label"] if has_label else []):
+            t, acc = b.numbers[:, 0], b.numbers[:, 1:4]
+            increasing.feed(t, b.lines)
+            if units == "g":
+                acc = acc * lsb
+            elif units == "m/s^2":
+                acc = acc / g_ms2 * lsb
+            spool.append(t=t, acc=acc, **({"temp": b.numbers[:, 4]} if has_temp else {}))
+            if has_label:
+                runs.feed([x.strip() for x in b.texts[0]], b.lines)
+        spool.finish()
+    increasing.check(path, "t_s")
+    n = spool.n_rows
+    dt = exact_median(diffs(spool), n - 1) if n > 1 else float("nan")
+    rate = round(float(1.0 / dt), 4)
+    labelled = has_label  # a label column gives the steps, even empty labels ("segment N")
+    rec = Recording("csv", meta.get("sensor", "generic CSV"), lsb, rate, units,
+                    "labels" if labelled else "static detection", spool=spool)
+    if labelled:
+        rec.steps += labelled_steps(runs.runs)
+    elif n > 1:
+        t0, t_end = float(spool.read("t", 0, 1)[0]), float(spool.read("t", n - 1, n)[0])
+        detector = StaticDetector(dt, t0, init_s=min(30.0, 0.2 * (t_end - t0)))
+        for t, acc in zip(spool.chunks("t"), spool.chunks("acc")):
+            detector.feed(t, np.rint(acc).astype(np.int64))
+        for k, (a, b) in enumerate(detector.finish()):
+            rec.steps.append(ImportedStep(f"static {k + 1}", "static", [(a, b)], pose_group=1000 + k))
     return rec
 
 
-def labelled_steps(labels: list[str], t: np.ndarray, counts: np.ndarray, temp: np.ndarray | None) -> list[ImportedStep]:
+def labelled_steps(runs: list[list]) -> list[ImportedStep]:
     """One step per run of equal labels; a pose name gives the step's nominal specific force."""
     steps: list[ImportedStep] = []
-    starts = [0] + [i for i in range(1, len(labels)) if labels[i] != labels[i - 1]]
-    for a, b in zip(starts, starts[1:] + [len(labels)]):
-        name = labels[a] or f"segment {len(steps) + 1}"
+    for a, b, label, line in runs:
+        name = label or f"segment {len(steps) + 1}"
         f = [float(x) for x in f_nominal(np.array(pose_angles_deg(name)))] if name in POSE_NAMES else None
         kind = "rotation" if "rot" in name.lower() else "static"
-        steps.append(ImportedStep(name, kind, t[a:b], counts[a:b], temp_c=None if temp is None else temp[a:b],
-                                  f_nominal=f))
+        steps.append(ImportedStep(name, kind, [(a, b)], f_nominal=f, first_line=line))
     return steps

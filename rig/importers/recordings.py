@@ -1,9 +1,16 @@
 """``rig import``: other tools' recordings as ``rig-session/1`` sessions (docs/import.md).
 
-One module per source reads the file into a :class:`~rig.importers.common.Recording`:
-:mod:`~rig.importers.imucal`, :mod:`~rig.importers.imu_tk`, :mod:`~rig.importers.tofupilot` and
-:mod:`~rig.importers.generic_csv` (``--from csv``); this module checks the arguments and writes the
-recording as a complete session through :class:`rig.session.SessionWriter`.
+One module per source reads the file, block by block, into a :class:`~rig.importers.common.Recording`
+whose samples wait in a spool: :mod:`~rig.importers.imucal`, :mod:`~rig.importers.imu_tk`,
+:mod:`~rig.importers.tofupilot` and :mod:`~rig.importers.generic_csv` (``--from csv``); this module checks
+the arguments and the steps and writes the recording as a complete session through
+:class:`rig.session.SessionWriter`, chunk by chunk.
+
+Nothing half-written is ever a session: the import works in ``SESSIONS/ID.PID.partial/`` (the spool, the
+session being written, and ``import.lock``, an OS lock held while the import runs that names the source),
+renames the complete session to ``SESSIONS/ID`` at the end and removes the partial directory, also when
+it fails. A partial directory left by a killed import (its lock free) is removed by the next import of
+the same source file or id into the same directory.
 
 Every problem with a source file raises :class:`rig.errors.RigInputError` naming the file and,
 where there is one, the line.
@@ -11,16 +18,21 @@ where there is one, the line.
 
 from __future__ import annotations
 
+import errno
+import fcntl
 import hashlib
+import json
+import os
 import re
+import shutil
 from datetime import datetime, timezone
 from pathlib import Path
-
-import numpy as np
+from typing import Callable
 
 from rig.config.yamlload import SymlinkLoop
 from rig.errors import RigInputError
-from rig.importers.common import COUNTS_PER_G_EQUIVALENT, G_MS2, ImportedStep, Recording, check_recording
+from rig.importers.common import (COUNTS_PER_G_EQUIVALENT, G_MS2, MAX_STEPS, ImportedStep, Recording, StepSummary,
+                                  check_recording, summarize)
 from rig.importers.generic_csv import read_csv
 from rig.importers.imu_tk import read_imu_tk
 from rig.importers.imucal import IMUCAL_POSES, IMUCAL_ROTATIONS, read_imucal
@@ -30,6 +42,8 @@ from rig.session import (ImportInfo, ProcedureInfo, RigInfo, SensorInfo, Session
 
 READERS = {"imucal": read_imucal, "imu_tk": read_imu_tk, "tofupilot": read_tofupilot, "csv": read_csv}
 SOURCES = tuple(READERS)
+PARTIAL = ".partial"
+LOCK = "import.lock"
 
 __all__ = ["SOURCES", "READERS", "G_MS2", "COUNTS_PER_G_EQUIVALENT", "ImportedStep", "Recording", "IMUCAL_POSES",
            "IMUCAL_ROTATIONS", "import_recording", "import_manifest", "read_imucal", "read_imu_tk", "read_tofupilot",
@@ -37,11 +51,50 @@ __all__ = ["SOURCES", "READERS", "G_MS2", "COUNTS_PER_G_EQUIVALENT", "ImportedSt
 
 
 def import_recording(source: str, src, sessions_root, session_id: str | None = None, *, g_ms2: float = G_MS2,
-                     window_s: float = 120.0) -> Path:
+                     window_s: float = 120.0, notify: Callable[[str], None] | None = None) -> Path:
     """Import ``src`` (a file of kind ``source``) as a complete session under ``sessions_root``.
 
-    Returns the session directory.
+    Returns the session directory. ``notify`` is told (one line each) of the partial directories of
+    killed imports that were removed.
     """
+    path = _checked_source(source, src, g_ms2)
+    sid = session_id or f"import-{source}-{re.sub(r'[^A-Za-z0-9_-]+', '-', path.stem)}"
+    validate_session_id(sid)
+    root = Path(sessions_root)
+    made_root = not root.exists()
+    for left in remove_leftovers(root, path, sid):
+        if notify:
+            notify(f"removed {left}: the partial session of an import of this file that was killed")
+    final = root / sid
+    _refuse_existing(final)
+    root.mkdir(parents=True, exist_ok=True)
+    work = Work(root, sid, source, path)
+    done = False
+    try:
+        rec = READERS[source](path, work.dir / "spool", g_ms2=g_ms2, window_s=window_s)
+        if not rec.steps:
+            raise RigInputError(str(path), None, None, "no steps found in the recording")
+        if len(rec.steps) > MAX_STEPS:
+            raise RigInputError(str(path), None, None, f"{len(rec.steps)} steps found; a session holds at most "
+                                                       f"{MAX_STEPS}")
+        summaries = summarize(rec)
+        check_recording(path, rec, summaries)
+        session = write_session(rec, summaries, import_manifest(rec, path, sid, g_ms2), work.dir)
+        rec.spool.close()
+        _move_into_place(session, final)
+        done = True
+    finally:
+        work.remove()
+        if made_root and not done:
+            try:
+                root.rmdir()  # the directory this import made, empty again
+            except OSError:
+                pass
+    return final
+
+
+def _checked_source(source: str, src, g_ms2: float) -> Path:
+    """The source file ``src`` of kind ``source``, with a plausible gravity ``g_ms2``."""
     if source not in SOURCES:
         raise RigInputError(None, None, "--from", f"unknown source {source!r} (allowed: {', '.join(SOURCES)})")
     path = Path(src)
@@ -54,20 +107,88 @@ def import_recording(source: str, src, sessions_root, session_id: str | None = N
         raise RigInputError(str(path), None, None, "no such file" if not path.exists() else "not a file")
     if not 9.7 < g_ms2 < 9.9:
         raise RigInputError(None, None, "--g", f"expected the local gravity in m/s^2 (9.7..9.9), got {g_ms2:g}")
-    rec = READERS[source](path, g_ms2=g_ms2, window_s=window_s)
-    if not rec.steps:
-        raise RigInputError(str(path), None, None, "no steps found in the recording")
-    check_recording(path, rec)
-    sid = session_id or f"import-{source}-{re.sub(r'[^A-Za-z0-9_-]+', '-', path.stem)}"
-    validate_session_id(sid)
-    return write_session(rec, import_manifest(rec, path, sid, g_ms2), Path(sessions_root))
+    return path
+
+
+def _refuse_existing(final: Path) -> None:
+    if final.exists() or final.is_symlink():
+        raise FileExistsError(errno.EEXIST, "a session with this id exists already", str(final))
+
+
+def _move_into_place(session: Path, final: Path) -> None:
+    """Rename the complete session to its place (never over another session) and make the rename durable."""
+    _refuse_existing(final)
+    try:
+        os.rename(session, final)
+    except OSError as exc:
+        if exc.errno in (errno.EEXIST, errno.ENOTEMPTY):
+            raise FileExistsError(errno.EEXIST, "a session with this id exists already", str(final)) from None
+        raise
+    fd = os.open(final.parent, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+class Work:
+    """``ROOT/ID.PID.partial``: where one import works, locked (``import.lock``) while it runs."""
+
+    def __init__(self, root: Path, sid: str, source: str, path: Path) -> None:
+        self.dir = root / f"{sid}.{os.getpid()}{PARTIAL}"
+        if self.dir.exists():  # a killed import of the same pid (pids are reused): its lock is free
+            shutil.rmtree(self.dir, ignore_errors=True)
+        self.dir.mkdir()
+        self._lock = open(self.dir / LOCK, "w")
+        fcntl.flock(self._lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        self._lock.write(json.dumps({"id": sid, "source": source, "file": str(path.resolve()), "pid": os.getpid(),
+                                     "since": datetime.now(timezone.utc).isoformat(timespec="seconds")}))
+        self._lock.flush()
+
+    def remove(self) -> None:
+        shutil.rmtree(self.dir, ignore_errors=True)
+        self._lock.close()
+
+
+def remove_leftovers(root: Path, path: Path, sid: str) -> list[Path]:
+    """Remove the partial directories under ``root`` of imports that were killed (their lock is free)
+    while importing ``path`` or writing the id ``sid``; return them. A running import's is left alone."""
+    if not root.is_dir():
+        return []
+    removed = []
+    me = str(path.resolve())
+    for d in sorted(root.glob(f"*{PARTIAL}")):
+        try:
+            fh = open(d / LOCK, "r")
+        except OSError:
+            continue  # not an import's partial directory (or one not yet locked)
+        with fh:
+            try:
+                fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                continue  # an import running now
+            try:
+                owner = json.loads(fh.read() or "{}")
+            except ValueError:
+                owner = {}
+            if owner.get("file") == me or owner.get("id") == sid:
+                shutil.rmtree(d, ignore_errors=True)
+                removed.append(d)
+    return removed
+
+
+def file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def import_manifest(rec: Recording, path: Path, sid: str, g_ms2: float) -> SessionManifest:
     """The manifest of an imported session: no turntable (``rig.kind: import``), the ``import:`` section,
     the source file's hash as ``procedure.sha256``."""
-    procedure = ProcedureInfo(name=f"import-{rec.source}", file=str(path),
-                              sha256=hashlib.sha256(path.read_bytes()).hexdigest(), text=None)
+    procedure = ProcedureInfo(name=f"import-{rec.source}", file=str(path), sha256=file_sha256(path), text=None)
     sensor = SensorInfo(model=rec.sensor_model, address=None, accel_lsb_per_g=float(rec.lsb_per_g),
                         sample_rate_hz=float(rec.sample_rate_hz), has_temperature=rec.has_temperature)
     if rec.has_gyro and rec.gyro_lsb_per_dps:
@@ -83,16 +204,15 @@ def import_manifest(rec: Recording, path: Path, sid: str, g_ms2: float) -> Sessi
         steps=steps)
 
 
-def write_session(rec: Recording, manifest: SessionManifest, root: Path) -> Path:
-    """Write the recording's samples step by step under ``root``; the session ends complete."""
+def write_session(rec: Recording, summaries: list[StepSummary], manifest: SessionManifest, root: Path) -> Path:
+    """Write the recording's samples step by step, chunk by chunk, under ``root``; the session ends complete."""
     cols = ("t_s", "step", "ax", "ay", "az", "temp_c") + (("wx", "wy", "wz") if rec.has_gyro else ())
     w = SessionWriter.create(root, manifest.id, manifest, columns=cols)
     try:
-        for i, st in enumerate(rec.steps):
-            w.append_samples(i, st.t_s, st.accel_counts, temp_c=st.temp_c, gyro_counts=st.gyro_counts)
-            stats = {"n_samples": int(len(st.t_s)), "t_start_s": float(st.t_s[0]), "t_end_s": float(st.t_s[-1]),
-                     "temp_c": float(np.mean(st.temp_c)) if st.temp_c is not None else None}
-            w.complete_step(i, stats)
+        for i, (st, s) in enumerate(zip(rec.steps, summaries)):
+            for c in rec.step_chunks(st):
+                w.append_samples(i, c["t"], c["counts"], temp_c=c["temp"], gyro_counts=c["gyro"])
+            w.complete_step(i, {"n_samples": s.n, "t_start_s": s.t_start, "t_end_s": s.t_end, "temp_c": s.temp_mean})
         w.set_status("complete")
     except BaseException:
         w.set_status("aborted")

@@ -10,7 +10,11 @@ from rig.cli import outputs
 from rig.cli.common import EXIT_OK, UsageError
 from rig.errors import RigInputError, SessionFormatError
 from rig.importers.recordings import import_recording
-from rig.session import load_session, step_means
+from rig.session import SessionManifest, load_session, step_means
+
+#: the follow-up commands are tried on the imported session up to this many samples (loading it whole);
+#: a larger import names them untried (each says why, if it cannot)
+TRY_MAX_SAMPLES = 500_000
 
 
 def add_parser(sub) -> None:
@@ -29,21 +33,28 @@ def run(args) -> int:
         raise UsageError(f"--window-s: expected a positive number of seconds, got {args.window_s:g}")
     outputs.OutputPolicy(inputs=[args.src]).directory(args.out, what="the session")
     try:
-        path = import_recording(args.source, args.src, args.out, args.id, g_ms2=args.g, window_s=args.window_s)
+        path = import_recording(args.source, args.src, args.out, args.id, g_ms2=args.g, window_s=args.window_s,
+                                notify=lambda message: print(f"note: {message}"))
     except FileExistsError as exc:
         raise UsageError(f"{exc.filename}: a session with this id exists already; give another with --id ID "
                          "(or another sessions directory with -o)") from None
-    s = load_session(path)
-    steps = s.info.steps
+    info, _ = SessionManifest.load(path)  # the manifest only: the samples may be more than memory
+    steps = info.steps
+    n_samples = sum(int(st.stats.n_samples) for st in steps)
     known = sum(1 for st in steps if st.kind == "static" and st.f_nominal is not None)
     static = sum(1 for st in steps if st.kind == "static")
-    imp = s.info.import_
+    imp = info.import_
     print(f"session: {path}")
-    print(f"  {len(s.samples['t_s'])} samples at {s.info.rig.sensor.sample_rate_hz:g} Hz, "
+    print(f"  {n_samples} samples at {info.rig.sensor.sample_rate_hz:g} Hz, "
           f"{len(steps)} steps ({static} static, {known} with known poses) from {imp.steps_from}; "
           f"units {imp.units}, {imp.lsb_per_g:g} counts/g")
     for note in imp.notes:
         print(f"  note: {note}")
+    if n_samples > TRY_MAX_SAMPLES:
+        hints = [h for h, _ in next_steps(None, path, known)]
+        print(f"  next (not tried on {n_samples} samples): {'; '.join(hints)}")
+        return EXIT_OK
+    s = load_session(path)
     hints = [h for h, works in next_steps(s, path, known) if works]
     print(f"  next: {'; '.join(hints)}" if hints else
           "  next: nothing can be solved from this recording alone (too few distinct poses)")
@@ -51,14 +62,15 @@ def run(args) -> int:
 
 
 def next_steps(session, path, known: int) -> list[tuple[str, bool]]:
-    """The follow-up commands, each tried here first: only those that work on this import are shown."""
+    """The follow-up commands, each tried here first on ``session`` (None: not tried): only those that work
+    on this import are shown."""
     if known >= 6:
         solve = (f"rig solve {path}", True)
     else:
         steps = lambda: step_means(session, session.static_step_indices(unknown_pose=True))
-        solve = (f"rig solve {path} --method magnitude",
+        solve = (f"rig solve {path} --method magnitude", session is None or
                  _works(lambda: check_plausible(calib.solve(steps(), method="magnitude"), session.lsb_per_g)))
-    return [solve, (f"rig discover {path}", _works(lambda: discover_session(path)))]
+    return [solve, (f"rig discover {path}", session is None or _works(lambda: discover_session(path)))]
 
 
 def _works(attempt) -> bool:
