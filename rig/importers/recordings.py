@@ -62,9 +62,9 @@ def import_recording(source: str, src, sessions_root, session_id: str | None = N
     validate_session_id(sid)
     root = Path(sessions_root)
     made_root = not root.exists()
-    for left in remove_leftovers(root, path, sid):
+    for left, file in remove_leftovers(root, path, sid):
         if notify:
-            notify(f"removed {left}: the partial session of an import of this file that was killed")
+            notify(f"removed {left}: the partial session left by a killed import of {file}")
     final = root / sid
     _refuse_existing(final)
     root.mkdir(parents=True, exist_ok=True)
@@ -150,9 +150,10 @@ class Work:
         self._lock.close()
 
 
-def remove_leftovers(root: Path, path: Path, sid: str) -> list[Path]:
+def remove_leftovers(root: Path, path: Path, sid: str) -> list[tuple[Path, str]]:
     """Remove the partial directories under ``root`` of imports that were killed (their lock is free)
-    while importing ``path`` or writing the id ``sid``; return them. A running import's is left alone."""
+    while importing ``path`` or writing the id ``sid``; return them with the file each was importing. A
+    running import's is left alone."""
     if not root.is_dir():
         return []
     removed = []
@@ -173,7 +174,7 @@ def remove_leftovers(root: Path, path: Path, sid: str) -> list[Path]:
                 owner = {}
             if owner.get("file") == me or owner.get("id") == sid:
                 shutil.rmtree(d, ignore_errors=True)
-                removed.append(d)
+                removed.append((d, str(owner.get("file"))))
     return removed
 
 
