@@ -224,9 +224,9 @@ def read_line(path: Path, fh, line: int) -> str:
     return text
 
 
-def text_blocks(path: Path, fh, first_line: int, quotes: bool = True) -> Iterator[tuple[int, str]]:
+def text_blocks(path: Path, fh, first_line: int, delimiter: str | None = None) -> Iterator[tuple[int, str]]:
     """Blocks of whole lines of ``fh`` (about :data:`BLOCK_CHARS`), each with the number of its first
-    line. With ``quotes`` a block never ends inside a quoted field (its ``"`` are even in number)."""
+    line. With a ``delimiter`` (a csv table) a block never ends inside a quoted field."""
     line = first_line
     while True:
         block = fh.read(BLOCK_CHARS)
@@ -234,20 +234,38 @@ def text_blocks(path: Path, fh, first_line: int, quotes: bool = True) -> Iterato
             return
         if not block.endswith("\n"):
             block += read_line(path, fh, line + block.count("\n"))
-        if quotes and block.count('"') % 2:
-            parts, n_quotes = [block], block.count('"')
-            while n_quotes % 2:
+        if delimiter and '"' in block and inside_quotes(block, delimiter):
+            parts, size, inside = [block], len(block), True
+            while inside:
                 more = read_line(path, fh, line + sum(p.count("\n") for p in parts))
                 if not more:
                     break
                 parts.append(more)
-                n_quotes += more.count('"')
-                if sum(map(len, parts)) > MAX_LINE_CHARS + BLOCK_CHARS:
+                size += len(more)
+                inside = inside_quotes(more, delimiter, inside)
+                if size > MAX_LINE_CHARS + BLOCK_CHARS:
                     raise RigInputError(str(path), line + block.count("\n"), None, "cannot read this line (a quoted"
                                         f" field does not end within {MAX_LINE_CHARS >> 20} MiB)")
             block = "".join(parts)
         yield line, block
         line += block.count("\n")
+
+
+def inside_quotes(text: str, delimiter: str, inside: bool = False) -> bool:
+    """Whether the csv module, reading ``text`` (whole lines) from within a quoted field (``inside``) or
+    not, ends within one: a quote at the start of a field opens one, ``""`` in one is a quote, a single
+    quote in one closes it, any other quote is a character of its field."""
+    escaped = False
+    for m in re.finditer('"', text):
+        q = m.start()
+        if escaped:
+            escaped = False
+        elif inside:
+            escaped = text[q + 1:q + 2] == '"'
+            inside = escaped
+        elif q == 0 or text[q - 1] in (delimiter, "\n"):
+            inside = True
+    return inside
 
 
 # -- a delimited table, block by block ---------------------------------------------------------------
@@ -295,7 +313,7 @@ class Table:
         """The rows, block by block: ``numeric`` columns as finite floats, ``text`` columns as strings."""
         num = [self.header.index(c) for c in numeric]
         txt = [self.header.index(c) for c in text]
-        for line, block in text_blocks(self.path, self.fh, self.first_line):
+        for line, block in text_blocks(self.path, self.fh, self.first_line, self.delimiter):
             rows = self._fast(block, line, num, txt)
             if rows is None:
                 rows = self._exact(block, line, num, txt)
@@ -303,7 +321,7 @@ class Table:
             if len(rows):
                 yield rows
         if self.n_rows == 0:
-            raise RigInputError(str(self.path), 2, None, "no data rows after the header")
+            raise RigInputError(str(self.path), self.first_line, None, "no data rows after the header")
 
     def _fast(self, block: str, line: int, num: list[int], txt: list[int]) -> TableBlock | None:
         """The block by pandas' C parser, when it is plain ASCII without quotes and every non-blank line has

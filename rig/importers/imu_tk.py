@@ -65,7 +65,7 @@ def read_imu_tk(path: Path, spool_dir: Path, g_ms2: float = G_MS2, **_) -> Recor
     spool = Spool(spool_dir, {"t": 1, "acc": 3})
     increasing = Increasing()
     with open_text(path) as fh:
-        for line, block in text_blocks(path, fh, 1, quotes=False):
+        for line, block in text_blocks(path, fh, 1):
             found = _fast(block, line)
             lines, d = found if found is not None else _exact(path, block, line)
             if not np.all(np.isfinite(d)):

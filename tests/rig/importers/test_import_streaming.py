@@ -109,11 +109,14 @@ def _labelled_csv(path: Path, crlf: bool = False, quoted: bool = False) -> Path:
     rng = np.random.default_rng(1)
     lines = ["# units: counts", "# lsb_per_g: 16384", "t_s,ax,ay,az,temp_c,label"]
     t = 0.0
-    for name, f in {"+X up": [1, 0, 0], "-X up": [-1, 0, 0], "+Y up": [0, 1, 0], "-Y up": [0, -1, 0],
-                    "+Z up": [0, 0, 1], "-Z up": [0, 0, -1], "rot x": [0, 0, 1]}.items():
+    labels = {"+X up": [1, 0, 0], "-X up": [-1, 0, 0], "+Y up": [0, 1, 0], "-Y up": [0, -1, 0], "+Z up": [0, 0, 1],
+              "-Z up": [0, 0, -1], "rot x": [0, 0, 1]}
+    if quoted:  # a quote inside a field is a character; a quoted field may hold commas and line ends
+        labels.update({'tilt 5" plate': [0, 0, 1], '"on edge, then\nflat"': [0, 0, 1]})
+    for name, f in labels.items():
         for k in range(80):
             a = np.round(np.array(f) * 16384 + 100 + rng.normal(0, 5, 3)).astype(int)
-            label = f'"{name}"' if quoted and k % 3 == 0 else name
+            label = f'"{name}"' if quoted and k % 3 == 0 and '"' not in name else name
             lines.append(f"{t:.3f},{a[0]},{a[1]},{a[2]},{25 + rng.normal(0, 0.1):.3f},{label}")
             if k == 40:
                 lines.append("")  # a blank line
