@@ -5,21 +5,24 @@
 Each file is a tumble with static intervals (``tests/rig/importers/tumble_csv.py``: ``t_s,ax,ay,az,temp_c``
 at 200 Hz, 26 orientations held still and turned between, no label column, so the importer finds the
 steps by static detection), written into a temporary directory. ``rig import`` runs on it in a
-subprocess of its own; its peak resident set size is that child's ``ru_maxrss`` (``os.wait4``: the
-figure ``resource.getrusage(RUSAGE_CHILDREN)`` gives for one child), so nothing of this process counts.
+subprocess of its own, started by a small measuring process (:data:`MEASURE`) that prints
+``resource.getrusage(RUSAGE_CHILDREN).ru_maxrss`` after it: the import's peak resident set size and
+nothing of this process's (a child started straight from here would carry this process's own high-water
+mark, the generator's, through exec into its ``ru_maxrss``: 380 MB instead of 200 at 200 MB).
 A size is skipped when the disk lacks about four times its size (the source, the spool and the session).
 The table: size, rows, wall time, peak RSS, seconds per MB, steps found.
 
-Measured (2 cores shared with other work, Python 3.11; ``rig import`` of a tiny file peaks at about
-150 MB: interpreter, numpy, pandas):
+Measured (2 cores, Python 3.11, numpy 2.4, pandas 3.0; ``rig import`` of a tiny file peaks at about
+150 MB: interpreter, numpy, pandas; 50 MB measured by hand the same way):
 
     file      rows      before: wall   peak RSS     after: wall   peak RSS   s/MB   steps
-    20 MB     0.64 M          16.0 s     619 MB           11.4 s     190 MB   0.55     26
+    20 MB     0.64 M          16.0 s     619 MB           14.2 s     190 MB   0.68     26
     50 MB     1.6 M           49.1 s    1386 MB           23.9 s     199 MB   0.46     26
-    200 MB    6.5 M          200.7 s    5287 MB          160.7 s     204 MB   0.75     26
-    1 GB      32 M      (about 27 GB)                    641.8 s     390 MB*  0.59     26
+    200 MB    6.5 M          200.7 s    5287 MB           87.0 s     204 MB   0.41     26
+    1 GB      32 M      not run (about 27 GB)            264.4 s     206 MB   0.24     26
 
-(*while the session writer was being changed in the same work tree: see the figures' commit.)
+The machine was shared (load 6 to 9 on 2 cores): times vary by a factor of two from run to run; the
+memory does not. Before, 1 GB was not run: 26 times the file, more than the machine's 24 GB.
 
 Before: the whole file read at once (its text, a list of rows, the parsed arrays, the session's rows as
 text: about 800 bytes a row), then the whole session loaded again to try the follow-up commands. After:
@@ -33,7 +36,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import os
 import shutil
 import subprocess
 import sys
@@ -52,18 +54,25 @@ def _generator():
     return module
 
 
+#: a small process that runs the command given and prints its children's peak RSS (kB) as its last line: the
+#: import is started from it, not from this process, whose own peak a child's ru_maxrss would include (a
+#: child started by vfork, as subprocess does, takes its parent's high-water mark with it through exec)
+MEASURE = ("import resource, subprocess, sys\n"
+           "code = subprocess.call(sys.argv[1:])\n"
+           "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)\n"
+           "sys.exit(code)\n")
+
+
 def run_import(src: Path, out: Path) -> tuple[float, float, str]:
     """``rig import --from csv SRC -o OUT`` in a subprocess: wall time (s), peak RSS (MB), its output."""
     t0 = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "rig.cli", "import", "--from", "csv", str(src), "-o", str(out)],
-                            cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    text = proc.stdout.read()
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
+    proc = subprocess.run([sys.executable, "-c", MEASURE, sys.executable, "-m", "rig.cli", "import", "--from", "csv",
+                           str(src), "-o", str(out)], cwd=REPO, capture_output=True, text=True)
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
-        raise SystemExit(f"rig import failed ({proc.returncode}):\n{text}")
-    return wall, usage.ru_maxrss / 1024.0, text
+        raise SystemExit(f"rig import failed ({proc.returncode}):\n{proc.stdout}{proc.stderr}")
+    text, peak_kb = proc.stdout.rstrip("\n").rsplit("\n", 1)
+    return wall, int(peak_kb) / 1024.0, text
 
 
 def main(argv=None) -> int:

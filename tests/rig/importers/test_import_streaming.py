@@ -246,8 +246,11 @@ def test_a_killed_import_leaves_no_session_and_the_next_import_removes_its_parti
     proc = _rig("import", "--from", "csv", src, "-o", out)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:  # kill -9 once the session is being written
-        if any(p.stat().st_size > 1 << 20 for p in out.glob("**/samples.csv")):
-            break
+        try:
+            if any(p.stat().st_size > 1 << 20 for p in out.glob("**/samples.csv")):
+                break
+        except OSError:  # a directory or file renamed or removed while looked at
+            pass
         time.sleep(0.02)
     assert proc.poll() is None, "the import ended before it could be killed"
     proc.send_signal(signal.SIGKILL)
