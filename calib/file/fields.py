@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 from typing import Annotated, Any, ClassVar, NamedTuple
 
 import numpy as np
@@ -117,6 +118,21 @@ def _finite(v) -> bool:
         return False
 
 
+#: a decimal number in exponent form: ``1e3``, ``1.0e9``, ``-2.5E-3``, ``.5e2``. YAML 1.1 (PyYAML's resolver)
+#: reads a float only with a dot and a signed exponent (``1.0e+9``), so these arrive as strings; a field that
+#: expects a number takes them as the number they write (no underscores, no hex, no inf or nan: those are not
+#: numbers people write by accident, and stay refused)
+_EXPONENT_FORM = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+\Z")
+
+
+def as_number(v):
+    """``v`` as a number field reads it: a string in exponent form (:data:`_EXPONENT_FORM`) becomes its float,
+    anything else is ``v`` unchanged. The one place that decides which strings are numbers."""
+    if isinstance(v, str) and len(v) <= 64 and _EXPONENT_FORM.match(v):
+        return float(v)
+    return v
+
+
 def number(*, gt=None, ge=None, lt=None, le=None, integer=False, positive=False, nonneg=False,
            optional=False, allow_nan=False, null_is_nan=False, finite=True, keep_type=False, too_big: str | None = None,
            in_range: bool = False, description: str | None = None):
@@ -126,7 +142,9 @@ def number(*, gt=None, ge=None, lt=None, le=None, integer=False, positive=False,
     ``null_is_nan``: NaN in memory, null in the file. ``finite=False``: infinities and NaN too. ``keep_type``: an int stays an int and a float a
     float (a file read and written again is unchanged; the JSON Schema is pydantic's for ``float | int``).
     ``too_big``: message template for ``le`` (``{le}``, ``{got}``); ``in_range``: one message
-    ``expected a number in [ge, le]`` for every failure.
+    ``expected a number in [ge, le]`` for every failure. A string in exponent form (``1.0e9``: YAML 1.1 leaves
+    it a string) is the number it writes (:func:`as_number`) and meets the same bounds; a message shows it as
+    written (``expected <= 86400, got 1.0e9``).
     """
     gt = 0 if positive and gt is None else gt
     ge = 0 if nonneg and ge is None else ge
@@ -135,23 +153,25 @@ def number(*, gt=None, ge=None, lt=None, le=None, integer=False, positive=False,
     def check(v):
         if v is None and (optional or null_is_nan):
             return float("nan") if null_is_nan else None
+        written, v = v, as_number(v)
+        shown = written if v is not written else got(v)  # as the file writes it: 1.0e9, not '1.0e9'
         if (allow_nan or null_is_nan) and _real(v) and not isinstance(v, numbers.Integral) and math.isnan(v):
             return float("nan")
         ok_type = _real(v) and (_finite(v) or not finite)
         if in_range and not (ok_type and ge <= v <= le):
-            raise fail(f"expected a number in [{fmt(ge)}, {fmt(le)}], got {got(v)}")
+            raise fail(f"expected a number in [{fmt(ge)}, {fmt(le)}], got {shown}")
         if not ok_type:
-            raise fail(f"expected a {kind}, got {got(v)}")
+            raise fail(f"expected a {kind}, got {shown}")
         if integer and not isinstance(v, numbers.Integral) and not float(v).is_integer():
-            raise fail(f"expected a whole number, got {got(v)}")  # (float(2**63 - 1) != 2**63 - 1)
+            raise fail(f"expected a whole number, got {shown}")  # (float(2**63 - 1) != 2**63 - 1)
         if gt is not None and v <= gt:
-            raise fail(f"expected a number > {fmt(gt)}, got {got(v)}")
+            raise fail(f"expected a number > {fmt(gt)}, got {shown}")
         if ge is not None and v < ge:
-            raise fail(f"expected >= {fmt(ge)}, got {got(v)}")
+            raise fail(f"expected >= {fmt(ge)}, got {shown}")
         if lt is not None and v >= lt:
-            raise fail(f"expected < {fmt(lt)}, got {got(v)}")
+            raise fail(f"expected < {fmt(lt)}, got {shown}")
         if le is not None and v > le:
-            raise fail((too_big or "expected <= {le}, got {got}").format(le=f"{fmt(le)}", got=got(v)))
+            raise fail((too_big or "expected <= {le}, got {got}").format(le=f"{fmt(le)}", got=shown))
         if keep_type:
             return v
         return int(v) if integer else float(v)

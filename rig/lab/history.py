@@ -197,6 +197,8 @@ def calibration_row(session_dir, calibration_path, *, sensor_id=None, verdict=No
     already; each is read from disk only when not given."""
     manifest = manifest if manifest is not None else _read_manifest(session_dir)
     cal = calibration if calibration is not None else calfile.read(calibration_path)
+    if verdict is None and cal.acceptance is not None:  # the verdict the file states (rig history --record)
+        verdict = "PASS" if cal.acceptance["passed"] else "FAIL"
     sensor = sensor_identity(manifest, cal, sensor_id)
     fit = cal.accelerometer.fit
     temps = temperatures(manifest)
@@ -218,29 +220,70 @@ def calibration_row(session_dir, calibration_path, *, sensor_id=None, verdict=No
     }
 
 
-def _insert(conn: sqlite3.Connection, row: dict) -> int:
+#: what makes two records the same calibration: the row's columns but when it was recorded or solved and where
+#: the files are (``rig solve`` twice of one session writes the same numbers at another ``created`` time)
+SAME_RECORD = ("sensor_key", "session_id", "procedure_name", "procedure_sha256", "rig", "software_version",
+               "temp_mean_c", "temp_min_c", "temp_max_c", "model", "method", "steps", "residual_rms_g",
+               "chi2_per_dof", "verdict")
+
+
+class Stored(tuple):
+    """``(row id, sensor key)`` of a record; ``already``: the calibration was recorded before (that row's id)."""
+
+    already: bool
+
+    def __new__(cls, cid: int, key: str, already: bool = False) -> "Stored":
+        out = super().__new__(cls, (cid, key))
+        out.already = already
+        return out
+
+
+def _recorded(conn: sqlite3.Connection, c: dict, parameters) -> int | None:
+    """The id of a row that holds this calibration already (same session, sensor, fit and parameters), or None.
+    A session without an id is never taken for another."""
+    if c.get("session_id") is None:
+        return None
+    want = sorted((str(n), v, s, u) for n, v, s, u in parameters)
+    rows = conn.execute(f"SELECT id FROM calibrations WHERE {' AND '.join(f'{k} IS ?' for k in SAME_RECORD)} "
+                        "ORDER BY id", tuple(c.get(k) for k in SAME_RECORD)).fetchall()
+    for (cid,) in rows:
+        have = conn.execute("SELECT name, value, sigma, unit FROM parameters WHERE calibration_id = ? ORDER BY name",
+                            (cid,)).fetchall()
+        if [tuple(r) for r in have] == want:
+            return cid
+    return None
+
+
+def _insert(conn: sqlite3.Connection, row: dict) -> Stored:
+    """Insert ``row`` (inside the caller's transaction), unless the history holds the same calibration already:
+    a record is idempotent (``rig history --record`` or ``rig solve`` twice of one session adds one row), a
+    re-solve that differs is a row of its own."""
     s = row["sensor"]
+    c = {"sensor_key": s["key"], **row["calibration"]}
+    same = _recorded(conn, c, row["parameters"])
+    if same is not None:
+        return Stored(same, s["key"], already=True)
     conn.execute("INSERT OR IGNORE INTO sensors (sensor_key, model, address, identity, serial, first_seen) "
                  "VALUES (?, ?, ?, ?, ?, ?)", (s["key"], s["model"], s["address"], s["identity"], s["serial"],
                                                row["calibration"]["recorded_at"]))
-    c = {"sensor_key": s["key"], **row["calibration"]}
     cur = conn.execute(f"INSERT INTO calibrations ({', '.join(c)}) VALUES ({', '.join('?' * len(c))})",
                        tuple(c.values()))
     cid = cur.lastrowid
     conn.executemany("INSERT INTO parameters (calibration_id, name, value, sigma, unit) VALUES (?, ?, ?, ?, ?)",
                      [(cid, *p) for p in row["parameters"]])
-    return cid
+    return Stored(cid, s["key"])
 
 
 def store_calibration(session_dir, calibration_path, *, history=None, sensor_id=None, verdict=None,
                       timeout_s: float = BUSY_TIMEOUT_S, manifest: dict | None = None,
-                      calibration=None) -> tuple[int, str]:
-    """Record one calibration; returns (row id, sensor key). Raises HistoryError, RigInputError, CalibError.
-    ``manifest``, ``calibration``: as :func:`calibration_row`."""
+                      calibration=None) -> Stored:
+    """Record one calibration; returns (row id, sensor key), a :class:`Stored` whose ``already`` says the
+    history held this calibration of this session before (nothing was added: the row's id). Raises
+    HistoryError, RigInputError, CalibError. ``manifest``, ``calibration``: as :func:`calibration_row`."""
     row = calibration_row(session_dir, calibration_path, sensor_id=sensor_id, verdict=verdict, manifest=manifest,
                           calibration=calibration)
     with open_history(history, timeout_s=timeout_s) as h:
-        return h.write(_insert, row), row["sensor"]["key"]
+        return h.write(_insert, row)
 
 
 def record_calibration(session_dir, calibration_path, *, history=None, sensor_id: str | None = None,
@@ -261,7 +304,8 @@ def record_calibration(session_dir, calibration_path, *, history=None, sensor_id
 
     Returns
     -------
-    None when recorded, else a one-line warning (``history not recorded: ...``) for the caller to print;
+    None when recorded (or recorded before: the same calibration of the same session is one row), else a
+    one-line warning (``history not recorded: ...``) for the caller to print;
     the run's own result stands and nothing already stored is lost.
     """
     try:

@@ -116,8 +116,8 @@ def step_means(session: Session, include=None) -> StepMeans:
     rows = _StepRows(session.samples["step"], idx)
     for i, (lo, hi) in zip(idx, rows.spans):
         if hi - lo < 2:
-            raise SessionFormatError(str(session.path / "samples.csv"), None, f"step {i}",
-                                     f"step {i + 1} is marked complete but has {hi - lo} samples")
+            raise SessionFormatError(str(session.path / "samples.csv"), None, f"step {i + 1} (index {i} in samples.csv)",
+                                     f"marked complete in session.yaml but has {hi - lo} samples")
     a = session.samples["accel_counts"][rows.rows].astype(float)
     blocks = [a[lo:hi] for lo, hi in rows.spans]
     t = session.samples["t_s"][rows.rows]
@@ -184,7 +184,7 @@ def _step_temperatures(session: Session, rows: _StepRows, idx: list[int]) -> np.
         k = int(np.argmax(bad))
         i = next(i for i, (lo, hi) in zip(idx, rows.spans) if lo <= k < hi)
         raise SessionFormatError(str(session.path / "samples.csv"), int(rows.rows[k]) + 2,
-                                 "temp_c", f"step {i + 1} has rows without a temperature")
+                                 "temp_c", f"step {i + 1} (index {i} in samples.csv) has rows without a temperature")
     return np.array([float(np.mean(tc[lo:hi])) for lo, hi in rows.spans])
 
 
@@ -204,8 +204,9 @@ def rate_step_means(session: Session, accel=None) -> RateStepMeans:
         g = session.samples["gyro_counts"][rows].astype(float)
         fs.append(_mean_specific_force(session, rows, accel))
         if len(g) < 2 or not np.all(np.isfinite(g)):
-            raise SessionFormatError(str(session.path / "samples.csv"), None, f"step {st.index}",
-                                     f"rate step {st.index + 1} has no usable gyroscope samples")
+            raise SessionFormatError(str(session.path / "samples.csv"), None,
+                                     f"step {st.index + 1} (index {st.index} in samples.csv)",
+                                     "a rate step without usable gyroscope samples")
         if st.rate_nominal_dps is None:
             raise SessionFormatError(str(session.path / "session.yaml"), None, f"steps[{st.index}].rate_nominal_dps",
                                      "a rate step needs its nominal body rate [x, y, z]")

@@ -180,7 +180,7 @@ def check_against_manifest(path: Path, info: SessionManifest, samples: dict) -> 
     for step in info.steps:
         n = step.stats.n_samples if step.stats is not None else None
         if step.status in ("complete", "flagged") and n is not None and int(counts[step.index]) != int(n):
-            raise SessionFormatError(str(path), None, f"step {step.index + 1}",
+            raise SessionFormatError(str(path), None, f"step {step.index + 1} (index {step.index} in samples.csv)",
                                      f"{int(counts[step.index])} rows, but the manifest recorded {int(n)} samples "
                                      "(rows duplicated or lost)")
     check_poses(path, info, samples, counts)
@@ -240,8 +240,8 @@ def check_poses(path: Path, info: SessionManifest, samples: dict, counts: np.nda
         angle = float(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
         if angle > MAX_POSE_ANGLE_DEG:
             along = np.round(mean / norm, 2).tolist() if norm > 0 else [0, 0, 0]
-            raise SessionFormatError(str(path), None, f"step {st.index + 1}",
-                                     f"the data of step {st.index + 1} ({st.label}) read gravity along {along}, "
+            raise SessionFormatError(str(path), None, f"step {st.index + 1} (index {st.index} in samples.csv)",
+                                     f"the data of {st.label} read gravity along {along}, "
                                      f"{angle:.0f} deg from its pose's f_nominal {np.round(f, 3).tolist()} "
                                      f"(session.yaml; at most {MAX_POSE_ANGLE_DEG:g} deg for a sensor at rest): "
                                      "columns swapped or sign-flipped, or a mislabelled pose")
@@ -499,7 +499,8 @@ def _check(text: _Body, col: dict[str, np.ndarray], n_steps: int | None) -> None
         if bad.any():
             k = int(np.argmax(bad))
             raise SessionFormatError(path, text.line_of(k), "step",
-                                     f"step {step[k]:.0f} is not in the manifest (0..{n_steps - 1})")
+                                     f"index {step[k]:.0f} is no step of the manifest (its {n_steps} steps are "
+                                     f"indices 0..{n_steps - 1}: step 1 is index 0)")
 
 
 def _arrays(col: dict[str, np.ndarray]) -> dict:

@@ -35,8 +35,11 @@ def session(recorded):
 def test_history_record_list_show_json_plot(session, tmp_path, capsys, monkeypatch):
     db = tmp_path / "h.sqlite"
     monkeypatch.setenv("RIG_HISTORY", str(db))
-    for _ in range(3):
+    for _ in range(3):  # one calibration recorded three times: one row
         assert main(["history", "--record", str(session)]) == 0
+    alt = tmp_path / "full.yaml"  # a re-solve that differs (recorded by rig solve): a row of its own
+    assert main(["solve", str(session), "-o", str(alt), "--model", "full"]) == 0
+    assert main(["history", "--record", str(session), "--calibration", str(alt)]) == 0  # recorded already
     assert main(["history", "--record", str(session), "--sensor-id", "SN-42"]) == 0
     capsys.readouterr()
     assert main(["history"]) == 0
@@ -44,7 +47,7 @@ def test_history_record_list_show_json_plot(session, tmp_path, capsys, monkeypat
     assert "MPU-9150@0x68#0x68/sim-seed-3" in listing and "MPU-9150:SN-42" in listing
     assert main(["history", "sim-seed-3", "--plot", str(tmp_path / "h.png")]) == 0
     table = capsys.readouterr().out
-    assert "3 calibration(s)" in table and "accel.bias_x (counts)" in table and "(+0.0s)" in table
+    assert "2 calibration(s)" in table and "accel.bias_x (counts)" in table and "(+0.0s)" in table
     assert (tmp_path / "h.png").stat().st_size > 10_000
     assert main(["history", "SN-42", "--json", "--history", str(db)]) == 0
     doc = json.loads(capsys.readouterr().out)
@@ -87,4 +90,9 @@ def test_every_run_and_solve_is_recorded_in_the_history(recorded, tmp_path, monk
     capsys.readouterr()
     assert main(["history", "--json"]) == 0
     listing = json.loads(capsys.readouterr().out)
-    assert [s["n"] for s in listing["sensors"]] == [2]
+    assert [s["n"] for s in listing["sensors"]] == [1]  # the same calibration of the same session: one row
+    assert main(["solve", str(recorded["session"]), "-o", str(tmp_path / "full.yaml"), "--model", "full"]) == 0
+    capsys.readouterr()
+    assert main(["history", "--json"]) == 0
+    listing = json.loads(capsys.readouterr().out)
+    assert [s["n"] for s in listing["sensors"]] == [2]  # a re-solve that differs: both

@@ -161,7 +161,7 @@ def test_torn_last_line_is_dropped_and_said(tmp_path):
 
 @pytest.mark.parametrize("edit,expect", [
     (lambda d: (d / "samples.csv").write_text((d / "samples.csv").read_text() + "0.5,1,nan,2,3,25,0,0,0\n"), "ax: expected a number"),
-    (lambda d: (d / "samples.csv").write_text((d / "samples.csv").read_text() + "0.5,7,1,2,3,25,0,0,0\n"), "step 7 is not in the manifest"),
+    (lambda d: (d / "samples.csv").write_text((d / "samples.csv").read_text() + "0.5,7,1,2,3,25,0,0,0\n"), "index 7 is no step of the manifest"),
     (lambda d: (d / "samples.csv").write_text((d / "samples.csv").read_text() + "0.5,1,1.5,2,3,25,0,0,0\n"), "raw counts must be integers"),
     (lambda d: (d / "samples.csv").write_text((d / "samples.csv").read_text() + "0.5,1,abc,2,3,25,0,0,0\n"), "samples.csv:12"),
     (lambda d: (d / "session.yaml").write_text((d / "session.yaml").read_text().replace("rig-session/1", "rig-session/7")), "format: expected 'rig-session/1'"),

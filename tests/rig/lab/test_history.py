@@ -47,17 +47,18 @@ def _record(session, db, **kw):
     assert warning is None, warning
 
 
-def test_five_calibrations_round_trip(seed3, tmp_path):
+def test_calibrations_round_trip(seed3, tmp_path):
     db = tmp_path / "h.sqlite"
-    for _ in range(5):
+    for _ in range(5):  # one calibration recorded five times: one row (a record is idempotent)
         _record(seed3, db)
+    _record(seed3, db, verdict="PASS")  # the same numbers with a verdict: a record of its own
     cal = calfile.read(seed3 / "calibration.yaml")
     with open_history(db) as h:
         (sensor,) = list_sensors(h)
-        assert sensor["sensor_key"] == "MPU-9150@0x68#0x68/sim-seed-3" and sensor["n"] == 5
+        assert sensor["sensor_key"] == "MPU-9150@0x68#0x68/sim-seed-3" and sensor["n"] == 2
         assert h.query("SELECT MAX(version) FROM schema_version")[0][0] == SCHEMA_VERSION
         records = sensor_history(h, sensor["sensor_key"])
-    assert len(records) == 5
+    assert len(records) == 2
     r = records[-1]
     a = cal.accelerometer
     for j, x in enumerate("xyz"):
@@ -94,8 +95,8 @@ WRITER = textwrap.dedent("""
     import sys
     from rig.lab import store_calibration
     session, db = sys.argv[1], sys.argv[2]
-    for _ in range(15):
-        store_calibration(session, session + "/calibration.yaml", history=db, sensor_id=sys.argv[3])
+    for k in range(15):  # 15 different records (a verdict each: the same one twice would be one row)
+        store_calibration(session, session + "/calibration.yaml", history=db, sensor_id=sys.argv[3], verdict=f"V{k}")
 """)
 
 
@@ -150,7 +151,7 @@ def test_a_locked_database_gives_one_line_and_loses_nothing(seed3, tmp_path):
         holder.close()
     with open_history(db) as h:
         assert [s["n"] for s in list_sensors(h)] == [1]
-    _record(seed3, db)
+    _record(seed3, db, verdict="PASS")
     with open_history(db) as h:
         assert [s["n"] for s in list_sensors(h)] == [2]
 

@@ -57,12 +57,12 @@ def test_a_step_recorded_twice_is_refused(recorded, tmp_path):
     def duplicate_step_2(lines):
         rows = [ln for ln in lines[1:] if ln.split(",")[1] == "1"]
         return lines + rows
-    with pytest.raises(SessionFormatError, match="step 2: 2000 rows, but the manifest recorded 1000"):
+    with pytest.raises(SessionFormatError, match=r"step 2 \(index 1 in samples.csv\): 2000 rows, but the manifest recorded 1000"):
         load_session(_copy(recorded, tmp_path, duplicate_step_2))
 
 
 def test_a_step_whose_rows_are_gone_is_refused(recorded, tmp_path):
-    with pytest.raises(SessionFormatError, match="step 6: 0 rows"):
+    with pytest.raises(SessionFormatError, match=r"step 6 \(index 5 in samples.csv\): 0 rows"):
         load_session(_copy(recorded, tmp_path, lambda lines: [ln for ln in lines if ln.split(",")[1] != "5"]))
 
 

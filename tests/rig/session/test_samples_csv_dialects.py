@@ -122,7 +122,7 @@ def _replace_cell(path, line: int, column: str, value: str, crlf: bool = False) 
     ("ax", "12.25", "ax: raw counts must be integers"),
     ("az", "", "az: expected a number, got an empty field or NaN"),
     ("ay", "x1", "ay: expected a number, got 'x1'"),
-    ("step", "9", "step: step 9 is not in the manifest (0..5)"),
+    ("step", "9", "step: index 9 is no step of the manifest (its 6 steps are indices 0..5: step 1 is index 0)"),
 ])
 @pytest.mark.parametrize("crlf", [False, True])
 def test_bad_cells_are_refused_with_file_line_and_column(recorded, tmp_path, column, value, expect, crlf):

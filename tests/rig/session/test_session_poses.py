@@ -73,21 +73,21 @@ def test_ax_and_ay_swapped_under_an_unchanged_header_is_refused_naming_the_first
                                                                                                     tmp_path):
     msg = _refused(_copy(recorded, tmp_path, samples=_swap))
     # six_position: +Z up, +X up, ...: step 2 is the first whose gravity is not along z
-    assert msg.startswith(f"{tmp_path / 's' / 'samples.csv'}: step 2: the data of step 2 (+X up) read gravity "
-                          "along ["), msg
+    assert msg.startswith(f"{tmp_path / 's' / 'samples.csv'}: step 2 (index 1 in samples.csv): the data of +X up "
+                          "read gravity along ["), msg
     assert re.search(r"along \[-?0\.0\d, 1\.0, -?0\.0\d\], (8\d|9\d) deg from its pose's f_nominal \[1\.0, 0\.0, 0\.0\]", msg)
 
 
 def test_a_sign_flipped_axis_is_refused(recorded, tmp_path):
     msg = _refused(_copy(recorded, tmp_path, samples=_negate))
-    assert "step 1: the data of step 1 (+Z up)" in msg and re.search(r"1[78]\d deg", msg), msg
+    assert "step 1 (index 0 in samples.csv): the data of +Z up" in msg and re.search(r"1[78]\d deg", msg), msg
 
 
 def test_poses_swapped_in_the_manifest_are_refused(recorded, tmp_path):
     def swap(doc):
         doc["steps"][0]["f_nominal"], doc["steps"][2]["f_nominal"] = [0, 0, -1], [0, 0, 1]
     msg = _refused(_copy(recorded, tmp_path, manifest=swap))
-    assert "samples.csv: step 1:" in msg and "f_nominal [0.0, 0.0, -1.0]" in msg, msg
+    assert "samples.csv: step 1 (index 0 in samples.csv):" in msg and "f_nominal [0.0, 0.0, -1.0]" in msg, msg
 
 
 def test_an_f_nominal_that_is_not_one_g_is_refused(recorded, tmp_path):
@@ -111,7 +111,7 @@ def test_evaluate_and_solve_refuse_swapped_columns_with_one_line(recorded, tmp_p
     assert main(["evaluate", str(recorded / "calibration.yaml"), str(d)]) == 2
     assert main(["solve", str(d), "-o", str(tmp_path / "c.yaml")]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
-    assert len(lines) == 2 and all("samples.csv: step 2:" in line for line in lines), lines
+    assert len(lines) == 2 and all("samples.csv: step 2 (index 1 in samples.csv):" in line for line in lines), lines
 
 
 def test_the_untouched_session_loads_and_every_step_agrees_with_its_pose(recorded):
@@ -121,7 +121,7 @@ def test_the_untouched_session_loads_and_every_step_agrees_with_its_pose(recorde
 def test_a_torn_last_line_in_a_finished_step_is_rows_lost(recorded, tmp_path):
     d = _copy(recorded, tmp_path)
     (d / "samples.csv").write_bytes((d / "samples.csv").read_bytes()[:-7])
-    assert "step 6: 999 rows, but the manifest recorded 1000 samples (rows duplicated or lost)" in _refused(d)
+    assert "step 6 (index 5 in samples.csv): 999 rows, but the manifest recorded 1000 samples (rows duplicated or lost)" in _refused(d)
 
 
 def test_a_torn_last_line_in_the_step_in_progress_is_dropped_with_a_warning(recorded, tmp_path):
