@@ -1,10 +1,13 @@
-"""A fast subset of the adversarial campaign (`benchmarks/bench_adversarial.py`) as a regression test.
+"""A fast subset of the adversarial campaign (`benchmarks/adversarial/`, run by `benchmarks/bench_adversarial.py`)
+as a regression test.
 
-Thirty-five representative bad (and valid-but-odd) inputs across procedures, rig files, sessions, calibration
-files, imports and options, each classified exactly as the campaign does (exit 2 with one stderr line naming
-the input, no traceback, no silent wrong number; exit 0 and the clean calibration for BOM/CRLF; exit 0 with a
-warning for a torn line of the step in progress), one of each class fixed since, plus one kill -9 then
---resume trial and one concurrent-resume trial.
+Forty-one representative bad (and valid-but-odd) inputs across procedures, rig files, sessions, calibration
+files, imports, options, output paths, names and damaged discover documents, each classified exactly as the
+campaign does (exit 2 with one stderr line naming the input, no traceback, no silent wrong number; exit 0 and the
+clean calibration for BOM/CRLF; exit 0 with a warning for a torn line of the step in progress), one of each class
+fixed since, plus one kill -9 then
+--resume trial and one concurrent-resume trial, each signalled mid-step (a trial that could not signal is "not
+tried", and fails here).
 Only inputs the campaign handles correctly today are listed; the rest are in the campaign's report.
 
 The campaign runs each input as ``python -m rig.cli ...``; here the inputs, the clean session and the
@@ -18,7 +21,6 @@ run killed with SIGKILL and the two concurrent resumes (a lock held by another p
 from __future__ import annotations
 
 import contextlib
-import importlib.util
 import io
 import os
 import random
@@ -35,10 +37,9 @@ from rig.cli import main
 
 from conftest import REPO
 
-_spec = importlib.util.spec_from_file_location("bench_adversarial", REPO / "benchmarks" / "bench_adversarial.py")
-bench = importlib.util.module_from_spec(_spec)
-sys.modules["bench_adversarial"] = bench
-_spec.loader.exec_module(bench)
+sys.path.insert(0, str(REPO / "benchmarks"))
+from adversarial import campaign, concurrency, runner, signals  # the campaign's package, by path
+from adversarial.workspace import Workspace
 
 #: (family, case name) of the campaign's inputs
 SMOKE = [
@@ -78,6 +79,13 @@ SMOKE = [
     ("import", "csv: a symlink loop"),
     ("samples.csv", "torn last line inside a finished step (rows lost) [solve]"),
     ("samples.csv", "torn last line in the step in progress (aborted session) [solve]"),
+    # one of each attack class added with the package (issue 34 item 9)
+    ("procedure", "dwell.seconds = 1.0e9 (exponent form)"),
+    ("output path", "solve -o: a FIFO nobody reads"),
+    ("output path", "export -o: a symbolic link to a file elsewhere"),
+    ("output path", "its own input: apply -o its calibration"),
+    ("names", "step names with $ and backticks: rig run (report: true)"),
+    ("discover.json", "truncated [report]"),
 ]
 
 
@@ -108,11 +116,11 @@ def _time_limit(seconds: float, on_expiry):
 
 @contextlib.contextmanager
 def _as_the_campaigns_subprocess():
-    """The campaign's subprocess conditions in this process: its environment (``bench.rig_env``: its own
+    """The campaign's subprocess conditions in this process: its environment (``runner.rig_env``: its own
     history, no RIG_DEBUG), its working directory, no standard input, and warnings filtered as
     ``PYTHONWARNINGS=default`` filters them in a fresh interpreter (changing the filters resets every
     module's record of warnings already shown, so each input starts as a fresh process would)."""
-    env = bench.rig_env()
+    env = runner.rig_env()
     saved = {k: os.environ.get(k) for k in ("RIG_HISTORY", "RIG_DEBUG")}
     cwd, stdin = os.getcwd(), sys.stdin
     try:
@@ -134,8 +142,8 @@ def _as_the_campaigns_subprocess():
                 os.environ[k] = v
 
 
-def rig_in_process(*args, timeout: float = bench.TIMEOUT_S, stdin=None):
-    """``bench.rig`` in this process: (exit code or None when the time limit ran out, stdout, stderr, s).
+def rig_in_process(*args, timeout: float = runner.TIMEOUT_S, stdin=None):
+    """``runner.rig`` in this process: (exit code or None when the time limit ran out, stdout, stderr, s).
     An exception that escapes ``main`` is printed as the interpreter would print it (a traceback); a
     command stopped by the time limit keeps the output it had written by then, as a killed process does."""
     out, err = io.StringIO(), io.StringIO()
@@ -156,16 +164,15 @@ def rig_in_process(*args, timeout: float = bench.TIMEOUT_S, stdin=None):
 @pytest.fixture(scope="module")
 def ws(tmp_path_factory):
     """The campaign's workspace (a clean six-position session and its calibration); every ``rig`` command of
-    the campaign's code runs in this process (``bench.rig`` replaced for this module), except the runs it
-    starts itself with ``bench.start_run`` to signal or to race (subprocesses, as they must be)."""
+    the campaign's code runs in this process (``runner.rig`` replaced for this module), except the runs it
+    starts itself with ``runner.start_run`` to signal or to race (subprocesses, as they must be)."""
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(bench, "rig", rig_in_process)
-        yield bench.Workspace(tmp_path_factory.mktemp("adversarial"))
+        mp.setattr(runner, "rig", rig_in_process)
+        yield Workspace(tmp_path_factory.mktemp("adversarial"))
 
 
 def _all_cases(ws):
-    return (bench.procedure_cases(ws) + bench.rig_cases(ws) + bench.session_cases(ws, random.Random(0), False)
-            + bench.calibration_cases(ws, False) + bench.import_cases(ws) + bench.option_cases(ws))
+    return campaign.input_cases(ws, random.Random(0), False)
 
 
 def test_representative_bad_inputs_are_refused_with_one_line(ws):
@@ -174,7 +181,7 @@ def test_representative_bad_inputs_are_refused_with_one_line(ws):
         by_key.setdefault((c.family, c.name), c)
     missing = [k for k in SMOKE if k not in by_key]
     assert not missing, f"campaign cases renamed or gone: {missing}"
-    results = [bench.run_case(by_key[k]) for k in SMOKE]  # in this process: one at a time
+    results = [runner.run_case(by_key[k]) for k in SMOKE]  # in this process: one at a time
     bad = [f"{c.family}: {c.name}: {c.result['category']} {c.result.get('why', '')} (exit {c.result['code']}: "
            f"{c.result['first']}) $ {c.command()}" for c in results if c.result["category"] != "correct"]
     assert not bad, "\n".join(bad)
@@ -182,11 +189,11 @@ def test_representative_bad_inputs_are_refused_with_one_line(ws):
 
 @pytest.mark.realtime
 def test_kill_9_then_resume_keeps_every_step_exactly_once(ws, tmp_path):
-    c = bench.signal_trial(tmp_path, 0, signal.SIGKILL, 9.0, ws.ref)
+    c = signals.signal_trial(tmp_path, 0, signal.SIGKILL, ws.ref, step=2, into_s=1.0)
     assert c.result["category"] == "correct", (c.result, c.command())
 
 
 @pytest.mark.realtime
 def test_concurrent_resumes_one_proceeds_the_other_names_the_holder(ws, tmp_path):
-    c = bench.concurrent_resume_trial(tmp_path, 0, 8.0, ws.ref)
+    c = concurrency.concurrent_resume_trial(tmp_path, 0, ws.ref, step=1, into_s=1.0)
     assert c.result["category"] == "correct", (c.result, c.command())
