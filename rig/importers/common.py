@@ -153,6 +153,24 @@ class Spool:
             fh.close()
 
 
+class Spools:
+    """Where an import's spools go (``directory``): each made by :meth:`new`, all closed by :meth:`close`
+    (also when the import fails half-way)."""
+
+    def __init__(self, directory: Path) -> None:
+        self.directory = Path(directory)
+        self._made: list[Spool] = []
+
+    def new(self, columns: dict[str, int]) -> Spool:
+        spool = Spool(self.directory, columns)
+        self._made.append(spool)
+        return spool
+
+    def close(self) -> None:
+        for spool in self._made:
+            spool.close()
+
+
 def diffs(spool: Spool, name: str = "t") -> Callable[[], Iterator[np.ndarray]]:
     """The differences of consecutive values of column ``name`` (as ``np.diff`` of the whole column),
     chunk by chunk, each time the returned function is called."""

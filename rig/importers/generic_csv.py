@@ -20,7 +20,7 @@ import numpy as np
 
 from calib.numerics.static_detect import StaticDetector
 from rig.errors import RigInputError
-from rig.importers.common import (COUNTS_PER_G_EQUIVALENT, G_MS2, ImportedStep, Increasing, Recording, Runs, Spool,
+from rig.importers.common import (COUNTS_PER_G_EQUIVALENT, G_MS2, ImportedStep, Increasing, Recording, Runs, Spools,
                                   Table, diffs, exact_median, open_text, read_line)
 from rig.planning.kinematics import f_nominal
 from rig.planning.poses import POSE_NAMES, pose_angles_deg
@@ -57,7 +57,7 @@ def counts_per_g(path: Path, meta: dict[str, str]) -> float:
     return lsb
 
 
-def read_csv(path: Path, spool_dir: Path, g_ms2: float = G_MS2, **_) -> Recording:
+def read_csv(path: Path, spools: Spools, g_ms2: float = G_MS2, **_) -> Recording:
     """Generic CSV: comment lines, then a header with ``t_s, ax, ay, az`` and optional ``temp_c``, ``label``."""
     with open_text(path) as fh:
         comments, line = [], read_line(path, fh, 1)
@@ -68,7 +68,7 @@ def read_csv(path: Path, spool_dir: Path, g_ms2: float = G_MS2, **_) -> Recordin
         units, lsb = meta.get("units", "counts"), counts_per_g(path, meta)
         table = Table(path, fh, line, skip + 1, ["t_s", "ax", "ay", "az"], ",", splitlines=True)
         has_temp, has_label = "temp_c" in table.header, "label" in table.header
-        spool = Spool(spool_dir, {"t": 1, "acc": 3, **({"temp": 1} if has_temp else {})})
+        spool = spools.new({"t": 1, "acc": 3, **({"temp": 1} if has_temp else {})})
         increasing, runs = Increasing(), Runs(path, "label")
         numeric = ["t_s", "ax", "ay", "az"] + (["temp_c"] if has_temp else [])
         for b in table.blocks(numeric, ["label"] if has_label else []):

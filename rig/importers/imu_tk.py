@@ -11,7 +11,7 @@ import numpy as np
 
 from calib.numerics.static_detect import StaticDetector
 from rig.errors import RigInputError
-from rig.importers.common import (G_MS2, ImportedStep, Increasing, Recording, Spool, diffs, exact_median, open_text,
+from rig.importers.common import (G_MS2, ImportedStep, Increasing, Recording, Spools, diffs, exact_median, open_text,
                                   text_blocks)
 
 XSENS_COUNTS_PER_MS2 = 415.0  # the Xsens datasheet figure
@@ -61,8 +61,8 @@ def _exact(path: Path, block: str, line: int) -> tuple[np.ndarray, np.ndarray]:
     return np.array(lines, np.int64), np.array(rows, np.float64).reshape(-1, 4)
 
 
-def read_imu_tk(path: Path, spool_dir: Path, g_ms2: float = G_MS2, **_) -> Recording:
-    spool = Spool(spool_dir, {"t": 1, "acc": 3})
+def read_imu_tk(path: Path, spools: Spools, g_ms2: float = G_MS2, **_) -> Recording:
+    spool = spools.new({"t": 1, "acc": 3})
     increasing = Increasing()
     with open_text(path) as fh:
         for line, block in text_blocks(path, fh, 1):

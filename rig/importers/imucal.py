@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from rig.errors import RigInputError
-from rig.importers.common import G_MS2, ImportedStep, Recording, Runs, Spool, Table, open_text, read_line
+from rig.importers.common import G_MS2, ImportedStep, Recording, Runs, Spools, Table, open_text, read_line
 
 IMUCAL_POSES = {"x_p": [1, 0, 0], "x_a": [-1, 0, 0], "y_p": [0, 1, 0], "y_a": [0, -1, 0], "z_p": [0, 0, 1],
                 "z_a": [0, 0, -1]}
@@ -20,10 +20,10 @@ RATE_HZ = 204.8
 COLUMNS = ["part", "samples", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
 
 
-def read_imucal(path: Path, spool_dir: Path, g_ms2: float = G_MS2, **_) -> Recording:
+def read_imucal(path: Path, spools: Spools, g_ms2: float = G_MS2, **_) -> Recording:
     with open_text(path) as fh:
         table = Table(path, fh, read_line(path, fh, 1), 1, COLUMNS, ",")
-        spool = Spool(spool_dir, {"t": 1, "acc": 3, "gyro": 3})
+        spool = spools.new({"t": 1, "acc": 3, "gyro": 3})
         runs = Runs(path, "part")
         for b in table.blocks(COLUMNS[1:], ["part"]):
             d = b.numbers

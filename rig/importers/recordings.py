@@ -31,8 +31,8 @@ from typing import Callable
 
 from rig.config.yamlload import SymlinkLoop
 from rig.errors import RigInputError
-from rig.importers.common import (COUNTS_PER_G_EQUIVALENT, G_MS2, MAX_STEPS, ImportedStep, Recording, StepSummary,
-                                  check_recording, summarize)
+from rig.importers.common import (COUNTS_PER_G_EQUIVALENT, G_MS2, MAX_STEPS, ImportedStep, Recording, Spools,
+                                  StepSummary, check_recording, summarize)
 from rig.importers.generic_csv import read_csv
 from rig.importers.imu_tk import read_imu_tk
 from rig.importers.imucal import IMUCAL_POSES, IMUCAL_ROTATIONS, read_imucal
@@ -71,7 +71,7 @@ def import_recording(source: str, src, sessions_root, session_id: str | None = N
     work = Work(root, sid, source, path)
     done = False
     try:
-        rec = READERS[source](path, work.dir / "spool", g_ms2=g_ms2, window_s=window_s)
+        rec = READERS[source](path, work.spools, g_ms2=g_ms2, window_s=window_s)
         if not rec.steps:
             raise RigInputError(str(path), None, None, "no steps found in the recording")
         if len(rec.steps) > MAX_STEPS:
@@ -80,7 +80,7 @@ def import_recording(source: str, src, sessions_root, session_id: str | None = N
         summaries = summarize(rec)
         check_recording(path, rec, summaries)
         session = write_session(rec, summaries, import_manifest(rec, path, sid, g_ms2), work.dir)
-        rec.spool.close()
+        work.spools.close()
         _move_into_place(session, final)
         done = True
     finally:
@@ -144,8 +144,10 @@ class Work:
         self._lock.write(json.dumps({"id": sid, "source": source, "file": str(path.resolve()), "pid": os.getpid(),
                                      "since": datetime.now(timezone.utc).isoformat(timespec="seconds")}))
         self._lock.flush()
+        self.spools = Spools(self.dir / "spool")
 
     def remove(self) -> None:
+        self.spools.close()
         shutil.rmtree(self.dir, ignore_errors=True)
         self._lock.close()
 

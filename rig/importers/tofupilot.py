@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from rig.errors import RigInputError
-from rig.importers.common import (COUNTS_PER_G_EQUIVALENT, G_MS2, ImportedStep, Increasing, Recording, Spool, Table,
+from rig.importers.common import (COUNTS_PER_G_EQUIVALENT, G_MS2, ImportedStep, Increasing, Recording, Spools, Table,
                                   diffs, exact_median, open_text, read_line)
 
 COLUMNS = ["timestamp", "imu.acc.x", "imu.acc.y", "imu.acc.z", "imu.temperature"]
@@ -19,10 +19,10 @@ COLUMNS = ["timestamp", "imu.acc.x", "imu.acc.y", "imu.acc.z", "imu.temperature"
 UNITS = {1.0: "s", 1e-3: "ms", 1e-6: "us", 1e-9: "ns"}
 
 
-def read_tofupilot(path: Path, spool_dir: Path, g_ms2: float = G_MS2, window_s: float = 120.0, **_) -> Recording:
+def read_tofupilot(path: Path, spools: Spools, g_ms2: float = G_MS2, window_s: float = 120.0, **_) -> Recording:
     with open_text(path) as fh:
         table = Table(path, fh, read_line(path, fh, 1), 1, COLUMNS, "\t")
-        spool = Spool(spool_dir, {"t": 1, "acc": 3, "temp": 1})
+        spool = spools.new({"t": 1, "acc": 3, "temp": 1})
         increasing = Increasing()
         for b in table.blocks(COLUMNS):
             d = b.numbers
