@@ -21,6 +21,18 @@ NO_DATASETS = f"shared datasets not found at {DATASETS}"
 SIX_FACES_STEPS = "".join(f'  - pose: "{face}"\n' for face in ("+Z up", "+X up", "-Z up", "-X up", "+Y up", "-Y up"))
 
 
+def unseal(session_dir) -> Path:
+    """Remove a recorded session's seal (docs/session-format.md, "Seal"). A test that rewrites a session's files
+    to stand for a session written by another tool, by hand, or left unfinished makes what those are: a session
+    without a seal (a sealed session whose files changed is refused on load, naming what changed)."""
+    path = Path(session_dir) / "session.yaml"
+    text = path.read_text(encoding="utf-8")
+    at = text.find("\nseal:\n")
+    if at >= 0:
+        path.write_text(text[:at + 1], encoding="utf-8")
+    return Path(session_dir)
+
+
 def pytest_configure(config):
     """Every solve records into a calibration history (docs/history.md): the tests' go into a
     database of their own, never the user's (subprocesses inherit the variable). Simulated rigs whose

@@ -53,6 +53,9 @@ MIGRATIONS: list[tuple[int, list[str]]] = [
                PRIMARY KEY (calibration_id, name))""",
         "CREATE INDEX calibrations_by_sensor ON calibrations(sensor_key, calibrated_at)",
     ]),
+    # the session's seal (docs/session-format.md, "Seal") as JSON: the recording this calibration was solved from,
+    # as it was made; NULL for a session recorded before sealing existed or solved before it was sealed
+    (2, ["ALTER TABLE calibrations ADD COLUMN seal TEXT"]),
 ]
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 
@@ -215,6 +218,7 @@ def calibration_row(session_dir, calibration_path, *, sensor_id=None, verdict=No
             "temp_mean_c": temps[0], "temp_min_c": temps[1], "temp_max_c": temps[2],
             "model": cal.accelerometer.model, "method": fit.method, "steps": fit.steps,
             "residual_rms_g": _fnum(fit.residual_rms_g), "chi2_per_dof": _fnum(fit.chi2_per_dof), "verdict": verdict,
+            "seal": seal_json(manifest),
         },
         "parameters": sensor_parameters(cal),
     }
@@ -314,4 +318,55 @@ def record_calibration(session_dir, calibration_path, *, history=None, sensor_id
     except Exception as exc:  # noqa: BLE001 - the contract: a history problem never breaks a run
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
         return f"history not recorded: {first}"
+    return record_seal(session_dir, history=history, timeout_s=timeout_s, manifest=manifest)
+
+
+# ---------------------------------------------------------------------------------------------- seals
+
+def seal_json(manifest: dict) -> str | None:
+    """The session's ``seal`` (docs/session-format.md, "Seal") as the history stores it: JSON, keys sorted; None
+    when the session has none. A session analysed under ``RIG_UNSEALED=1`` whose seal does not match carries
+    ``broken`` (the reader's line) in it."""
+    seal = manifest.get("seal")
+    return json.dumps(seal, sort_keys=True, default=str) if isinstance(seal, dict) else None
+
+
+def record_seal(session_dir, *, history=None, timeout_s: float = BUSY_TIMEOUT_S, manifest: dict | None = None) -> str | None:
+    """Give the history rows of a session recorded before it was sealed its seal: ``rig run`` solves (and
+    records) before it marks the session complete, which seals it. The rows of this session (its directory and
+    id) without a seal get the manifest's seal; a seal that did not match (``broken``) is never copied onto
+    them. **Never raises**, like :func:`record_calibration`: None when done or nothing to do, else a one-line
+    warning. ``manifest``: the session's manifest when the caller holds it (else session.yaml is read)."""
+    try:
+        manifest = manifest if manifest is not None else _read_manifest(session_dir)
+        seal = manifest.get("seal")
+        p = default_path(history)
+        if not isinstance(seal, dict) or "broken" in seal or not p.exists():
+            return None
+        with open_history(p, timeout_s=timeout_s, create=False) as h:
+            h.write(lambda conn: conn.execute(
+                "UPDATE calibrations SET seal = ? WHERE session_path = ? AND session_id IS ? AND seal IS NULL",
+                (seal_json(manifest), str(Path(session_dir).resolve()), manifest.get("id"))))
+    except Exception as exc:  # noqa: BLE001 - the contract: a history problem never breaks a run
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        return f"history seal not recorded: {first}"
     return None
+
+
+def recorded_seals(session_id: str, *, history=None, timeout_s: float = BUSY_TIMEOUT_S) -> list[dict]:
+    """The seals the history holds for session ``session_id``: ``{"recorded_at", "seal"}`` per row with one
+    (``rig verify`` compares them with the session's). Empty when there is no history database."""
+    p = default_path(history)
+    if not p.exists():
+        return []
+    with open_history(p, timeout_s=timeout_s, create=False) as h:
+        rows = h.query("SELECT recorded_at, seal FROM calibrations WHERE session_id = ? AND seal IS NOT NULL "
+                       "ORDER BY id", (session_id,))
+    out = []
+    for r in rows:
+        try:
+            seal = json.loads(r["seal"])
+        except ValueError:
+            seal = None
+        out.append({"recorded_at": r["recorded_at"], "seal": seal if isinstance(seal, dict) else None})
+    return out

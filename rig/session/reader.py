@@ -27,6 +27,7 @@ from rig.config.yamlload import SymlinkLoop
 from rig.errors import RigInputError, SessionFormatError
 from rig.session import adapter
 from rig.session.manifest import BASE_COLUMNS, OPTIONAL_COLUMNS, SessionManifest, StepRecord
+from rig.session.seal import verify_on_load
 
 if TYPE_CHECKING:  # type hints only
     from rig.config.procedure import Procedure
@@ -113,12 +114,14 @@ class Session:
 
 
 def load_session(path) -> Session:
-    """Load and validate a session directory (manifest, samples; events are not needed to solve)."""
+    """Load and validate a session directory (manifest, samples; events are not needed to solve). A sealed
+    session is checked against its seal after the format checks (:func:`rig.session.seal.verify_on_load`): one
+    that differs is refused (``RIG_UNSEALED=1``: loaded with a warning, its id marked ``.SEAL-BROKEN``)."""
     d = Path(path)
     for p, expected in ((d, "a session directory"), (d / "session.yaml", "session.yaml"),
                         (d / "samples.csv", "samples.csv")):
         refuse_symlink_loop(p, expected)
-    info, _ = SessionManifest.load(d)
+    info, doc = SessionManifest.load(d)
     check_sensor(d / "session.yaml", info)
     samples, warnings = read_samples(d / "samples.csv", n_steps=len(info.steps))
     check_against_manifest(d / "samples.csv", info, samples)
@@ -127,7 +130,9 @@ def load_session(path) -> Session:
         if len(t) and not np.any(np.isfinite(t)):
             raise SessionFormatError(str(d / "samples.csv"), 1, "temp_c",
                                      "the manifest says the sensor has a thermometer, but there are no temperatures")
-    return Session(d, info, samples, warnings)
+    # sealed: the recording as made, else refused naming the file and step (RIG_UNSEALED=1: loaded, marked, warned)
+    unsealed = verify_on_load(d, info, doc)
+    return Session(d, info, samples, unsealed + warnings)
 
 
 def read_events(session_dir) -> list[dict]:

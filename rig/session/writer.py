@@ -22,6 +22,7 @@ from rig.errors import SessionFormatError
 from rig.session.manifest import (BASE_COLUMNS, FORMAT, STATUSES, STEP_STATUSES, SessionManifest, as_manifest,
                                   validate_session_id,
                                   utc_now)
+from rig.session.seal import link_step, seal_session
 
 _DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml when present: 10x faster
 DEFAULT_COLUMNS = BASE_COLUMNS + ("a1_deg", "a2_deg", "a3_deg")
@@ -164,6 +165,7 @@ class SessionWriter:
             raise ValueError(f"unknown step status {status!r}")
         self._samples.flush()
         os.fsync(self._samples.fileno())
+        stats = link_step(self.session_dir, self.info, index, stats)  # the step's link in the chain (rig.session.seal)
         self.info.samples_committed_bytes = os.path.getsize(self.session_dir / "samples.csv")
         step = self.info.steps[index]
         step.status = status
@@ -185,6 +187,8 @@ class SessionWriter:
         self._write_manifest()
         if status != "running":
             self.close()
+        if status == "complete":
+            seal_session(self.session_dir)  # the whole record sealed (rig.session.seal)
 
     def close(self) -> None:
         for fh in (self._samples, self._events):

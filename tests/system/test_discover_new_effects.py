@@ -23,7 +23,7 @@ import yaml
 from rig.analysis.discover import discover_session, format_report
 from rig.cli import main
 
-from conftest import PROCEDURES, RIGS
+from conftest import PROCEDURES, RIGS, unseal
 
 SEED = 5
 CUBIC = 2e-6  # g/C^3
@@ -88,7 +88,7 @@ def _add_sin_a1_bias(src: Path, dst: Path, amp_g: float) -> Path:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    return dst
+    return unseal(dst)  # edited data: no longer the sealed recording (docs/session-format.md, "Seal")
 
 
 @pytest.mark.parametrize("effect, truth", [("bias_jump", [JUMP[0]] * 3), ("bias_tempco_cubic", [CUBIC] * 3)])

@@ -175,6 +175,7 @@ def _edited_copy(session: Path, dest: Path, edit) -> Path:
     shutil.copytree(session, dest, ignore=shutil.ignore_patterns("session.lock"))
     doc = yaml.safe_load((dest / "session.yaml").read_text())
     edit(doc)
+    doc.pop("seal", None)  # changed by hand: no longer the sealed recording (docs/session-format.md, "Seal")
     (dest / "session.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
     return dest
 

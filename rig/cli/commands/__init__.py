@@ -26,6 +26,7 @@ COMMANDS: dict[str, str] = {
     "export": "export a calibration file to PX4, ArduPilot, imucal or plain JSON",
     "report": "one self-contained HTML report of a session: verdict, parameters, residuals, roll/pitch table, "
               "discrepancy, history",
+    "verify": "check a session against its seal: the recording as made, or where it differs",
 }
 
 
@@ -57,6 +58,8 @@ def load(name: str) -> ModuleType:
         from rig.cli.commands import export as module
     elif name == "report":
         from rig.cli.commands import report as module
+    elif name == "verify":
+        from rig.cli.commands import verify as module
     else:
         raise KeyError(f"no rig command {name!r}")
     return module

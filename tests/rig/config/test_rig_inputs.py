@@ -13,7 +13,7 @@ from rig.config.procedure import load_procedure, load_procedure_text
 from rig.config.rigfile import parse_rig_file
 from rig.session import SessionWriter, load_session, validate_session_id
 
-from conftest import PROCEDURES, RIGS
+from conftest import PROCEDURES, RIGS, unseal
 
 GOOD = """format: rig-procedure/1
 name: p
@@ -152,7 +152,7 @@ def test_session_round_trip(tmp_path):
 
 
 def test_torn_last_line_is_dropped_and_said(tmp_path):
-    d = _session(tmp_path)
+    d = unseal(_session(tmp_path))  # a torn line past a seal is refused: this stands for a session without one
     with open(d / "samples.csv", "a") as fh:
         fh.write("0.1,1,5,5")
     s = load_session(d)
@@ -177,7 +177,7 @@ def test_damaged_sessions_are_refused_with_a_located_line(tmp_path, edit, expect
 
 
 def test_extra_columns_in_any_order_are_accepted(tmp_path):
-    d = _session(tmp_path)
+    d = unseal(_session(tmp_path))  # another tool's columns: a session without a seal
     rows = (d / "samples.csv").read_text().splitlines()
     header = rows[0].split(",")
     order = [5, 0, 4, 3, 2, 1, 6, 7, 8]

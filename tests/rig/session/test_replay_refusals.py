@@ -26,6 +26,7 @@ def _replay_refusal(recorded, tmp_path, capsys, edit) -> tuple[str, str]:
     shutil.copytree(recorded, d)
     doc = yaml.safe_load((d / "session.yaml").read_text())
     edit(doc)
+    doc.pop("seal", None)  # changed by hand: no longer the sealed recording (docs/session-format.md, "Seal")
     (d / "session.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
     assert main(["replay", str(d), "--out", str(tmp_path / "out")]) == 2
     lines = capsys.readouterr().err.strip().splitlines()

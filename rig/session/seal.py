@@ -1,0 +1,474 @@
+"""Sealed sessions: a session is the recording as it was made, or it says where it is not (docs/session-format.md, "Seal").
+
+A lab record must show that it is the recording as made (ISO/IEC 17025 7.5, 7.11). Three pieces:
+
+- **each step** (:func:`link_step`, called by :meth:`rig.session.SessionWriter.complete_step` once the step's rows are
+  fsynced): the bytes appended to ``samples.csv`` since the previous step, and the lines appended to
+  ``events.jsonl``, are hashed (SHA-256) and chained over the steps, ``h_i = sha256(h_{i-1} || rows_i)``; the
+  link goes into the step's ``stats`` (``sha256``, ``samples_bytes`` [start, end], ``events_sha256``,
+  ``events_bytes`` [start, end]), written with the step. O(rows): only the step's own bytes are read, once.
+- **at completion** (:func:`seal_session`, called by :meth:`~rig.session.SessionWriter.set_status` ``("complete")``,
+  so an import that ends complete is sealed too): the whole raw record (``samples.csv`` read once in chunks,
+  ``events.jsonl`` as it is at completion, the manifest's content) is sealed into a top-level ``seal:`` mapping
+  appended to ``session.yaml`` (a key the manifest model keeps as it is).
+- **on every read** (:func:`verify_on_load`, called by :func:`rig.session.load_session`): a sealed session whose
+  files differ from its seal is refused with one line naming the file and the first step that differs; under
+  ``RIG_UNSEALED=1`` (research: analysing edited data on purpose) it loads with a warning, and its id becomes
+  ``ID.SEAL-BROKEN`` so that everything written from it (calibration file, history row, report, replay)
+  says so. A session without a seal (recorded before sealing existed; still running or aborted) loads as before.
+
+``rig verify SESSION`` (:func:`verify_session`) checks a session without loading it.
+
+The seal detects a change; it does not authenticate: whoever can edit the files can compute new hashes.
+The history database keeps a copy of each solved session's seal (``calibrations.seal``): a session sealed
+again after an edit no longer matches the seal recorded when it was solved.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from calib.file.calibration import atomic_write_text
+from rig.config.yamlload import read_source
+from rig.errors import SessionFormatError
+from rig.session.manifest import MAX_BYTES, SessionManifest, load_yaml, utc_now
+
+ALGORITHM = "sha256"
+#: the version of the seal's construction (the first line of what its ``sha256`` hashes)
+SEAL_FORMAT = "rig-seal/1"
+#: the analysis mode: a session whose seal does not match loads anyway, with a warning, marked
+UNSEALED_ENV = "RIG_UNSEALED"
+#: appended to the id of a session analysed under RIG_UNSEALED=1 whose seal does not match (id characters only)
+BROKEN_MARK = ".SEAL-BROKEN"
+NOT_SEALED = "not sealed (recorded before sealing existed, or unfinished)"
+#: hex digits of each manifest part's digest in ``seal.parts`` (they locate an edit; manifest_sha256 detects it)
+PART_HEX = 16
+_CHUNK = 1 << 20
+_FILES = ("samples.csv", "events.jsonl")
+_HEX = frozenset("0123456789abcdef")
+
+
+class SealBroken(SessionFormatError):
+    """A session differs from its seal (or from a step's recorded hash): one line naming the file, the line
+    and the step or manifest key. ``file`` is the file's name."""
+
+    def __init__(self, path: Path, line, key, message: str) -> None:
+        self.file = Path(path).name
+        super().__init__(str(path), line, key, message)
+
+
+def unsealed_mode() -> bool:
+    """``RIG_UNSEALED=1``: analyse a session whose seal does not match (with a warning, marked)."""
+    return os.environ.get(UNSEALED_ENV, "").strip() not in ("", "0")
+
+
+# ------------------------------------------------------------------------------------------------ writing
+
+def link_step(session_dir, info: SessionManifest, index: int, stats: dict) -> dict:
+    """The step's ``stats`` with its link in the chain added (for :meth:`SessionWriter.complete_step`, once the
+    step's rows are fsynced): ``samples_bytes`` [start, end] and ``sha256`` = sha256(previous link || the bytes
+    of samples.csv since the previous link), the same for events.jsonl (``events_bytes``, ``events_sha256``).
+    The previous link is the latest recorded by another step (a step recorded again is chained once, after the
+    others); the first link chains from the header line (samples) and from the empty file (events)."""
+    d = Path(session_dir)
+    prev = _last_link([(s.index, s.stats.model_extra if s.stats is not None else None) for s in info.steps],
+                      exclude=index)
+    out = dict(stats or {})
+    for name, key, start_key in ((_FILES[0], "sha256", "samples_bytes"), (_FILES[1], "events_sha256", "events_bytes")):
+        path = d / name
+        with open(path, "rb") as fh:
+            if prev is not None:
+                start, head = int(prev[start_key][1]), bytes.fromhex(prev[key])
+            else:
+                start = len(fh.readline()) if name == _FILES[0] else 0  # the header line: the chain's origin
+                fh.seek(0)
+                head = hashlib.sha256(fh.read(start)).digest()
+            end = os.fstat(fh.fileno()).st_size
+            fh.seek(start)
+            h = hashlib.sha256(head)
+            _copy(fh, end - start, h)
+        out[start_key], out[key] = [start, end], h.hexdigest()
+    return out
+
+
+def seal_session(session_dir, *, source_sha256: str | None = None) -> dict:
+    """Seal a completed session: append ``seal:`` to ``session.yaml`` (atomically) and return it.
+
+    ``seal``: ``algorithm`` (sha256), ``sha256`` (of the whole record: the lines below, see
+    :func:`seal_digest`), ``sealed_at``, ``samples_sha256`` and ``samples_bytes`` (samples.csv), ``chain`` (the last
+    step's link), ``events_sha256`` and ``events_bytes`` (events.jsonl at completion), ``manifest_sha256`` (the
+    manifest's content without the seal, :func:`manifest_digest`), ``source_sha256`` (an import: the source file's
+    SHA-256, from ``source_sha256``, else the manifest's ``import.source_sha256``, else an import's
+    ``procedure.sha256``) and ``parts`` (short digests of each top-level key and step, to name what changed).
+    A session sealed already keeps its seal (a seal is never replaced)."""
+    d = Path(session_dir)
+    path = d / "session.yaml"
+    # read once: the text kept, the seal appended. The writer has compacted the manifest (a steps journal folded in
+    # and removed) before it seals: this is the content every reader folds and checks (SessionManifest.load)
+    text = read_source(path, "session manifest", "missing", MAX_BYTES)
+    doc = load_yaml(text, str(path))
+    if not isinstance(doc, dict):
+        raise SessionFormatError(str(path), None, None, "expected a mapping")
+    if isinstance(doc.get("seal"), dict):
+        return doc["seal"]
+    seal: dict = {"algorithm": ALGORITHM, "sha256": None, "sealed_at": utc_now()}
+    for name, prefix in zip(_FILES, ("samples", "events")):
+        h = hashlib.sha256()
+        with open(d / name, "rb") as fh:
+            n = _copy(fh, None, h)
+        seal[f"{prefix}_sha256"], seal[f"{prefix}_bytes"] = h.hexdigest(), n
+        if prefix == "samples":
+            last = _last_link(_doc_steps(doc))
+            seal["chain"] = last["sha256"] if last is not None else None
+    seal["manifest_sha256"] = manifest_digest(doc)
+    source = source_sha256 or _source_sha256(doc)
+    if source:
+        seal["source_sha256"] = str(source)
+    seal["parts"] = manifest_parts(doc)
+    seal["sha256"] = seal_digest(seal)
+    sep = "" if text.endswith("\n") else "\n"
+    atomic_write_text(path, text + sep + yaml.safe_dump({"seal": seal}, sort_keys=False, width=1000))
+    return seal
+
+
+def _source_sha256(doc: dict) -> str | None:
+    imp = doc.get("import")
+    if not isinstance(imp, dict):
+        return None
+    proc = doc.get("procedure") if isinstance(doc.get("procedure"), dict) else {}
+    return imp.get("source_sha256") or proc.get("sha256")
+
+
+# ------------------------------------------------------------------------------------------------ digests
+
+def canonical(value) -> bytes:
+    """The canonical bytes of a manifest value: JSON, keys sorted, no spaces, ASCII (``\\uXXXX`` escapes: a lone
+    surrogate a hand-edited manifest may hold is bytes too)."""
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=True, default=str).encode("ascii")
+
+
+def manifest_digest(doc: dict) -> str:
+    """SHA-256 of the manifest's content (the mapping ``session.yaml`` holds, without ``seal``), canonical JSON."""
+    return hashlib.sha256(canonical({k: v for k, v in doc.items() if k != "seal"})).hexdigest()
+
+
+def manifest_parts(doc: dict) -> dict:
+    """Short digests (:data:`PART_HEX` hex digits) of each top-level key of the manifest but the seal, and of each
+    step (``steps``: a list): what :func:`verify_session` names when the manifest differs."""
+    parts = {}
+    for key, value in doc.items():
+        if key == "seal":
+            continue
+        if key == "steps" and isinstance(value, list):
+            parts[key] = [_short(v) for v in value]
+        else:
+            parts[key] = _short(value)
+    return parts
+
+
+def _short(value) -> str:
+    return hashlib.sha256(canonical(value)).hexdigest()[:PART_HEX]
+
+
+def seal_digest(seal: dict) -> str:
+    """The seal's ``sha256``: SHA-256 of these lines (UTF-8, each ending in a newline), ``-`` for a value absent::
+
+        rig-seal/1
+        samples.csv SAMPLES_BYTES SAMPLES_SHA256
+        chain CHAIN
+        events.jsonl EVENTS_BYTES EVENTS_SHA256
+        session.yaml MANIFEST_SHA256
+        parts SHA256_OF_CANONICAL_PARTS
+        source SOURCE_SHA256
+        sealed_at SEALED_AT
+    """
+    def v(key):
+        x = seal.get(key)
+        return "-" if x is None else str(x)
+    lines = [SEAL_FORMAT, f"samples.csv {v('samples_bytes')} {v('samples_sha256')}", f"chain {v('chain')}",
+             f"events.jsonl {v('events_bytes')} {v('events_sha256')}", f"session.yaml {v('manifest_sha256')}",
+             f"parts {hashlib.sha256(canonical(seal.get('parts'))).hexdigest()}", f"source {v('source_sha256')}",
+             f"sealed_at {v('sealed_at')}"]
+    return hashlib.sha256(("\n".join(lines) + "\n").encode("utf-8")).hexdigest()
+
+
+# ------------------------------------------------------------------------------------------------ checking
+
+@dataclass
+class Verified:
+    """What :func:`verify_session` found intact: ``sealed`` (False: no seal; the chained steps were checked),
+    ``seal`` (the mapping, or None), ``steps`` (how many steps' links were checked)."""
+
+    sealed: bool
+    seal: dict | None
+    steps: int
+
+
+def verify_session(session_dir, doc: dict | None = None) -> Verified:
+    """Check a session against its seal, or (no seal) its recorded steps against their links.
+
+    In this order, the first difference is one :class:`SealBroken` line naming the file and the step or key:
+    the seal's own fields (their ``sha256``), the manifest (``session.yaml: steps[3]: ...``), samples.csv step
+    by step (``samples.csv:2: step 1: ...``; rows added or removed after the seal), events.jsonl step by step.
+    ``doc``: the manifest as read (:meth:`SessionManifest.load`), when the caller has it."""
+    d = Path(session_dir)
+    if doc is None:
+        _, doc = SessionManifest.load(d)
+    seal = doc.get("seal")
+    if seal is not None:
+        _check_seal_fields(d / "session.yaml", seal)
+        _check_manifest(d / "session.yaml", doc, seal)
+    steps = _doc_steps(doc)
+    links = _links(d / "samples.csv", steps)
+    _check_file(d, _FILES[0], links, "sha256", "samples_bytes", seal, doc)
+    _check_file(d, _FILES[1], links, "events_sha256", "events_bytes", seal, doc)
+    return Verified(seal is not None, seal, len(links))
+
+
+def verify_on_load(session_dir, info: SessionManifest, doc: dict) -> list[str]:
+    """For :func:`rig.session.load_session`: nothing for a session without a seal; a sealed session that differs
+    from its seal is refused (:class:`SealBroken`), or, under ``RIG_UNSEALED=1``, loads marked: its id becomes
+    ``ID.SEAL-BROKEN`` (what is written from it says so) and its seal gets ``broken`` (the history row keeps it);
+    the returned warning says so."""
+    if "seal" not in doc:
+        return []
+    try:
+        verify_session(session_dir, doc)
+    except SealBroken as exc:
+        if not unsealed_mode():
+            raise
+        seal = doc["seal"] if isinstance(doc["seal"], dict) else {"value": doc["seal"]}
+        info.seal = {**seal, "broken": str(exc)}
+        info.id = f"{info.id}{BROKEN_MARK}"
+        return [f"{exc} -- analysed anyway ({UNSEALED_ENV}=1): not the recording as made; everything written from "
+                f"it is marked as session {info.id}"]
+    return []
+
+
+def _check_seal_fields(path: Path, seal) -> None:
+    if not isinstance(seal, dict):
+        raise SealBroken(path, None, "seal", "expected the seal mapping written at completion; the seal was changed")
+    if seal.get("algorithm") != ALGORITHM:
+        raise SealBroken(path, None, "seal.algorithm", f"expected {ALGORITHM!r}, got {seal.get('algorithm')!r}")
+    for key in ("sha256", "samples_sha256", "events_sha256", "manifest_sha256"):
+        if not _is_hex(seal.get(key)):
+            raise SealBroken(path, None, f"seal.{key}", "expected a SHA-256 (64 hex digits); the seal was changed")
+    for key in ("samples_bytes", "events_bytes"):
+        if isinstance(seal.get(key), bool) or not isinstance(seal.get(key), int) or seal[key] < 0:
+            raise SealBroken(path, None, f"seal.{key}", "expected a byte count; the seal was changed")
+    if seal_digest(seal) != seal["sha256"]:
+        raise SealBroken(path, None, "seal", "the seal's fields do not match its sha256: the seal was changed "
+                         "after the recording was sealed")
+
+
+def _check_manifest(path: Path, doc: dict, seal: dict) -> None:
+    if manifest_digest(doc) == seal["manifest_sha256"]:
+        return
+    sealed = seal.get("parts") if isinstance(seal.get("parts"), dict) else None
+    if sealed is None:
+        raise SealBroken(path, None, None, "the manifest differs from the seal (edited after the recording was sealed)")
+    now = manifest_parts(doc)
+    for key in list(sealed) + [k for k in now if k not in sealed]:
+        if key not in now:
+            raise SealBroken(path, None, key, "removed after the recording was sealed (the seal has it)")
+        if key not in sealed:
+            raise SealBroken(path, None, key, "added after the recording was sealed (the seal does not have it)")
+        a, b = sealed[key], now[key]
+        if a == b:
+            continue
+        if key == "steps" and isinstance(a, list) and isinstance(b, list):
+            for i in range(min(len(a), len(b))):
+                if a[i] != b[i]:
+                    raise SealBroken(path, None, f"steps[{i}]", f"the record of {_label(doc, i)} differs from the seal "
+                                     "(the manifest was edited after the recording was sealed)")
+            raise SealBroken(path, None, "steps", f"{len(b)} steps, the seal recorded {len(a)}")
+        raise SealBroken(path, None, key, "differs from the seal (the manifest was edited after the recording was "
+                         "sealed)")
+    raise SealBroken(path, None, None, "the manifest differs from the seal (edited after the recording was sealed)")
+
+
+def _check_file(d: Path, name: str, links: list, key: str, range_key: str, seal, doc: dict) -> None:
+    """One file, link by link (then, sealed, its whole bytes): the first difference as a SealBroken."""
+    path = d / name
+    sealed = isinstance(seal, dict)
+    what = "rows" if name == _FILES[0] else "events"
+    if not path.is_file():
+        if not sealed and not links:
+            return
+        raise SealBroken(path, None, None, "missing: the sealed recording had it")
+    whole = hashlib.sha256()
+    line = 1
+    with open(path, "rb") as fh:
+        size = os.fstat(fh.fileno()).st_size
+        pos, head = 0, None
+        for index, stats in links:
+            start, end = (int(x) for x in stats[range_key])
+            step = _key(name, index)
+            if head is None:
+                lines = _Lines()
+                origin = _read(fh, start, lines, whole)
+                if len(origin) != start:
+                    raise SealBroken(path, 1, step, f"the file is shorter ({size} bytes) than the sealed recording")
+                if name == _FILES[0] and not _header_ok(origin, doc):
+                    raise SealBroken(path, 1, "header", "the header line differs from the recorded columns")
+                head, pos, line = hashlib.sha256(origin).digest(), start, line + lines.n
+            if start != pos:
+                raise SealBroken(path, None, step, f"the chain of {what} is broken before {_this(doc, index)}: its "
+                                 f"{what} start at byte {start}, the previous step's end at {pos}")
+            h = hashlib.sha256(head)
+            lines = _Lines(h)
+            got = _copy(fh, end - start, lines, whole)
+            if got != end - start:
+                raise SealBroken(path, line, step, f"the {what} of {_this(doc, index)} are cut short (the file ends at "
+                                 f"byte {size}, the step's {what} end at {end}): {_changed(sealed)}")
+            if h.hexdigest() != stats[key]:
+                raise SealBroken(path, line, step, f"the {what} of {_this(doc, index)} differ from {_what(sealed)}: "
+                                 f"{_changed(sealed)}")
+            head, pos, line = h.digest(), end, line + lines.n
+        if not sealed:
+            return
+        total = int(seal[f"{'samples' if name == _FILES[0] else 'events'}_bytes"])
+        last = _key(name, links[-1][0]) if links else None
+        after = "after the last step" if links else "of the file"
+        lines = _Lines()
+        rest = _copy(fh, max(total - pos, 0), lines, whole)
+        if pos + rest < total:
+            raise SealBroken(path, None, last, f"{total - pos - rest} bytes of the sealed {what} are missing at the "
+                             f"end ({after}): removed after the recording was sealed")
+        if whole.hexdigest() != seal[f"{'samples' if name == _FILES[0] else 'events'}_sha256"]:
+            raise SealBroken(path, line if links else None, last,
+                             f"the {what} {after} differ from the seal: {_changed(True)}")
+        if size > total:
+            line += lines.n
+            extra = fh.read(min(size - total, 64 * 1024))
+            step = _step_of(extra, doc) if name == _FILES[0] else _event_step(extra)
+            raise SealBroken(path, line, _key(name, step) if step is not None else last,
+                             f"{size - total} bytes of {what} added after the recording was sealed (the sealed file "
+                             f"ended at byte {total})")
+
+
+def _what(sealed: bool) -> str:
+    return "the seal" if sealed else "the hash recorded when the step was recorded"
+
+
+def _changed(sealed: bool) -> str:
+    return ("the recording was changed after it was sealed" if sealed else
+            "the recording was changed after the step was recorded")
+
+
+class _Lines:
+    """Counts newlines while passing bytes on to a hash (None: counting only)."""
+
+    def __init__(self, h=None) -> None:
+        self.h, self.n = h, 0
+
+    def update(self, chunk: bytes) -> None:
+        self.n += chunk.count(b"\n")
+        if self.h is not None:
+            self.h.update(chunk)
+
+
+def _copy(fh, n: int | None, *sinks) -> int:
+    """Read ``n`` bytes (None: to the end) from ``fh`` in chunks into each of ``sinks``; the number read."""
+    got = 0
+    while n is None or got < n:
+        chunk = fh.read(_CHUNK if n is None else min(_CHUNK, n - got))
+        if not chunk:
+            break
+        for s in sinks:
+            s.update(chunk)
+        got += len(chunk)
+    return got
+
+
+def _read(fh, n: int, *sinks) -> bytes:
+    data = fh.read(n)
+    for s in sinks:
+        s.update(data)
+    return data
+
+
+def _header_ok(origin: bytes, doc: dict) -> bool:
+    cols = doc.get("columns")
+    if not isinstance(cols, list) or b"\n" not in origin or origin.count(b"\n") != 1:
+        return True  # not the writer's header alone (rows recorded before sealing existed): the first link says
+    return origin == (",".join(map(str, cols)) + "\n").encode("utf-8")
+
+
+def _doc_steps(doc: dict) -> list[tuple[int, dict | None]]:
+    steps = doc.get("steps") if isinstance(doc.get("steps"), list) else []
+    return [(i, s.get("stats") if isinstance(s, dict) and isinstance(s.get("stats"), dict) else None)
+            for i, s in enumerate(steps)]
+
+
+def _is_link(stats) -> bool:
+    if not isinstance(stats, dict):
+        return False
+    for key, range_key in (("sha256", "samples_bytes"), ("events_sha256", "events_bytes")):
+        r = stats.get(range_key)
+        if not (_is_hex(stats.get(key)) and isinstance(r, list) and len(r) == 2
+                and all(isinstance(x, int) and not isinstance(x, bool) and x >= 0 for x in r) and r[0] <= r[1]):
+            return False
+    return True
+
+
+def _last_link(steps: list[tuple[int, dict | None]], exclude: int | None = None) -> dict | None:
+    """The stats of the step linked last (its samples end furthest), other than ``exclude``."""
+    best = None
+    for i, stats in steps:
+        if i != exclude and _is_link(stats) and (best is None or stats["samples_bytes"][1] >= best["samples_bytes"][1]):
+            best = stats
+    return best
+
+
+def _links(path: Path, steps: list[tuple[int, dict | None]]) -> list[tuple[int, dict]]:
+    """The linked steps in the order their rows were written."""
+    linked = [(i, s) for i, s in steps if _is_link(s)]
+    return sorted(linked, key=lambda x: (x[1]["samples_bytes"][0], x[1]["samples_bytes"][1]))
+
+
+def _label(doc: dict, index: int) -> str:
+    steps = doc.get("steps") if isinstance(doc.get("steps"), list) else []
+    name = steps[index].get("name") if index < len(steps) and isinstance(steps[index], dict) else None
+    return f"step {index + 1} ({name})" if name else f"step {index + 1}"
+
+
+def _key(name: str, index: int) -> str:
+    """How a refusal names a step: counted from 1, with the index samples.csv holds (docs/session-format.md)."""
+    return f"step {index + 1} (index {index} in samples.csv)" if name == _FILES[0] else f"step {index + 1}"
+
+
+def _this(doc: dict, index: int) -> str:
+    steps = doc.get("steps") if isinstance(doc.get("steps"), list) else []
+    name = steps[index].get("name") if index < len(steps) and isinstance(steps[index], dict) else None
+    return f"this step ({name})" if name else "this step"
+
+
+def _step_of(data: bytes, doc: dict) -> int | None:
+    """The step index of the first whole row in ``data`` (rows added after the seal), or None."""
+    cols = doc.get("columns")
+    line = data.split(b"\n", 1)[0].decode("utf-8", "replace").split(",")
+    if not isinstance(cols, list) or "step" not in cols or len(line) <= cols.index("step"):
+        return None
+    try:
+        return int(float(line[cols.index("step")]))
+    except ValueError:
+        return None
+
+
+def _event_step(data: bytes) -> int | None:
+    try:
+        step = json.loads(data.split(b"\n", 1)[0]).get("step")
+    except (ValueError, AttributeError):
+        return None
+    return step if isinstance(step, int) and not isinstance(step, bool) else None
+
+
+def _is_hex(v) -> bool:
+    return isinstance(v, str) and len(v) == 64 and set(v) <= _HEX
