@@ -138,13 +138,11 @@ def number(*, gt=None, ge=None, lt=None, le=None, integer=False, positive=False,
            in_range: bool = False, description: str | None = None):
     """A finite number (bool refused) within bounds; ``integer``: a whole number (2.0 is taken as 2).
 
-    ``positive``/``nonneg``: ``gt=0``/``ge=0``. ``optional``: null stays None. ``allow_nan``: NaN too.
-    ``null_is_nan``: NaN in memory, null in the file. ``finite=False``: infinities and NaN too. ``keep_type``: an int stays an int and a float a
-    float (a file read and written again is unchanged; the JSON Schema is pydantic's for ``float | int``).
-    ``too_big``: message template for ``le`` (``{le}``, ``{got}``); ``in_range``: one message
-    ``expected a number in [ge, le]`` for every failure. A string in exponent form (``1.0e9``: YAML 1.1 leaves
-    it a string) is the number it writes (:func:`as_number`) and meets the same bounds; a message shows it as
-    written (``expected <= 86400, got 1.0e9``).
+    ``positive``/``nonneg``: ``gt=0``/``ge=0``. ``optional``: null stays None. ``allow_nan``: NaN too. ``null_is_nan``:
+    NaN in memory, null in the file. ``finite=False``: infinities and NaN too. ``keep_type``: an int stays an int and a
+    float a float (the JSON Schema is pydantic's for ``float | int``). ``too_big``: message template for ``le``
+    (``{le}``, ``{got}``); ``in_range``: one message ``expected a number in [ge, le]``. A string in exponent form
+    (``1.0e9``: YAML 1.1 leaves it a string) is the number it writes (:func:`as_number`), shown as written.
     """
     gt = 0 if positive and gt is None else gt
     ge = 0 if nonneg and ge is None else ge
@@ -389,7 +387,8 @@ def describe(error, doc, lines=None, *, prefix: tuple = (), root: str = "") -> P
         message = "missing required field"
     else:
         message = _message(err)
-    return Problem(line, key_path(parts, root) or None, " ".join(message.split()))
+    # one line; a value's own spaces are kept (got '   ')
+    return Problem(line, key_path(parts, root) or None, re.sub(r"\s*\n\s*", " ", message).strip())
 
 
 _GENERIC = {
