@@ -2,7 +2,8 @@
 --resume``: corrupted copies of a real session's samples.csv and session.yaml (and seeded random cells), session
 folders that are not one, a torn line in the step in progress, samples scaled by a factor (then solved), a
 manifest whose ``samples_committed_bytes`` is 0 (then resumed), and a damaged ``rig discover`` document in the
-session folder (then reported)."""
+session folder (then reported). The copies are unsealed (:func:`~.workspace.unsealed`: they stand for sessions of
+an older rig or another tool, and attack the reader's own checks); ``sealed session`` changes sealed ones."""
 
 from __future__ import annotations
 
@@ -206,6 +207,7 @@ def cases(ws, rng: random.Random, quick: bool) -> list[Case]:
         out.append(session_case(ws, "samples.csv", "torn last line in the step in progress (aborted session)", d,
                                 "warn", cmd))
     out += scaled_samples(ws)
+    out += sealed_sessions(ws)
     out += resumes(ws)
     out += damaged_discover_documents(ws)
     return out
@@ -297,6 +299,24 @@ def scaled_samples(ws) -> list[Case]:
         for cmd in ("solve", "evaluate"):
             out.append(session_case(ws, "samples.csv (scaled)", f"accelerometer counts x{factor:g}", d,
                                     "refuse_or_warn", cmd))
+    return out
+
+
+def sealed_sessions(ws) -> list[Case]:
+    """A sealed session whose samples.csv changed: harmlessly (CRLF line endings, the same values) or so that it
+    still solves cleanly (every count x1.10): refused for the change, in one line naming the file."""
+    header, rows = csv_rows(ws.samples)
+    acc = [header.split(",").index(c) for c in ("ax", "ay", "az")]
+    changed = {
+        "CRLF line endings (the same values)": csv_bytes(header, rows, "\r\n"),
+        "accelerometer counts x1.10 (solves cleanly)": csv_bytes(
+            header, [[str(int(round(int(x) * 1.1))) if i in acc else x for i, x in enumerate(r)] for r in rows]),
+    }
+    out = []
+    for k, (name, data) in enumerate(changed.items()):
+        d = ws.session_copy(f"sealed-{k}", samples=data, sealed=True)
+        for cmd in ("solve", "evaluate"):
+            out.append(session_case(ws, "sealed session", name, d, "refuse", cmd))
     return out
 
 

@@ -13,9 +13,19 @@ from . import runner
 from .runner import SEED_SENSOR, SIX, stderr_lines
 
 
+def unsealed(text: str) -> str:
+    """session.yaml's text without its seal (``rig run`` appends it last, docs/session-format.md "Seal"): the
+    session as an older rig, another tool or a hand writes it. A sealed session whose files change is refused
+    for that alone; the mutated copies attack the reader's own checks, so they are unsealed (as tests/conftest.py
+    ``unseal`` does), and the family ``sealed session`` attacks the seal."""
+    at = text.find("\nseal:\n")
+    return text[:at + 1] if at >= 0 else text
+
+
 class Workspace:
     """A clean session and calibration of the simulated rig, and a place for the mutated copies; ``history``: a
-    history database holding the clean session's calibration (sensor ``sim-seed-9``)."""
+    history database holding the clean session's calibration (sensor ``sim-seed-9``). ``manifest_text`` and
+    ``manifest``: the clean session.yaml without its seal (``sealed_manifest_text``: as recorded)."""
 
     def __init__(self, root: Path) -> None:
         self.root = root
@@ -30,7 +40,8 @@ class Workspace:
         if code != 0:
             raise SystemExit(f"the clean solve failed (exit {code}): {err.strip()[-500:]}")
         self.ref = yaml.safe_load((root / "ref.yaml").read_text())["accelerometer"]
-        self.manifest_text = (self.session / "session.yaml").read_text()
+        self.sealed_manifest_text = (self.session / "session.yaml").read_text()
+        self.manifest_text = unsealed(self.sealed_manifest_text)
         self.manifest = yaml.safe_load(self.manifest_text)
         self.samples = (self.session / "samples.csv").read_bytes()
         self.history = root / "lab-history.sqlite"
@@ -44,9 +55,14 @@ class Workspace:
         p.parent.mkdir(parents=True, exist_ok=True)
         return p
 
-    def session_copy(self, stem: str, manifest: str | bytes | None = None, samples: bytes | None = None) -> Path:
+    def session_copy(self, stem: str, manifest: str | bytes | None = None, samples: bytes | None = None,
+                     sealed: bool = False) -> Path:
+        """A copy of the clean session (no calibration, no lock): unsealed unless ``sealed``; ``manifest``,
+        ``samples``: the new session.yaml, samples.csv."""
         d = self.path(stem)
         shutil.copytree(self.session, d, ignore=shutil.ignore_patterns("session.lock", "calibration.yaml"))
+        if manifest is None and not sealed:
+            manifest = self.manifest_text
         if manifest is not None:
             (d / "session.yaml").write_bytes(manifest.encode() if isinstance(manifest, str) else manifest)
         if samples is not None:
