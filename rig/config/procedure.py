@@ -19,7 +19,8 @@ from drivers.sensors.chips import CHIPS
 from calib.accel.predict import Predictor
 from calib.errors import CalibError
 from rig.config.procedure_model import (ACCEL_RANGES_G, ADXL345_RATES_HZ, FORMAT, GYRO_RANGES_DPS, METHODS, AcceptSpec,
-                                         MIN_DWELL_SAMPLES, MODELS, RATE_MAX_DEG_S, AnglesStep, Dwell,
+                                         MAX_STEPS, MIN_DWELL_SAMPLES, MODELS, RATE_MAX_DEG_S, STEPS_LIMIT,
+                                         AnglesStep, Dwell,
                                          ProcedureDoc, PoseStep, RampStep, RateStep, RepeatStep, SensorSpec, Settle,
                                          SolveSpec, TargetSpec, TemperatureStep, TemperatureTarget, PromptStep)
 from rig.config.validate import validate_document
@@ -29,7 +30,6 @@ from rig.planning.kinematics import f_nominal, rot_x, rot_y
 from rig.planning.poses import pose_angles_deg
 from rig.planning.targets import reorder_fastest, reorder_for_travel
 
-MAX_STEPS = 10000
 MAX_REPEAT_DEPTH = 4
 __all__ = ["ACCEL_RANGES_G", "ADXL345_RATES_HZ", "FORMAT", "GYRO_RANGES_DPS", "METHODS", "MODELS", "RATE_MAX_DEG_S",
            "Dwell", "PlannedStep", "Procedure", "SensorSpec", "Settle", "SolveSpec", "TargetSpec", "TemperatureTarget",
@@ -235,7 +235,7 @@ class _Expander:
                     self.steps(model.steps, item["steps"], f"{w}.steps", f"{prefix}r{r + 1}/", depth + 1)
                 continue
             if len(self.out) >= MAX_STEPS:
-                self.fail(items, i, w, f"more than {MAX_STEPS} steps after expanding repeats")
+                self.fail(items, i, w, f"more than {MAX_STEPS} steps: {STEPS_LIMIT}")
             if isinstance(model, TemperatureStep):
                 t = model.temperature
                 self.add(model.name or f"{prefix}temperature {t.target_c:g} C", "thermal", line, temperature=t)
@@ -272,8 +272,8 @@ class _Expander:
         duration_s = abs(r.to_c - from_c) / r.rate_c_per_min * 60.0
         cycles = r.cycles if r.cycles is not None else max(1, math.ceil(duration_s / cycle_s))
         if len(self.out) + 1 + cycles * len(model.steps) > MAX_STEPS:
-            self.fail(item, "ramp", f"{w}.ramp", f"more than {MAX_STEPS} steps after expanding the ramp's "
-                      f"{cycles} cycles")
+            self.fail(item, "ramp", f"{w}.ramp", f"more than {MAX_STEPS} steps with the ramp's {cycles} cycles: "
+                      + STEPS_LIMIT)
         self.ramps += 1
         plan = RampPlan(self.ramps, float(from_c), float(r.to_c), float(r.rate_c_per_min), 0, cycles * len(model.steps),
                         from_given=r.from_c is not None)

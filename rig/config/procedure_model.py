@@ -32,6 +32,12 @@ RATE_MAX_DEG_S = MR191.max_speed_deg_s  # 8MR191: 4800 full steps/s at 0.01 deg/
 DAY_S = 86400.0
 MAX_SAMPLES = 86_400_000  # a day at 1 kHz
 MIN_DWELL_SAMPLES = 2
+#: steps of one procedure, listed or expanded (repeat:, ramps) alike: a session of this many steps costs the same
+#: per step as a short one (the steps journal, docs/session-format.md) and its manifest (about 5 MB) is read
+MAX_STEPS = 10_000
+MAX_REPEAT = 1000
+STEPS_LIMIT = (f"at most {MAX_STEPS} steps in a procedure, listed or after expanding repeat: and ramps; "
+               "split it into several procedures")
 
 Angle = number(ge=-3600, le=3600, description="degrees")
 Seconds = number(gt=0, le=DAY_S, description="seconds")
@@ -381,6 +387,8 @@ Step = Annotated[Union[
 def _step_list(v):
     if not isinstance(v, list) or not v:
         raise fail("expected a non-empty list of steps")
+    if len(v) > MAX_STEPS:  # refused before 10,000s of steps are validated one by one
+        raise fail(f"{len(v)} steps listed: {STEPS_LIMIT}")
     return v
 
 
@@ -388,7 +396,7 @@ Steps = Annotated[list[Step], BeforeValidator(_step_list), Field(min_length=1)]
 
 
 class RepeatStep(Strict):
-    repeat: number(gt=0, le=1000, integer=True)
+    repeat: number(gt=0, le=MAX_REPEAT, integer=True)
     steps: Steps
 
 

@@ -27,6 +27,7 @@ from calib.file.fields import Index, describe, fail, number
 from rig import __version__
 from rig.config.yamlload import input_error, read_source
 from rig.errors import RigInputError, SessionFormatError
+from rig.session import journal
 
 FORMAT = "rig-session/1"
 STATUSES = ("running", "complete", "aborted")
@@ -41,8 +42,10 @@ SOFTWARE_NAME = "rig-calibration"
 REQUIRED = ("id", "created", "status", "procedure", "rig", "software", "steps")
 
 
-#: session.yaml may be larger than the files a person writes (yamlsafe.MAX_BYTES): about 470 bytes a step
-MAX_BYTES = 4 * 1024 * 1024
+#: session.yaml may be larger than the files a person writes (yamlsafe.MAX_BYTES): about 500 bytes a step (a rate
+#: or ramp step up to about 1 kB) plus the recorded procedure (at most 1 MiB). A procedure may have 10,000 steps
+#: (rig.config.procedure_model.MAX_STEPS), about 5 MB of manifest; this leaves room for larger steps
+MAX_BYTES = 16 * 1024 * 1024
 
 
 def load_yaml(text: str, path: str):
@@ -326,7 +329,8 @@ class SessionManifest(_Section):
 
     @classmethod
     def load(cls, session_dir) -> tuple["SessionManifest", dict]:
-        """Read and validate ``SESSION/session.yaml``: the model and the plain mapping as read."""
+        """Read and validate ``SESSION/session.yaml`` with the steps journal (``steps.jsonl``, left by a session
+        that is being recorded or was killed) folded in: the model and the plain mapping as read and folded."""
         d = Path(session_dir)
         path = d / "session.yaml"
         if not d.is_dir():
@@ -337,6 +341,7 @@ class SessionManifest(_Section):
             doc = load_yaml(read_source(path, "session manifest", "missing", MAX_BYTES), str(path))
         except RigInputError as exc:
             raise SessionFormatError(exc.path, exc.line, exc.key, exc.message) from None
+        journal.fold(doc, journal.read(d)[0], d)
         manifest = cls.from_mapping(doc, path)
         validate_session_id(manifest.id, path)
         return manifest, doc

@@ -1,11 +1,16 @@
 """Writing a session: :class:`SessionWriter` (docs/session-format.md).
 
-- ``session.yaml``: the manifest, rewritten atomically (temp file, fsync, rename) after each step;
+- ``session.yaml``: the manifest, written atomically (temp file, fsync, rename) at the start, and compacted
+  (the steps journal folded in) when the session ends or is resumed;
+- ``steps.jsonl``: the steps journal (:mod:`rig.session.journal`): one fsynced line per finished step, so a
+  step costs the same whatever the number of steps;
 - ``samples.csv``: append-only raw samples, fsynced at every step end;
 - ``events.jsonl``: one JSON object per line (moves, settles, warnings, errors, prompts).
 
 Nothing is lost: a crash loses at most the step in progress, and :meth:`SessionWriter.resume` cuts
-``samples.csv`` back to the last fsynced step so no step is ever duplicated.
+``samples.csv`` back to the last fsynced step so no step is ever duplicated, after checking that the file
+agrees with the manifest (:func:`rig.session.recovery.check_resumable`: a disagreement is refused, nothing
+touched).
 """
 
 from __future__ import annotations
@@ -19,9 +24,11 @@ import yaml
 
 from calib.file.calibration import atomic_write_text
 from rig.errors import SessionFormatError
+from rig.session import journal
 from rig.session.manifest import (BASE_COLUMNS, FORMAT, STATUSES, STEP_STATUSES, SessionManifest, as_manifest,
                                   validate_session_id,
                                   utc_now)
+from rig.session.recovery import check_resumable, cut_to, end_torn_line
 from rig.session.seal import link_step, seal_session
 
 _DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml when present: 10x faster
@@ -64,8 +71,9 @@ def new_manifest_dict(session_id: str, manifest, columns: tuple[str, ...]) -> di
 class SessionWriter:
     """Writes one session directory. Create with :meth:`create` or :meth:`resume`.
 
-    :attr:`info` is the typed manifest (:class:`SessionManifest`) as written to ``session.yaml`` so far;
-    the writer changes it (validated on assignment) and writes it out after every change.
+    :attr:`info` is the typed manifest (:class:`SessionManifest`) as recorded so far (``session.yaml`` with
+    ``steps.jsonl`` folded in); the writer changes it (validated on assignment): a finished step is one
+    journal line, every other change rewrites ``session.yaml`` (compacted: the journal folded in and removed).
     """
 
     def __init__(self, session_dir: Path, info: SessionManifest, columns: tuple[str, ...]) -> None:
@@ -74,6 +82,7 @@ class SessionWriter:
         self.columns = columns
         self._samples = open(self.session_dir / "samples.csv", "a", newline="")
         self._events = open(self.session_dir / "events.jsonl", "a")
+        self._journal = None  # steps.jsonl, opened at the first finished step after the manifest was written
 
     # -- construction ------------------------------------------------------------------
     @classmethod
@@ -109,34 +118,24 @@ class SessionWriter:
     def resume(cls, session_dir) -> tuple["SessionWriter", int]:
         """Reopen an interrupted session; return the writer and the first incomplete step.
 
-        ``samples.csv`` is cut back to the size recorded after the last fsynced step,
-        discarding any samples of the step that was in progress.
+        First ``samples.csv`` is checked against the manifest, touching nothing
+        (:func:`rig.session.recovery.check_resumable`: any disagreement is one SessionFormatError); then
+        what lies past the last finished step (the samples of the step that was in progress, a torn last
+        line) is cut away and the manifest compacted (the steps journal folded in).
         """
         d = Path(session_dir)
         info, _ = SessionManifest.load(d)
-        if info.status == "complete":
-            raise SessionFormatError(str(d / "session.yaml"), None, "status",
-                                     "session is already complete; nothing to resume")
-        csv_path = d / "samples.csv"
-        committed = int(info.samples_committed_bytes or 0)
-        size = csv_path.stat().st_size
-        if size < committed:
-            raise SessionFormatError(str(csv_path), None, None,
-                                     f"samples.csv is shorter ({size} bytes) than the {committed} bytes already committed: "
-                                     "the file was damaged")
-        if size > committed:
-            with open(csv_path, "r+b") as fh:
-                fh.truncate(committed)
-                fh.flush()
-                os.fsync(fh.fileno())
-        first = next((s.index for s in info.steps if s.status not in ("complete", "flagged")), len(info.steps))
+        state = check_resumable(d, info)
+        if state.cut_bytes:
+            cut_to(state.path, state.committed)
+        end_torn_line(d / "events.jsonl")
         info.status = "running"
         w = cls(d, info, tuple(info.columns or BASE_COLUMNS))
         w._write_manifest()
-        if size > committed:
-            w.event("warning", message=f"discarded {size - committed} bytes of samples of the step in progress "
-                                       f"when the session stopped (step {first + 1})")
-        return w, first
+        if state.cut_bytes:
+            w.event("warning", message=f"discarded {state.cut_bytes} bytes of samples past the finished steps when "
+                                       f"the session stopped: {state.describe_cut()}")
+        return w, state.first_step
 
     # -- writing -----------------------------------------------------------------------
     def append_samples(self, step_index: int, t_s, accel_counts, temp_c=None, gyro_counts=None,
@@ -160,7 +159,8 @@ class SessionWriter:
         self._samples.write("\n".join(rows) + "\n")
 
     def complete_step(self, index: int, stats: dict, status: str = "complete") -> None:
-        """Make the step's samples durable (flush + fsync), then record it in the manifest."""
+        """Make the step's samples durable (flush + fsync), then record it: one fsynced line of the steps
+        journal (the step is finished when this returns)."""
         if status not in STEP_STATUSES:
             raise ValueError(f"unknown step status {status!r}")
         self._samples.flush()
@@ -170,7 +170,7 @@ class SessionWriter:
         step = self.info.steps[index]
         step.status = status
         step.stats = plain(stats)
-        self._write_manifest()
+        self._record_step(index)
 
     def event(self, kind: str, **fields) -> None:
         rec = {"utc": utc_now(), "kind": kind}
@@ -191,14 +191,35 @@ class SessionWriter:
             seal_session(self.session_dir)  # the whole record sealed (rig.session.seal)
 
     def close(self) -> None:
+        self._close_journal()
         for fh in (self._samples, self._events):
             if not fh.closed:
                 fh.flush()
                 os.fsync(fh.fileno())
                 fh.close()
 
+    def _record_step(self, index: int) -> None:
+        """A finished step's line in the journal (a status the journal does not hold: the whole manifest)."""
+        step = self.info.steps[index]
+        if step.status not in journal.FINISHED:
+            self._write_manifest()
+            return
+        if self._journal is None:
+            self._journal = open(journal.journal_path(self.session_dir), "ab")
+        stats = step.model_dump(mode="python", by_alias=True, exclude_unset=True).get("stats")
+        journal.append(self._journal, journal.record_line(index, step.status, plain(stats),
+                                                          self.info.samples_committed_bytes or 0))
+
     def _write_manifest(self) -> None:
+        """Compact: the whole manifest, atomically (the journal's lines are in it), then the journal removed."""
         atomic_write_text(self.session_dir / "session.yaml", dump_yaml(plain(self.info.to_dict())))
+        self._close_journal()
+        journal.remove(self.session_dir)
+
+    def _close_journal(self) -> None:
+        if self._journal is not None and not self._journal.closed:
+            self._journal.close()
+        self._journal = None
 
 
 def _format_column(c: str, v: np.ndarray | None, n: int) -> np.ndarray:

@@ -16,6 +16,7 @@ from rig.execution.operator import Operator, SilentOperator
 from rig.session.lock import SessionLock
 from rig.errors import RigInputError
 from rig.session import SessionManifest, SessionWriter
+from rig.session.recovery import check_resumable
 from rig.workflow import identity
 from rig.workflow import kinds  # noqa: F401 - registers the "sim" rig kind (the simulator loads when it opens)
 from rig.workflow.lifecycle import (NewSession, RunResult, abort_session, configure_devices, execute, file_sha256,
@@ -121,8 +122,10 @@ def _resume(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, clock
 
 def _resume_locked(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, clock, solve: bool,
                    options: EngineOptions, history=None) -> RunResult:
-    """Open the rig, refuse it if it is not the one recorded, then reopen the session and go on."""
+    """Check the session's files against its manifest, open the rig, refuse it if it is not the one recorded,
+    then reopen the session and go on. Nothing is touched before every check has passed."""
     recorded, _ = SessionManifest.load(resume_dir)  # read only: nothing is touched before the checks
+    check_resumable(resume_dir, recorded)  # samples.csv agrees with the finished steps, before the rig moves
     procedure = load_procedure_text(recorded.procedure.text or "", recorded.procedure.file or "<session>")
     rig_path = resolve_rig(recorded.rig.rig_file if rig_spec is None else rig_spec)
     rig_file = load_rig_file(rig_path)

@@ -26,7 +26,8 @@ import yaml
 
 from calib.file import calibration as calfile
 from rig.cli import main
-from rig.session import load_session
+from rig.errors import RigInputError
+from rig.session import SessionManifest, load_session
 
 from conftest import PROCEDURES, REPO, RIGS
 
@@ -133,11 +134,11 @@ def _wait_for_steps(root: Path, n: int, proc, timeout_s: float = 60) -> Path:
     while time.monotonic() < deadline:
         if root.exists():
             for d in root.iterdir():
-                try:
-                    m = yaml.safe_load((d / "session.yaml").read_text())
-                except (OSError, yaml.YAMLError):
+                try:  # the manifest with the steps journal folded in (steps.jsonl: a line per finished step)
+                    info, _ = SessionManifest.load(d)
+                except (OSError, RigInputError):
                     continue
-                if sum(s["status"] == "complete" for s in m["steps"]) >= n:
+                if sum(s.status == "complete" for s in info.steps) >= n:
                     return d
         if proc.poll() is not None:
             raise AssertionError(f"run ended early: {proc.stderr.read()}")

@@ -24,6 +24,7 @@ COMMANDS: dict[str, str] = {
     "ports": "list serial ports and I2C buses and what answers on them",
     "history": "calibration history: the sensors, or every calibration of one and its drift",
     "export": "export a calibration file to PX4, ArduPilot, imucal or plain JSON",
+    "repair": "cut back what a crash left past a session's last finished step (after a backup); refuse anything else",
     "report": "one self-contained HTML report of a session: verdict, parameters, residuals, roll/pitch table, "
               "discrepancy, history",
     "verify": "check a session against its seal: the recording as made, or where it differs",
@@ -56,6 +57,8 @@ def load(name: str) -> ModuleType:
         from rig.cli.commands import history as module
     elif name == "export":
         from rig.cli.commands import export as module
+    elif name == "repair":
+        from rig.cli.commands import repair as module
     elif name == "report":
         from rig.cli.commands import report as module
     elif name == "verify":
