@@ -91,8 +91,8 @@ def conclude(session: Session, *, out=None, model: str | None = None, method: st
 
 def report_asked(session: Session) -> bool:
     """Whether the recorded procedure asks for the HTML report at the end (``report: true``)."""
-    return session.info.procedure.value("report") is True and session.procedure is not None and \
-        session.procedure.report
+    # the raw text first: an import's recorded text need not validate, and it asks for no report
+    return session.info.procedure.value("report") is True and session.procedure.report
 
 
 def write_conclusion_report(conclusion: Conclusion, *, history=None, session: Session | None = None) -> Path:
