@@ -15,7 +15,8 @@ from typing_extensions import NotRequired, TypedDict
 from calib.discovery.effects import LIBRARY, TIME_EFFECTS, effect_counts, validate_effect
 from calib.errors import CalibError
 from calib.numerics.design import MISFIT_LEVEL, misfit
-from calib.file.section import CalibrationSection, Matrix3, Vector3, array, choice, field_problem, integer, number, unit
+from calib.file.fields import Matrix3, Vector3, array, field_problem, integer, number, unit
+from calib.file.section import CalibrationSection, choice
 
 MODELS = ("triangular", "full", "diagonal")
 MISALIGNMENT_NAMES = ("alpha_yz", "alpha_zy", "alpha_zx")

@@ -28,7 +28,6 @@ from pydantic import BaseModel, ConfigDict, ValidationError, ValidationInfo, mod
 from calib.errors import CalibrationFileError
 from calib.file.fields import FROM_FILE, check_mapping, describe, fail
 # the field types the sections declare (calib.file.fields, the dialect of every YAML format)
-from calib.file.fields import Matrix3, Vector3, array, field_problem, integer, number, unit  # noqa: F401
 from calib.file.fields import choice as _choice
 
 #: registry of the file's sections by type tag (``CAL_TYPE``), filled by subclassing

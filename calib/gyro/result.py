@@ -16,7 +16,8 @@ import numpy as np
 from pydantic import ConfigDict, field_validator, model_validator, with_config
 from typing_extensions import TypedDict
 
-from calib.file.section import CalibrationSection, Matrix3, Vector3, array, field_problem, integer, number, unit
+from calib.file.fields import Matrix3, Vector3, array, field_problem, integer, number, unit
+from calib.file.section import CalibrationSection
 from calib.frames import SENSOR_AXES
 
 OFF_DIAGONAL = tuple((i, j) for i in range(3) for j in range(3) if i != j)

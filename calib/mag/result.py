@@ -14,7 +14,8 @@ import numpy as np
 from pydantic import ConfigDict, model_validator, with_config
 from typing_extensions import TypedDict
 
-from calib.file.section import CalibrationSection, Matrix3, Vector3, choice, field_problem, integer, number, unit
+from calib.file.fields import Matrix3, Vector3, field_problem, integer, number, unit
+from calib.file.section import CalibrationSection, choice
 from calib.frames import SENSOR_AXES
 
 METHODS = ("positions", "ellipsoid")

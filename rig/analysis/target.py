@@ -19,12 +19,10 @@ def calibration_record(session, steps, model: str | None = None, method: str | N
     steps' own standard errors and the chip's bias stability, as the solver's sigmas are, so it is
     the calibration's whether the session was run, resumed, replayed or re-solved.
     """
-    if session.info.procedure.value("target") is None:  # the raw text asked (an import's text need not validate)
-        return None
-    procedure = session.procedure
-    spec = procedure.target
+    spec = session.procedure_asks("target")
     if spec is None:
         return None
+    procedure = session.procedure
     model = model or (procedure.solve.model if procedure.solve is not None else "triangular")
     ends = [s.stats.t_end_s for s in session.info.steps if s.stats is not None and s.stats.t_end_s is not None]
     rig_time = max(ends) if ends else None

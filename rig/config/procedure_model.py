@@ -12,13 +12,20 @@ import fnmatch
 import math
 from typing import Annotated, Any, ClassVar, Optional, Union
 
-from pydantic import BeforeValidator, Discriminator, Field, Tag, WithJsonSchema, model_validator
+from pydantic import (
+    BeforeValidator,
+    Discriminator,
+    Field,
+    Tag,
+    WithJsonSchema,
+    model_validator,
+)
 
-from calib.acceptance import AcceptanceLimits, known_pattern
 from calib.accel.predict import Goal, parameter_names, seed_table_f
+from calib.acceptance import AcceptanceLimits, known_pattern
+from calib.file.fields import Strict, choice, fail, flag, label, number, text
 from drivers.sensors.chips import CHIPS, SENSOR_MODELS
 from drivers.ximc.stage_spec import MR191
-from rig.config.validate import Strict, choice, fail, flag, label, number, text
 from rig.planning.kinematics import f_nominal
 from rig.planning.poses import POSE_NAMES
 

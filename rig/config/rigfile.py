@@ -20,11 +20,11 @@ from pydantic import BeforeValidator, ConfigDict, WithJsonSchema, model_validato
 from pydantic.dataclasses import dataclass as schema_dataclass
 from pydantic.json_schema import SkipJsonSchema
 
+from calib.file.fields import Strict, check_mapping, choice, fail, flag, label, number
 from drivers.sensors.chips import CHIPS, SENSOR_MODELS
 from drivers.ximc.stage_spec import MR191
-from rig.config.validate import (Strict, check_mapping, choice, fail, flag, label, number, validate_document,
-                              validate_located)
 from rig.config.sections import SectionUnavailable, section
+from rig.config.validate import validate_document, validate_located
 from rig.config.yamlload import read_source
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES

@@ -2,7 +2,7 @@
 
 The field types (:func:`number`, :func:`choice`, :func:`flag`, :func:`text`, :func:`label`), the
 :class:`Strict` mapping model and :func:`fail` are the dialect every YAML format shares,
-:mod:`calib.file.fields` (the rig's schemas import them from here). :func:`validate_document` parses
+:mod:`calib.file.fields` (the rig's schemas import them from there). :func:`validate_document` parses
 a YAML text with the one guarded loader (:mod:`calib.file.yamlsafe`) and validates it;
 :func:`validate_located` and :func:`validate_plain` turn the first pydantic error into a one-line
 :class:`~rig.errors.RigInputError` ``file:line: key.path: message`` by
@@ -17,12 +17,11 @@ from typing import Any
 from pydantic import TypeAdapter, ValidationError
 
 from calib.file import yamlsafe
-from calib.file.fields import FROM_FILE, Strict, check_mapping, choice, describe, fail, flag, label, number, text
+from calib.file.fields import FROM_FILE, describe
 from rig.config.yamlload import input_error
 from rig.errors import RigInputError
 
-__all__ = ["Strict", "adapter", "check_mapping", "choice", "fail", "flag", "label", "number", "text", "validate_document",
-           "validate_located", "validate_plain"]
+__all__ = ["adapter", "validate_document", "validate_located", "validate_plain"]
 
 _ADAPTERS: dict[Any, TypeAdapter] = {}
 

@@ -29,9 +29,7 @@ if TYPE_CHECKING:  # type hints only: the procedure's models load when a procedu
 
 def recorded_limits(session: Session) -> "AcceptSpec | None":
     """The ``accept:`` section of the procedure recorded in the session (validated with it), or None."""
-    if session.info.procedure.value("accept") is None:  # the raw text asked (an import's text need not validate)
-        return None
-    return session.procedure.accept
+    return session.procedure_asks("accept")
 
 
 def judge(session: Session, cal, *, calibration_path=None, history=None) -> Acceptance | None:

@@ -27,7 +27,7 @@ from rig.config.yamlload import SymlinkLoop
 from rig.errors import RigInputError, SessionFormatError
 from rig.session import adapter
 from rig.session.manifest import BASE_COLUMNS, OPTIONAL_COLUMNS, SessionManifest, StepRecord
-from rig.session.seal import verify_on_load
+from rig.session.seal import SamplesCheck, verify_on_load
 
 if TYPE_CHECKING:  # type hints only
     from rig.config.procedure import Procedure
@@ -93,6 +93,14 @@ class Session:
                                      f"the recorded procedure (from {recorded.file or 'an unnamed file'}) does not "
                                      f"validate: {where}{key}{exc.message}") from None
 
+    def procedure_asks(self, key: str):
+        """The validated ``procedure.<key>`` when the recorded procedure's text has ``key`` (``accept``, ``target``,
+        ``report``...), else None. The raw text is asked first: a text without the key (an import's, which need
+        not validate as a procedure) is not validated for nothing."""
+        if self.info.procedure.value(key) is None:
+            return None
+        return getattr(self.procedure, key)
+
     @functools.cached_property
     def events(self) -> list[dict]:
         """The session's events (``events.jsonl``), read once; a torn last line (a crash) is skipped."""
@@ -123,7 +131,9 @@ def load_session(path) -> Session:
         refuse_symlink_loop(p, expected)
     info, doc = SessionManifest.load(d)
     check_sensor(d / "session.yaml", info)
-    samples, warnings = read_samples(d / "samples.csv", n_steps=len(info.steps))
+    # a sealed session's samples.csv is checked against its seal as it is read: read once to load and to verify
+    check = SamplesCheck(d, doc, (d / "samples.csv").stat().st_size) if "seal" in doc else None
+    samples, warnings = read_samples(d / "samples.csv", n_steps=len(info.steps), tap=check)
     check_against_manifest(d / "samples.csv", info, samples)
     if info.rig.sensor.has_temperature:
         t = samples["temp_c"]
@@ -131,7 +141,7 @@ def load_session(path) -> Session:
             raise SessionFormatError(str(d / "samples.csv"), 1, "temp_c",
                                      "the manifest says the sensor has a thermometer, but there are no temperatures")
     # sealed: the recording as made, else refused naming the file and step (RIG_UNSEALED=1: loaded, marked, warned)
-    unsealed = verify_on_load(d, info, doc)
+    unsealed = verify_on_load(d, info, doc, samples=check)
     return Session(d, info, samples, unsealed + warnings)
 
 
@@ -252,19 +262,23 @@ def check_poses(path: Path, info: SessionManifest, samples: dict, counts: np.nda
                                      "columns swapped or sign-flipped, or a mislabelled pose")
 
 
-def read_samples(path: Path, n_steps: int | None = None) -> tuple[dict, list[str]]:
+def read_samples(path: Path, n_steps: int | None = None, tap=None) -> tuple[dict, list[str]]:
     """Read samples.csv: the columns as arrays, and the warnings (a dropped torn last line).
 
     The file is read in blocks of whole lines (``_BLOCK_BYTES``), each parsed, checked and copied into
     arrays allocated once for every line the file has, so memory holds the result and one block, never
     the file's text beside its parsed columns (a file with quotes is read as one block: a quoted field
     may span lines). Every refusal names the file line, as for a file read at once.
+
+    ``tap``: given every byte of the file once, in order, as it is read (``tap.update(bytes)``; a block read
+    again is not given again): :class:`rig.session.seal.SamplesCheck` verifies a seal on the same read.
     """
     path = Path(path)
     if not path.is_file():
         raise SessionFormatError(str(path), None, None, "missing samples.csv")
     warnings: list[str] = []
-    with open(path, "rb") as fh:
+    with open(path, "rb") as raw:
+        fh = raw if tap is None else _Tapped(raw, tap)
         header = _header(path, fh)
         known = [c for c in header if c in BASE_COLUMNS + OPTIONAL_COLUMNS]
         if os.fstat(fh.fileno()).st_size - fh.tell() <= _BLOCK_BYTES:  # one block: its arrays as they are
@@ -278,6 +292,34 @@ def read_samples(path: Path, n_steps: int | None = None) -> tuple[dict, list[str
         for text in _bodies(path, fh, warnings):
             out.add(_read_block(text, header, known, n_steps))
     return out.arrays(), warnings
+
+
+class _Tapped:
+    """A binary file whose bytes are also given, once each and in order, to ``tap`` as they are first read."""
+
+    def __init__(self, fh, tap) -> None:
+        self._fh, self._tap, self._seen = fh, tap, 0
+
+    def _give(self, at: int, data: bytes) -> bytes:
+        if at + len(data) > self._seen:
+            self._tap.update(data[max(self._seen - at, 0):])
+            self._seen = at + len(data)
+        return data
+
+    def read(self, n: int = -1) -> bytes:
+        return self._give(self._fh.tell(), self._fh.read(n))
+
+    def readline(self, n: int = -1) -> bytes:
+        return self._give(self._fh.tell(), self._fh.readline(n))
+
+    def seek(self, pos: int, whence: int = 0) -> int:
+        return self._fh.seek(pos, whence)
+
+    def tell(self) -> int:
+        return self._fh.tell()
+
+    def fileno(self) -> int:
+        return self._fh.fileno()
 
 
 def _read_block(text: "_Body", header: list[str], known: list[str], n_steps: int | None) -> dict:

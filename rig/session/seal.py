@@ -2,16 +2,18 @@
 
 A lab record must show that it is the recording as made (ISO/IEC 17025 7.5, 7.11). Three pieces:
 
-- **each step** (:func:`link_step`, called by :meth:`rig.session.SessionWriter.complete_step` once the step's rows are
-  fsynced): the bytes appended to ``samples.csv`` since the previous step, and the lines appended to
+- **each step** (:meth:`Chains.link`, called by :meth:`rig.session.SessionWriter.complete_step` once the step's rows
+  are fsynced): the bytes appended to ``samples.csv`` since the previous step, and the lines appended to
   ``events.jsonl``, are hashed (SHA-256) and chained over the steps, ``h_i = sha256(h_{i-1} || rows_i)``; the
   link goes into the step's ``stats`` (``sha256``, ``samples_bytes`` [start, end], ``events_sha256``,
-  ``events_bytes`` [start, end]), written with the step. O(rows): only the step's own bytes are read, once.
+  ``events_bytes`` [start, end]), written with the step. The writer hashes the bytes as it writes them
+  (:class:`Chains`): nothing is read back (:func:`link_step` reads them for a step recorded again).
 - **at completion** (:func:`seal_session`, called by :meth:`~rig.session.SessionWriter.set_status` ``("complete")``,
-  so an import that ends complete is sealed too): the whole raw record (``samples.csv`` read once in chunks,
-  ``events.jsonl`` as it is at completion, the manifest's content) is sealed into a top-level ``seal:`` mapping
-  appended to ``session.yaml`` (a key the manifest model keeps as it is).
-- **on every read** (:func:`verify_on_load`, called by :func:`rig.session.load_session`): a sealed session whose
+  so an import that ends complete is sealed too): the whole raw record (``samples.csv``, ``events.jsonl`` as it
+  is at completion, the manifest's content; the writer's hashes and text) is sealed into a top-level ``seal:``
+  mapping appended to ``session.yaml`` (a key the manifest model keeps as it is).
+- **on every read** (:func:`verify_on_load`, called by :func:`rig.session.load_session`, which checks samples.csv on
+  the read that parses it: :class:`SamplesCheck`): a sealed session whose
   files differ from its seal is refused with one line naming the file and the first step that differs; under
   ``RIG_UNSEALED=1`` (research: analysing edited data on purpose) it loads with a warning, and its id becomes
   ``ID.SEAL-BROKEN`` so that everything written from it (calibration file, history row, report, replay)
@@ -51,6 +53,8 @@ NOT_SEALED = "not sealed (recorded before sealing existed, or unfinished)"
 PART_HEX = 16
 _CHUNK = 1 << 20
 _FILES = ("samples.csv", "events.jsonl")
+#: per file: its name, the key of a step's link and of the link's byte range (in the step's stats)
+_LINK_KEYS = ((_FILES[0], "sha256", "samples_bytes"), (_FILES[1], "events_sha256", "events_bytes"))
 _HEX = frozenset("0123456789abcdef")
 
 
@@ -97,7 +101,86 @@ def link_step(session_dir, info: SessionManifest, index: int, stats: dict) -> di
     return out
 
 
-def seal_session(session_dir, *, source_sha256: str | None = None) -> dict:
+class Chains:
+    """The hashes of ``samples.csv`` and ``events.jsonl`` kept as their writer appends to them, so that neither
+    recording a step (:meth:`link`) nor sealing (:meth:`digests`) reads a file back.
+
+    Per file: the whole file's SHA-256 so far and its size, and the chain's running hash since the last link
+    (``sha256(last link || bytes since)``). :meth:`fresh` starts them at a new file's first bytes,
+    :meth:`from_files` (a resumed session) from the files as they are, read once."""
+
+    def __init__(self, state: dict) -> None:
+        self._s = state  # name -> {"size", "whole", "start", "head" (hex), "run"}
+
+    @classmethod
+    def fresh(cls, samples_origin: bytes, events_origin: bytes = b"") -> "Chains":
+        """A new session's files holding ``samples_origin`` (the header line) and ``events_origin``."""
+        state = {}
+        for name, origin in zip(_FILES, (samples_origin, events_origin)):
+            head = hashlib.sha256(origin).hexdigest()
+            state[name] = {"size": len(origin), "whole": hashlib.sha256(origin), "start": len(origin), "head": head,
+                           "origin": len(origin), "run": hashlib.sha256(bytes.fromhex(head))}
+        return cls(state)
+
+    @classmethod
+    def from_files(cls, session_dir, info: SessionManifest) -> "Chains":
+        """The files of a session reopened (resumed), each read once; the chain continues from the last link."""
+        d = Path(session_dir)
+        last = _last_link([(s.index, s.stats.model_extra if s.stats is not None else None) for s in info.steps])
+        state = {}
+        for name, key, range_key in _LINK_KEYS:
+            whole = hashlib.sha256()
+            with open(d / name, "rb") as fh:
+                origin = len(fh.readline()) if name == _FILES[0] else 0  # the header line; the empty file
+                fh.seek(0)
+                origin_head = hashlib.sha256(fh.read(origin)).hexdigest()
+                fh.seek(0)
+                start, head = (int(last[range_key][1]), last[key]) if last is not None else (origin, origin_head)
+                n = _copy(fh, start, whole)
+                run = hashlib.sha256(bytes.fromhex(head))
+                n += _copy(fh, None, whole, run)
+            state[name] = {"size": n, "whole": whole, "start": start, "head": head, "origin": origin, "run": run}
+        return cls(state)
+
+    def wrote(self, name: str, data: bytes) -> None:
+        """``data`` was appended to ``name`` (samples.csv or events.jsonl)."""
+        st = self._s[name]
+        st["whole"].update(data)
+        st["run"].update(data)
+        st["size"] += len(data)
+
+    def link(self, session_dir, info: SessionManifest, index: int, stats: dict) -> dict:
+        """The step's ``stats`` with its link added, as :func:`link_step` computes it; from the running hashes
+        when the previous link is where the chain runs from (always, but for a step recorded again: then the
+        files are read from the previous link on, :func:`link_step`). The chain then continues from this link."""
+        prev = _last_link([(s.index, s.stats.model_extra if s.stats is not None else None) for s in info.steps],
+                          exclude=index)
+        if all(self._runs_from(prev, *keys) for keys in _LINK_KEYS):
+            out = dict(stats or {})
+            for name, key, range_key in _LINK_KEYS:
+                st = self._s[name]
+                out[range_key], out[key] = [st["start"], st["size"]], st["run"].hexdigest()
+        else:
+            out = link_step(session_dir, info, index, stats)
+        for name, key, range_key in _LINK_KEYS:
+            st = self._s[name]
+            st["start"], st["head"] = int(out[range_key][1]), out[key]
+            st["run"] = hashlib.sha256(bytes.fromhex(out[key]))
+        return out
+
+    def _runs_from(self, prev: dict | None, name: str, key: str, range_key: str) -> bool:
+        st = self._s[name]
+        if prev is None:
+            return st["start"] == st["origin"]
+        return (int(prev[range_key][1]), prev[key]) == (st["start"], st["head"])
+
+    def digests(self) -> dict:
+        """``{"samples.csv": (sha256 hex, bytes), "events.jsonl": (...)}`` of the files as written so far."""
+        return {name: (st["whole"].hexdigest(), st["size"]) for name, st in self._s.items()}
+
+
+def seal_session(session_dir, *, source_sha256: str | None = None, text: str | None = None,
+                 digests: dict | None = None) -> dict:
     """Seal a completed session: append ``seal:`` to ``session.yaml`` (atomically) and return it.
 
     ``seal``: ``algorithm`` (sha256), ``sha256`` (of the whole record: the lines below, see
@@ -106,12 +189,16 @@ def seal_session(session_dir, *, source_sha256: str | None = None) -> dict:
     manifest's content without the seal, :func:`manifest_digest`), ``source_sha256`` (an import: the source file's
     SHA-256, from ``source_sha256``, else the manifest's ``import.source_sha256``, else an import's
     ``procedure.sha256``) and ``parts`` (short digests of each top-level key and step, to name what changed).
-    A session sealed already keeps its seal (a seal is never replaced)."""
+    A session sealed already keeps its seal (a seal is never replaced).
+
+    ``text``: ``session.yaml`` as its writer has just written it, and ``digests``: the files' hashes as their writer
+    kept them (:meth:`Chains.digests`); given, nothing is read back from disk."""
     d = Path(session_dir)
     path = d / "session.yaml"
-    # read once: the text kept, the seal appended. The writer has compacted the manifest (a steps journal folded in
-    # and removed) before it seals: this is the content every reader folds and checks (SessionManifest.load)
-    text = read_source(path, "session manifest", "missing", MAX_BYTES)
+    # the text kept, the seal appended. The writer has compacted the manifest (a steps journal folded in and
+    # removed) before it seals: this is the content every reader folds and checks (SessionManifest.load)
+    if text is None:
+        text = read_source(path, "session manifest", "missing", MAX_BYTES)
     doc = load_yaml(text, str(path))
     if not isinstance(doc, dict):
         raise SessionFormatError(str(path), None, None, "expected a mapping")
@@ -119,10 +206,13 @@ def seal_session(session_dir, *, source_sha256: str | None = None) -> dict:
         return doc["seal"]
     seal: dict = {"algorithm": ALGORITHM, "sha256": None, "sealed_at": utc_now()}
     for name, prefix in zip(_FILES, ("samples", "events")):
-        h = hashlib.sha256()
-        with open(d / name, "rb") as fh:
-            n = _copy(fh, None, h)
-        seal[f"{prefix}_sha256"], seal[f"{prefix}_bytes"] = h.hexdigest(), n
+        if digests is not None:
+            seal[f"{prefix}_sha256"], seal[f"{prefix}_bytes"] = digests[name]
+        else:
+            h = hashlib.sha256()
+            with open(d / name, "rb") as fh:
+                n = _copy(fh, None, h)
+            seal[f"{prefix}_sha256"], seal[f"{prefix}_bytes"] = h.hexdigest(), n
         if prefix == "samples":
             last = _last_link(_doc_steps(doc))
             seal["chain"] = last["sha256"] if last is not None else None
@@ -210,13 +300,14 @@ class Verified:
     steps: int
 
 
-def verify_session(session_dir, doc: dict | None = None) -> Verified:
+def verify_session(session_dir, doc: dict | None = None, samples: SamplesCheck | None = None) -> Verified:
     """Check a session against its seal, or (no seal) its recorded steps against their links.
 
     In this order, the first difference is one :class:`SealBroken` line naming the file and the step or key:
     the seal's own fields (their ``sha256``), the manifest (``session.yaml: steps[3]: ...``), samples.csv step
     by step (``samples.csv:2: step 1: ...``; rows added or removed after the seal), events.jsonl step by step.
-    ``doc``: the manifest as read (:meth:`SessionManifest.load`), when the caller has it."""
+    ``doc``: the manifest as read (:meth:`SessionManifest.load`), when the caller has it; ``samples``: samples.csv
+    checked as the caller read it (:class:`SamplesCheck`), not read again."""
     d = Path(session_dir)
     if doc is None:
         _, doc = SessionManifest.load(d)
@@ -226,20 +317,20 @@ def verify_session(session_dir, doc: dict | None = None) -> Verified:
         _check_manifest(d / "session.yaml", doc, seal)
     steps = _doc_steps(doc)
     links = _links(d / "samples.csv", steps)
-    _check_file(d, _FILES[0], links, "sha256", "samples_bytes", seal, doc)
+    _check_file(d, _FILES[0], links, "sha256", "samples_bytes", seal, doc, samples)
     _check_file(d, _FILES[1], links, "events_sha256", "events_bytes", seal, doc)
     return Verified(seal is not None, seal, len(links))
 
 
-def verify_on_load(session_dir, info: SessionManifest, doc: dict) -> list[str]:
+def verify_on_load(session_dir, info: SessionManifest, doc: dict, samples: SamplesCheck | None = None) -> list[str]:
     """For :func:`rig.session.load_session`: nothing for a session without a seal; a sealed session that differs
     from its seal is refused (:class:`SealBroken`), or, under ``RIG_UNSEALED=1``, loads marked: its id becomes
     ``ID.SEAL-BROKEN`` (what is written from it says so) and its seal gets ``broken`` (the history row keeps it);
-    the returned warning says so."""
+    the returned warning says so. ``samples``: samples.csv checked as it was read (:class:`SamplesCheck`)."""
     if "seal" not in doc:
         return []
     try:
-        verify_session(session_dir, doc)
+        verify_session(session_dir, doc, samples)
     except SealBroken as exc:
         if not unsealed_mode():
             raise
@@ -293,64 +384,150 @@ def _check_manifest(path: Path, doc: dict, seal: dict) -> None:
     raise SealBroken(path, None, None, "the manifest differs from the seal (edited after the recording was sealed)")
 
 
-def _check_file(d: Path, name: str, links: list, key: str, range_key: str, seal, doc: dict) -> None:
-    """One file, link by link (then, sealed, its whole bytes): the first difference as a SealBroken."""
+def _check_file(d: Path, name: str, links: list, key: str, range_key: str, seal, doc: dict,
+                fed: "SamplesCheck | None" = None) -> None:
+    """One file, link by link (then, sealed, its whole bytes): the first difference as a SealBroken. ``fed``: the
+    file's bytes were checked as a reader read them (:class:`SamplesCheck`): its outcome, nothing read again."""
     path = d / name
-    sealed = isinstance(seal, dict)
-    what = "rows" if name == _FILES[0] else "events"
+    if fed is not None:
+        fed.result()
+        return
     if not path.is_file():
-        if not sealed and not links:
+        if not isinstance(seal, dict) and not links:
             return
         raise SealBroken(path, None, None, "missing: the sealed recording had it")
+    with open(path, "rb") as fh:
+        check = _Check(_checker(path, name, links, key, range_key, seal, doc, os.fstat(fh.fileno()).st_size))
+        while not check.done and (chunk := fh.read(_CHUNK)):
+            check.update(chunk)
+    check.result()
+
+
+class _Check:
+    """Drives a checker generator (:func:`_checker`): bytes in with :meth:`update`, the outcome from :meth:`result`."""
+
+    def __init__(self, gen) -> None:
+        self._gen, self.done, self._error = gen, False, None
+        self._step(lambda: next(gen))
+
+    def update(self, chunk: bytes) -> None:
+        if not self.done and chunk:
+            self._step(lambda: self._gen.send(bytes(chunk)))
+
+    def result(self) -> None:
+        """The end of the file: nothing, or the first difference raised."""
+        if not self.done:
+            self._step(lambda: self._gen.send(None))
+        if not self.done:
+            raise RuntimeError("the seal check wanted more bytes after the end of the file")
+        if self._error is not None:
+            raise self._error
+
+    def _step(self, go) -> None:
+        try:
+            go()
+        except StopIteration:
+            self.done = True
+        except Exception as exc:  # noqa: BLE001 -- kept, raised by result(): a SealBroken, or a seal's malformed field
+            self.done, self._error = True, exc                 # that verify_session refuses before it asks
+
+
+class SamplesCheck(_Check):
+    """``samples.csv`` of a sealed session checked while a reader reads it (:func:`rig.session.read_samples`
+    feeds every byte once, in order, through :meth:`update`; ``size``: the file's size when it was opened): the
+    file is read once to load and to verify. :func:`verify_session` given it (``samples=``) raises what it found,
+    as it would have reading the file itself."""
+
+    def __init__(self, session_dir, doc: dict, size: int) -> None:
+        d = Path(session_dir)
+        super().__init__(_checker(d / _FILES[0], _FILES[0], _links(d / _FILES[0], _doc_steps(doc)), "sha256",
+                                  "samples_bytes", doc.get("seal"), doc, size))
+
+
+class _Fed:
+    """What a checker written as a generator reads: bytes sent to it in order (None: the end), taken as the
+    checker asks for them (``yield from fed.read(n)``), never more than one sent chunk held."""
+
+    def __init__(self) -> None:
+        self.chunk, self.at, self.end = b"", 0, False
+
+    def take(self, n: int | None, sinks=(), keep: bool = False):
+        """Up to ``n`` bytes (None: to the end) passed to ``sinks``; returns (count, the bytes if ``keep``)."""
+        got, kept = 0, []
+        while n is None or got < n:
+            if self.at >= len(self.chunk):
+                if self.end:
+                    break
+                chunk = yield
+                if chunk is None:
+                    self.end = True
+                    continue
+                self.chunk, self.at = chunk, 0
+            stop = len(self.chunk) if n is None else min(len(self.chunk), self.at + n - got)
+            piece = self.chunk[self.at:stop]
+            self.at = stop
+            for sink in sinks:
+                sink.update(piece)
+            if keep:
+                kept.append(piece)
+            got += len(piece)
+        return got, b"".join(kept)
+
+
+def _checker(path: Path, name: str, links: list, key: str, range_key: str, seal, doc: dict, size: int):
+    """The check of one file (module docstring), as a generator sent the file's bytes in order, then None; it
+    returns when the file agrees and raises the first difference as a SealBroken."""
+    sealed = isinstance(seal, dict)
+    what = "rows" if name == _FILES[0] else "events"
+    fed = _Fed()
     whole = hashlib.sha256()
     line = 1
-    with open(path, "rb") as fh:
-        size = os.fstat(fh.fileno()).st_size
-        pos, head = 0, None
-        for index, stats in links:
-            start, end = (int(x) for x in stats[range_key])
-            step = _key(name, index)
-            if head is None:
-                lines = _Lines()
-                origin = _read(fh, start, lines, whole)
-                if len(origin) != start:
-                    raise SealBroken(path, 1, step, f"the file is shorter ({size} bytes) than the sealed recording")
-                if name == _FILES[0] and not _header_ok(origin, doc):
-                    raise SealBroken(path, 1, "header", "the header line differs from the recorded columns")
-                head, pos, line = hashlib.sha256(origin).digest(), start, line + lines.n
-            if start != pos:
-                raise SealBroken(path, None, step, f"the chain of {what} is broken before {_this(doc, index)}: its "
-                                 f"{what} start at byte {start}, the previous step's end at {pos}")
-            h = hashlib.sha256(head)
-            lines = _Lines(h)
-            got = _copy(fh, end - start, lines, whole)
-            if got != end - start:
-                raise SealBroken(path, line, step, f"the {what} of {_this(doc, index)} are cut short (the file ends at "
-                                 f"byte {size}, the step's {what} end at {end}): {_changed(sealed)}")
-            if h.hexdigest() != stats[key]:
-                raise SealBroken(path, line, step, f"the {what} of {_this(doc, index)} differ from {_what(sealed)}: "
-                                 f"{_changed(sealed)}")
-            head, pos, line = h.digest(), end, line + lines.n
-        if not sealed:
-            return
-        total = int(seal[f"{'samples' if name == _FILES[0] else 'events'}_bytes"])
-        last = _key(name, links[-1][0]) if links else None
-        after = "after the last step" if links else "of the file"
-        lines = _Lines()
-        rest = _copy(fh, max(total - pos, 0), lines, whole)
-        if pos + rest < total:
-            raise SealBroken(path, None, last, f"{total - pos - rest} bytes of the sealed {what} are missing at the "
-                             f"end ({after}): removed after the recording was sealed")
-        if whole.hexdigest() != seal[f"{'samples' if name == _FILES[0] else 'events'}_sha256"]:
-            raise SealBroken(path, line if links else None, last,
-                             f"the {what} {after} differ from the seal: {_changed(True)}")
-        if size > total:
-            line += lines.n
-            extra = fh.read(min(size - total, 64 * 1024))
-            step = _step_of(extra, doc) if name == _FILES[0] else _event_step(extra)
-            raise SealBroken(path, line, _key(name, step) if step is not None else last,
-                             f"{size - total} bytes of {what} added after the recording was sealed (the sealed file "
-                             f"ended at byte {total})")
+    pos, head = 0, None
+    for index, stats in links:
+        start, end = (int(x) for x in stats[range_key])
+        step = _key(name, index)
+        if head is None:
+            lines = _Lines()
+            _, origin = yield from fed.take(start, (lines, whole), keep=True)
+            if len(origin) != start:
+                raise SealBroken(path, 1, step, f"the file is shorter ({size} bytes) than the sealed recording")
+            if name == _FILES[0] and not _header_ok(origin, doc):
+                raise SealBroken(path, 1, "header", "the header line differs from the recorded columns")
+            head, pos, line = hashlib.sha256(origin).digest(), start, line + lines.n
+        if start != pos:
+            raise SealBroken(path, None, step, f"the chain of {what} is broken before {_this(doc, index)}: its "
+                             f"{what} start at byte {start}, the previous step's end at {pos}")
+        h = hashlib.sha256(head)
+        lines = _Lines(h)
+        got, _ = yield from fed.take(end - start, (lines, whole))
+        if got != end - start:
+            raise SealBroken(path, line, step, f"the {what} of {_this(doc, index)} are cut short (the file ends at "
+                             f"byte {size}, the step's {what} end at {end}): {_changed(sealed)}")
+        if h.hexdigest() != stats[key]:
+            raise SealBroken(path, line, step, f"the {what} of {_this(doc, index)} differ from {_what(sealed)}: "
+                             f"{_changed(sealed)}")
+        head, pos, line = h.digest(), end, line + lines.n
+    if not sealed:
+        return
+    prefix = "samples" if name == _FILES[0] else "events"
+    total = int(seal[f"{prefix}_bytes"])
+    last = _key(name, links[-1][0]) if links else None
+    after = "after the last step" if links else "of the file"
+    lines = _Lines()
+    rest, _ = yield from fed.take(max(total - pos, 0), (lines, whole))
+    if pos + rest < total:
+        raise SealBroken(path, None, last, f"{total - pos - rest} bytes of the sealed {what} are missing at the "
+                         f"end ({after}): removed after the recording was sealed")
+    if whole.hexdigest() != seal[f"{prefix}_sha256"]:
+        raise SealBroken(path, line if links else None, last,
+                         f"the {what} {after} differ from the seal: {_changed(True)}")
+    if size > total:
+        line += lines.n
+        _, extra = yield from fed.take(min(size - total, 64 * 1024), keep=True)
+        step = _step_of(extra, doc) if name == _FILES[0] else _event_step(extra)
+        raise SealBroken(path, line, _key(name, step) if step is not None else last,
+                         f"{size - total} bytes of {what} added after the recording was sealed (the sealed file "
+                         f"ended at byte {total})")
 
 
 def _what(sealed: bool) -> str:
@@ -385,13 +562,6 @@ def _copy(fh, n: int | None, *sinks) -> int:
             s.update(chunk)
         got += len(chunk)
     return got
-
-
-def _read(fh, n: int, *sinks) -> bytes:
-    data = fh.read(n)
-    for s in sinks:
-        s.update(data)
-    return data
 
 
 def _header_ok(origin: bytes, doc: dict) -> bool:

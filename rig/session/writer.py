@@ -29,7 +29,7 @@ from rig.session.manifest import (BASE_COLUMNS, FORMAT, STATUSES, STEP_STATUSES,
                                   validate_session_id,
                                   utc_now)
 from rig.session.recovery import check_resumable, cut_to, end_torn_line
-from rig.session.seal import link_step, seal_session
+from rig.session.seal import Chains, seal_session
 
 _DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml when present: 10x faster
 DEFAULT_COLUMNS = BASE_COLUMNS + ("a1_deg", "a2_deg", "a3_deg")
@@ -76,12 +76,15 @@ class SessionWriter:
     journal line, every other change rewrites ``session.yaml`` (compacted: the journal folded in and removed).
     """
 
-    def __init__(self, session_dir: Path, info: SessionManifest, columns: tuple[str, ...]) -> None:
+    def __init__(self, session_dir: Path, info: SessionManifest, columns: tuple[str, ...],
+                 chains: Chains | None = None) -> None:
         self.session_dir = Path(session_dir)
         self.info = info
         self.columns = columns
-        self._samples = open(self.session_dir / "samples.csv", "a", newline="")
-        self._events = open(self.session_dir / "events.jsonl", "a")
+        # the files' hashes kept as they are written (rig.session.seal): a step's link and the seal read nothing back
+        self._chains = chains if chains is not None else Chains.from_files(self.session_dir, info)
+        self._samples = open(self.session_dir / "samples.csv", "ab")
+        self._events = open(self.session_dir / "events.jsonl", "ab")
         self._journal = None  # steps.jsonl, opened at the first finished step after the manifest was written
 
     # -- construction ------------------------------------------------------------------
@@ -103,14 +106,14 @@ class SessionWriter:
         m = new_manifest_dict(session_id, manifest, columns)
         d.mkdir(exist_ok=False)
         header = ",".join(columns) + "\n"
-        with open(d / "samples.csv", "w") as fh:
-            fh.write(header)
+        with open(d / "samples.csv", "wb") as fh:
+            fh.write(header.encode())
             fh.flush()
             os.fsync(fh.fileno())
         m["samples_committed_bytes"] = len(header.encode())
         (d / "events.jsonl").touch()
         atomic_write_text(d / "session.yaml", dump_yaml(m))
-        w = cls(d, as_manifest(m), columns)
+        w = cls(d, as_manifest(m), columns, Chains.fresh(header.encode()))
         w.event("start", session=session_id)
         return w
 
@@ -156,7 +159,7 @@ class SessionWriter:
         cols["temp_c"] = np.asarray(temp_c, float) if temp_c is not None else None
         parts = [_format_column(c, cols.get(c), n) for c in self.columns]
         rows = [",".join(r) for r in zip(*[p.astype(str) for p in parts])]
-        self._samples.write("\n".join(rows) + "\n")
+        self._append(self._samples, "samples.csv", ("\n".join(rows) + "\n").encode())
 
     def complete_step(self, index: int, stats: dict, status: str = "complete") -> None:
         """Make the step's samples durable (flush + fsync), then record it: one fsynced line of the steps
@@ -165,8 +168,8 @@ class SessionWriter:
             raise ValueError(f"unknown step status {status!r}")
         self._samples.flush()
         os.fsync(self._samples.fileno())
-        stats = link_step(self.session_dir, self.info, index, stats)  # the step's link in the chain (rig.session.seal)
-        self.info.samples_committed_bytes = os.path.getsize(self.session_dir / "samples.csv")
+        stats = self._chains.link(self.session_dir, self.info, index, stats)  # the step's link (rig.session.seal)
+        self.info.samples_committed_bytes = int(stats["samples_bytes"][1])
         step = self.info.steps[index]
         step.status = status
         step.stats = plain(stats)
@@ -175,7 +178,7 @@ class SessionWriter:
     def event(self, kind: str, **fields) -> None:
         rec = {"utc": utc_now(), "kind": kind}
         rec.update(plain(fields))
-        self._events.write(json.dumps(rec, allow_nan=False, default=str) + "\n")
+        self._append(self._events, "events.jsonl", (json.dumps(rec, allow_nan=False, default=str) + "\n").encode())
         self._events.flush()
 
     def set_status(self, status: str) -> None:
@@ -184,11 +187,11 @@ class SessionWriter:
         self.info.status = status
         if status != "running":
             self.info.ended = utc_now()
-        self._write_manifest()
+        text = self._write_manifest()
         if status != "running":
             self.close()
-        if status == "complete":
-            seal_session(self.session_dir)  # the whole record sealed (rig.session.seal)
+        if status == "complete":  # the whole record sealed (rig.session.seal), from what was written: nothing re-read
+            seal_session(self.session_dir, text=text, digests=self._chains.digests())
 
     def close(self) -> None:
         self._close_journal()
@@ -210,11 +213,18 @@ class SessionWriter:
         journal.append(self._journal, journal.record_line(index, step.status, plain(stats),
                                                           self.info.samples_committed_bytes or 0))
 
-    def _write_manifest(self) -> None:
-        """Compact: the whole manifest, atomically (the journal's lines are in it), then the journal removed."""
-        atomic_write_text(self.session_dir / "session.yaml", dump_yaml(plain(self.info.to_dict())))
+    def _write_manifest(self) -> str:
+        """Compact: the whole manifest, atomically (the journal's lines are in it), then the journal removed; the
+        text written."""
+        text = dump_yaml(plain(self.info.to_dict()))
+        atomic_write_text(self.session_dir / "session.yaml", text)
         self._close_journal()
         journal.remove(self.session_dir)
+        return text
+
+    def _append(self, fh, name: str, data: bytes) -> None:
+        fh.write(data)
+        self._chains.wrote(name, data)
 
     def _close_journal(self) -> None:
         if self._journal is not None and not self._journal.closed:

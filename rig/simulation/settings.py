@@ -19,10 +19,15 @@ import numpy as np
 from pydantic import BeforeValidator, WithJsonSchema, create_model
 
 from calib.discovery.effects import LIBRARY
-from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, MagErrorModel
+from calib.file.fields import Strict, choice, fail, flag, number
+from drivers.sensors.sim.error_model import (
+    AccelErrorModel,
+    GyroErrorModel,
+    MagErrorModel,
+)
 from drivers.sensors.sim.noise import NOISE_MODELS
-from rig.config.validate import Strict, choice, fail, flag, number, validate_plain
 from rig.config.sections import register_section
+from rig.config.validate import validate_plain
 from rig.simulation.world import ChamberConfig, FieldConfig, RingingConfig
 
 #: how a time-scaled simulated clock treats a reader that falls behind (docs/simulated-rig.md, "Clocks")

@@ -91,8 +91,7 @@ def conclude(session: Session, *, out=None, model: str | None = None, method: st
 
 def report_asked(session: Session) -> bool:
     """Whether the recorded procedure asks for the HTML report at the end (``report: true``)."""
-    # the raw text first: an import's recorded text need not validate, and it asks for no report
-    return session.info.procedure.value("report") is True and session.procedure.report
+    return session.procedure_asks("report") is True
 
 
 def write_conclusion_report(conclusion: Conclusion, *, history=None, session: Session | None = None) -> Path:

@@ -69,7 +69,7 @@ def make_thermal_session(root, name: str = "one-hour", step_s: float = 100.0, *,
         if direct:
             table = np.column_stack([r["t_s"], np.full(n, i), r["accel_counts"], r["temp_c"], r["gyro_counts"],
                                      r["angles_deg"]])
-            w._samples.write("\n".join(ROW % tuple(row) for row in table.tolist()) + "\n")
+            w._append(w._samples, "samples.csv", ("\n".join(ROW % tuple(row) for row in table.tolist()) + "\n").encode())
         else:
             w.append_samples(i, r["t_s"], r["accel_counts"], temp_c=r["temp_c"], gyro_counts=r["gyro_counts"],
                              mag_counts=np.full((n, 3), np.nan), angles_deg=r["angles_deg"])
