@@ -2,35 +2,37 @@
 
     .venv/bin/python benchmarks/bench_seal.py [--repeat 3] [--keep DIR]
 
-Each session is written through :class:`rig.session.SessionWriter` twice, with sealing (each step's rows and
-events hashed and chained at the step's end, :func:`rig.session.seal.link_step`; the whole record sealed at
-completion, :func:`rig.session.seal.seal_session`) and without (both calls replaced by no-ops), and read back by
-:func:`rig.session.load_session` with and without the seal's check (:func:`rig.session.seal.verify_on_load`).
-``rig verify`` is :func:`rig.session.seal.verify_session` alone. Times are the best of ``--repeat`` (seconds).
+Each session is written through :class:`rig.session.SessionWriter` twice, with sealing (the writer hashes the
+bytes it writes, :meth:`rig.session.seal.Chains.wrote`, chains each step's at its end, ``Chains.link``, and seals
+the record at completion from those hashes, :func:`rig.session.seal.seal_session`) and without (the three replaced
+by no-ops), and read back by :func:`rig.session.load_session` with and without the seal's check (samples.csv
+checked on the read that parses it, :class:`rig.session.seal.SamplesCheck`, then events.jsonl and the manifest,
+:func:`rig.session.seal.verify_on_load`). ``rig verify`` is :func:`rig.session.seal.verify_session` alone, reading
+the files itself. Times are the best of ``--repeat`` (seconds).
 
 - six-position: the shipped procedure's shape, 6 steps of 1,000 rows (10 s at 100 Hz), 0.39 MB;
 - one hour: the 36-step thermal session of ``tests/rig/session/test_large_session_memory.py`` (six faces at
   six temperatures, 100 s each at 100 Hz: 360,000 rows, every column of an MPU-9150 session), 25.9 MB.
 
-Measured (2 cores shared with other jobs, load about 3; Python 3.11; best of 5):
+Measured 2026-11-25 (2 cores, load about 1; Python 3.11; best of 3), since the writer hashes as it writes
+and the reader checks on its one read (nothing read back for the seal):
 
-    rig run six_position (simulated rig, virtual time, solve and history included): 0.62 s; its hashing
-    (6 links and the seal) 5.5 ms, 0.9 % (a real run, six dwells of 10 s with moves and settles, takes
-    minutes: the seal is noise there)
+    rig run six_position (simulated rig, virtual time, solve and history included): 0.72 s; its hashing
+    (as written, 6 links and the seal) 4.9 ms, 0.7 %
 
     session (rows, samples.csv)       six-position (6,000 rows, 0.39 MB)   one hour (360,000 rows, 25.9 MB)
-    recording without sealing              0.044 s                              2.50 s
-    per-step links, all steps              0.0011 s (0.18 ms a step)            0.034 s (0.94 ms a step)
-    the seal at completion                 0.0027 s                             0.023 s
-    recording with sealing                 0.048 s (+8 %)                       2.59 s (+4 %; links and seal: +2.3 %)
-    load_session without the check         0.0054 s                             0.261 s
-    load_session with the check            0.0061 s (+0.7 ms)                   0.298 s (+37 ms, +14 %)
-    rig verify (the check alone)           0.0015 s                             0.043 s
+    recording without sealing              0.049 s                              2.46 s
+    hashing as written and links           0.0008 s (0.13 ms a step)            0.037 s (1.0 ms a step)
+    the seal at completion                 0.0022 s                             0.0061 s (was 0.023: no re-read)
+    recording with sealing                 0.051 s (+4 %)                       2.54 s (+3 %)
+    load_session without the check         0.0060 s                             0.264 s
+    load_session with the check            0.0067 s (+0.7 ms)                   0.306 s (+42 ms, +16 %)
+    rig verify (the check alone)           0.0017 s                             0.046 s
 
-Every cost is O(rows): each step hashes its own new bytes once (read back just after their fsync, from the
-page cache), the seal and the check read samples.csv once in 1 MiB chunks whatever its size (memory: one
-chunk), about 1 GB/s of SHA-256 here. The differences of whole recordings (+4 %, +8 %) carry the noise of a
-shared machine; the hashing itself is the links and seal rows.
+Every cost is O(bytes) and each byte is hashed once where it passes anyway: the writer as it writes, the reader
+as it parses (memory: one block). The check's +42 ms on the one-hour session is SHA-256 of 26 MB (about
+0.6 GB/s here, with the parse's block handling); before, the check read the file a second time for the same
+hashing. The differences of whole recordings carry the noise of a shared machine.
 """
 
 from __future__ import annotations
@@ -61,49 +63,71 @@ SIX_PROCEDURE = (REPO / "procedures" / "six_position.yaml").read_text()
 
 
 class Timed:
-    """Wraps the writer's two calls to add up the time they take."""
+    """Wraps the writer's sealing calls (hashing what it writes, a step's link, the seal) to add up their time."""
 
     def __init__(self) -> None:
         self.link_s = self.seal_s = 0.0
 
-    def link(self, *args):
+    def wrote(self, chains, name, data):
         t0 = time.perf_counter()
         try:
-            return seal.link_step(*args)
+            return _WROTE(chains, name, data)
         finally:
             self.link_s += time.perf_counter() - t0
 
-    def seal(self, *args):
+    def link(self, chains, *args):
         t0 = time.perf_counter()
         try:
-            return seal.seal_session(*args)
+            return _LINK(chains, *args)
+        finally:
+            self.link_s += time.perf_counter() - t0
+
+    def seal(self, *args, **kwargs):
+        t0 = time.perf_counter()
+        try:
+            return seal.seal_session(*args, **kwargs)
         finally:
             self.seal_s += time.perf_counter() - t0
 
 
+_WROTE, _LINK = seal.Chains.wrote, seal.Chains.link
+
+
 @contextlib.contextmanager
 def sealing(on: bool, timed: Timed | None = None):
-    """The writer with its two sealing calls, timed, or replaced by no-ops."""
-    saved = writer.link_step, writer.seal_session
+    """The writer with its sealing calls timed, or replaced by no-ops."""
+    saved = seal.Chains.wrote, seal.Chains.link, writer.seal_session
     if on:
-        writer.link_step, writer.seal_session = timed.link, timed.seal
+        seal.Chains.wrote = lambda c, name, data: timed.wrote(c, name, data)
+        seal.Chains.link = lambda c, *a: timed.link(c, *a)
+        writer.seal_session = timed.seal
     else:
-        writer.link_step, writer.seal_session = (lambda d, info, i, stats: stats), (lambda d: None)
+        seal.Chains.wrote = lambda c, name, data: None
+        seal.Chains.link = lambda c, d, info, i, stats: {**stats, "samples_bytes": [0, (Path(d) / "samples.csv").stat().st_size]}
+        writer.seal_session = lambda *a, **k: None
     try:
         yield
     finally:
-        writer.link_step, writer.seal_session = saved
+        seal.Chains.wrote, seal.Chains.link, writer.seal_session = saved
+
+
+class _NoCheck:
+    def __init__(self, *a) -> None:
+        pass
+
+    def update(self, chunk) -> None:
+        pass
 
 
 @contextlib.contextmanager
 def load_check(on: bool):
-    saved = reader.verify_on_load
+    saved = reader.verify_on_load, reader.SamplesCheck
     if not on:
-        reader.verify_on_load = lambda *a: []
+        reader.verify_on_load, reader.SamplesCheck = (lambda *a, **k: []), _NoCheck
     try:
         yield
     finally:
-        reader.verify_on_load = saved
+        reader.verify_on_load, reader.SamplesCheck = saved
 
 
 def six_position(root: Path, name: str) -> Path:
