@@ -109,8 +109,9 @@ class Chains:
     (``sha256(last link || bytes since)``). :meth:`fresh` starts them at a new file's first bytes,
     :meth:`from_files` (a resumed session) from the files as they are, read once."""
 
-    def __init__(self, state: dict) -> None:
-        self._s = state  # name -> {"size", "whole", "start", "head" (hex), "run"}
+    def __init__(self, state: dict, last_index: int | None = None) -> None:
+        self._s = state  # name -> {"size", "whole", "start", "head" (hex), "origin", "run"}
+        self._last_index = last_index  # the step whose link the chain runs from (None: from the origin)
 
     @classmethod
     def fresh(cls, samples_origin: bytes, events_origin: bytes = b"") -> "Chains":
@@ -126,7 +127,9 @@ class Chains:
     def from_files(cls, session_dir, info: SessionManifest) -> "Chains":
         """The files of a session reopened (resumed), each read once; the chain continues from the last link."""
         d = Path(session_dir)
-        last = _last_link([(s.index, s.stats.model_extra if s.stats is not None else None) for s in info.steps])
+        steps = [(s.index, s.stats.model_extra if s.stats is not None else None) for s in info.steps]
+        last = _last_link(steps)
+        last_index = next((i for i, st in steps if st is last), None) if last is not None else None
         state = {}
         for name, key, range_key in _LINK_KEYS:
             whole = hashlib.sha256()
@@ -140,7 +143,7 @@ class Chains:
                 run = hashlib.sha256(bytes.fromhex(head))
                 n += _copy(fh, None, whole, run)
             state[name] = {"size": n, "whole": whole, "start": start, "head": head, "origin": origin, "run": run}
-        return cls(state)
+        return cls(state, last_index)
 
     def wrote(self, name: str, data: bytes) -> None:
         """``data`` was appended to ``name`` (samples.csv or events.jsonl)."""
@@ -153,9 +156,12 @@ class Chains:
         """The step's ``stats`` with its link added, as :func:`link_step` computes it; from the running hashes
         when the previous link is where the chain runs from (always, but for a step recorded again: then the
         files are read from the previous link on, :func:`link_step`). The chain then continues from this link."""
-        prev = _last_link([(s.index, s.stats.model_extra if s.stats is not None else None) for s in info.steps],
-                          exclude=index)
-        if all(self._runs_from(prev, *keys) for keys in _LINK_KEYS):
+        if index != self._last_index:  # the previous link is the last one made: the chain runs from it
+            prev, known = None, True
+        else:  # the last step recorded again: chained from the link before it (found among the steps)
+            prev, known = _last_link([(s.index, s.stats.model_extra if s.stats is not None else None)
+                                      for s in info.steps], exclude=index), False
+        if known or all(self._runs_from(prev, *keys) for keys in _LINK_KEYS):
             out = dict(stats or {})
             for name, key, range_key in _LINK_KEYS:
                 st = self._s[name]
@@ -166,6 +172,7 @@ class Chains:
             st = self._s[name]
             st["start"], st["head"] = int(out[range_key][1]), out[key]
             st["run"] = hashlib.sha256(bytes.fromhex(out[key]))
+        self._last_index = index
         return out
 
     def _runs_from(self, prev: dict | None, name: str, key: str, range_key: str) -> bool:
