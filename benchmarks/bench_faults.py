@@ -18,22 +18,25 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from calib.file import calibration as calfile  # noqa: E402
 from rig.cli import main  # noqa: E402
-from rig.session import load_session  # noqa: E402
+from rig.session import SessionManifest, load_session  # noqa: E402
 
 SIX = str(REPO / "procedures" / "six_position.yaml")
 
 
+def manifest(d: Path) -> dict:
+    """session.yaml as every reader reads it: the steps journal (steps.jsonl) of a killed run folded in."""
+    return SessionManifest.load(d)[1]
+
+
 def committed_steps(d: Path) -> int:
     try:
-        m = yaml.safe_load((d / "session.yaml").read_text())
-        return sum(s["status"] == "complete" for s in m["steps"])
+        return sum(s["status"] == "complete" for s in manifest(d)["steps"])
     except Exception:  # noqa: BLE001
         return -1
 
@@ -53,7 +56,7 @@ def trial(tmp: Path, seed: int, rng: random.Random, ref) -> dict:
         return {"killed": killed, "kept": 0, "resumed": False, "match": False, "note": "killed before the session existed"}
     d = dirs[0]
     kept = committed_steps(d)
-    status = yaml.safe_load((d / "session.yaml").read_text())["status"]
+    status = manifest(d)["status"]
     if status == "complete":
         code = 0
     else:
@@ -115,7 +118,7 @@ def fault_tally() -> None:
             with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
                 code = main(["run", SIX, "--rig", str(rig), "--out", str(out), "--seed", "3", "--quiet"])
             d = next(out.iterdir())
-            m = yaml.safe_load((d / "session.yaml").read_text())
+            m = manifest(d)
             events = [json.loads(x) for x in (d / "events.jsonl").read_text().splitlines()]
             recovered = sum(e["kind"] == "warning" for e in events)
             flagged = sum(s["status"] == "flagged" for s in m["steps"])

@@ -33,8 +33,16 @@ After (one fsynced steps.jsonl line per step; the manifest compacted once, at th
   10,000 steps in under 4 min; the per-step cost is flat (first and last 1,000 steps alike: 351 and 353 bytes
   a step, two fsyncs); the compaction at the end writes the 5.0 MB manifest once (about 2 s), and the reader
   reads it (limit 16 MiB). With the session seal (rig.session.seal, its per-step links) the same run took
-  425 s: 6.5 ms of recording a step at the start, 47 ms at the end (its link_step scans every step's stats
+  425 s: 6.5 ms of recording a step at the start, 47 ms at the end (its link_step scanned every step's stats
   to find the previous link: O(N) a step; 573-581 B/step).
+
+With the seal hashed as written (2026-11-25: rig.session.seal.Chains, the chain runs from the last link made,
+nothing read back; 2 cores, 4 other engineers' work beside it)::
+
+     steps  total s  first k ms/step  last k ms/step     k recording s rec first ms rec last ms B/step first B/step last session.yaml
+     10000    216.9            21.64           24.68  1000        28.6         2.41        4.54          573         581      7788734
+
+  Recording a step 2.4-4.5 ms (was 6.5-47 ms), flat within the load's noise; 10,000 steps in 3.6 min.
 """
 
 from __future__ import annotations

@@ -10,6 +10,8 @@ from pathlib import Path
 import yaml
 
 from . import runner
+from rig.session import SessionManifest
+
 from .runner import SEED_SENSOR, SIX, stderr_lines
 
 
@@ -87,7 +89,7 @@ class Workspace:
 
 def read_state(d: Path) -> dict:
     """Manifest steps and the rows of samples.csv per step (as raw lines), for data-loss and duplicate checks."""
-    m = yaml.safe_load((d / "session.yaml").read_text())
+    m = SessionManifest.load(d)[1]  # the steps journal of a killed run folded in, as every reader does
     data = (d / "samples.csv").read_bytes()
     committed = m.get("samples_committed_bytes") or 0
     lines = data[:committed].decode().splitlines() if committed else data.decode().splitlines()

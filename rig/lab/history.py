@@ -20,12 +20,12 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from calib.file import calibration as calfile
-from calib.file import yamlsafe
 from calib.file.parameters import finite_or_none as _fnum
 from calib.file.parameters import sensor_parameters
 from rig import __version__
 from rig.errors import RigInputError
 from rig.lab.identity import rig_identity, sensor_identity, temperatures
+from rig.session.manifest import SessionManifest
 
 ENV_VAR = "RIG_HISTORY"
 DEFAULT_PATH = Path("~/.local/share/rig/history.sqlite")
@@ -181,15 +181,9 @@ def _migrate(conn: sqlite3.Connection, path: Path) -> None:
 # ---------------------------------------------------------------------------------------------- recording
 
 def _read_manifest(session_dir) -> dict:
-    p = Path(session_dir) / "session.yaml"
-    try:
-        doc = yamlsafe.load(p.read_text())
-    except FileNotFoundError:
-        raise RigInputError(str(p), None, None, "no session manifest (session.yaml)") from None
-    except yamlsafe.HostileYaml:
-        raise RigInputError(str(p), None, None, "session manifest is not valid YAML") from None
-    if not isinstance(doc, dict):
-        raise RigInputError(str(p), None, None, "session manifest is not a mapping")
+    """The session's manifest as a mapping, read as every reader reads it (:meth:`SessionManifest.load`: validated,
+    a steps journal folded in)."""
+    _, doc = SessionManifest.load(session_dir)
     return doc
 
 

@@ -191,7 +191,7 @@ class SessionWriter:
         if status != "running":
             self.close()
         if status == "complete":  # the whole record sealed (rig.session.seal), from what was written: nothing re-read
-            seal_session(self.session_dir, text=text, digests=self._chains.digests())
+            self.info.seal = seal_session(self.session_dir, text=text, digests=self._chains.digests())
 
     def close(self) -> None:
         self._close_journal()

@@ -20,6 +20,7 @@ from rig.devices.rig import Rig
 from rig.execution.context import EngineOptions, RunAborted, RunError, StepOutcome
 from rig.execution.engine import Engine
 from rig.execution.operator import Operator
+from rig.lab.history import record_seal
 from rig.workflow.conclude import Conclusion, conclude, report_asked, write_conclusion_report
 from rig.session import load_session
 from rig.session import BASE_COLUMNS, MAG_COUNTS_PER_UT, ProcedureInfo, RigInfo, SessionManifest, SessionWriter, StepRecord
@@ -185,7 +186,10 @@ def finish(procedure, writer: SessionWriter, outcomes: list[StepOutcome], *, sol
                                f"for bad data; session {writer.session_dir})") from None
             raise
         writer.event("solve", path=str(conclusion.calibration_path))
-    writer.set_status("complete")
+    writer.set_status("complete")  # which seals the session
+    if conclusion is not None and conclusion.history_warning is None:  # recorded while running: the row gets the seal
+        seal = {"id": writer.info.id, "seal": getattr(writer.info, "seal", None)}
+        conclusion.history_warning = record_seal(writer.session_dir, history=history, manifest=seal)
     if conclusion is not None and report_asked(conclusion.session):
         conclusion.session.info = writer.info  # the session as it ends: complete
         write_conclusion_report(conclusion, history=history)

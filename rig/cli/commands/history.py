@@ -49,8 +49,13 @@ def _run(args) -> int:
             plots.resolve_plot_path(args.plot, "unused.png")  # the suffix and the folder, now
     if args.record:
         calib_path = args.calibration or f"{args.record.rstrip('/')}/calibration.yaml"
-        cid, key = store_calibration(args.record, calib_path, history=args.history, sensor_id=args.sensor_id)
-        print(f"recorded: calibration {cid} of sensor {key} in {default_path(args.history)}")
+        stored = store_calibration(args.record, calib_path, history=args.history, sensor_id=args.sensor_id)
+        cid, key = stored
+        if stored.already:  # the same calibration of the same session: recorded once (docs/history.md)
+            print(f"already recorded: calibration {cid} of sensor {key} in {default_path(args.history)} "
+                  "(nothing added)")
+        else:
+            print(f"recorded: calibration {cid} of sensor {key} in {default_path(args.history)}")
         if args.sensor is None and not args.json and args.plot is None:
             return EXIT_OK
     with open_history(args.history, create=False) as h:

@@ -4,6 +4,7 @@ line gives: the same calibration, acceptance verdict and history entry."""
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import textwrap
@@ -11,6 +12,7 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
+import yaml
 
 from calib.file import calibration as calfile
 from rig.cli import main
@@ -85,7 +87,7 @@ def test_rig_run_reads_the_recording_once_and_writes_the_calibration_once(tmp_pa
 def _history_rows(db: Path) -> list[dict]:
     with open_history(db) as h:
         records = sensor_history(h, "MPU-9150@0x68#0x68/sim-seed-5")
-    volatile = ("recorded_at", "calibrated_at", "session_id", "session_path", "calibration_path")
+    volatile = ("recorded_at", "calibrated_at", "session_id", "session_path", "calibration_path", "seal")
     return [({k: v for k, v in r.info.items() if k not in volatile}, r.parameters) for r in records]
 
 
@@ -107,6 +109,16 @@ def test_run_procedure_gives_what_rig_run_gives(tmp_path, monkeypatch, capsys):
     assert result.conclusion.history_warning is None and result.conclusion.report_path.is_file()
     cli_rows, api_rows = _history_rows(tmp_path / "cli.sqlite"), _history_rows(tmp_path / "api.sqlite")
     assert len(api_rows) == 1 and api_rows == cli_rows
+
+
+def test_the_history_row_of_a_run_holds_the_seal_the_session_got_when_it_completed(tmp_path):
+    # the run records its calibration before it marks the session complete, which seals it: the row gets the seal
+    result = run_procedure(str(_procedure(tmp_path)), seed=5, time_scale=0, out_dir=tmp_path / "api",
+                           history=tmp_path / "api.sqlite")
+    sealed = yaml.safe_load((result.session_dir / "session.yaml").read_text())["seal"]
+    with open_history(tmp_path / "api.sqlite") as h:
+        (record,) = sensor_history(h, "MPU-9150@0x68#0x68/sim-seed-5")
+    assert json.loads(record.info["seal"]) == sealed and result.conclusion.history_warning is None
 
 
 def test_a_failed_limit_reaches_the_api_as_it_reaches_the_command_line(tmp_path):
