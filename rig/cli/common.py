@@ -24,6 +24,8 @@ def present(command: str, conclusion, *, quiet: bool = False) -> int:
         print(f"rig {command}: warning: {conclusion.history_warning}", file=sys.stderr)
     if conclusion.report_path is not None:
         print(f"report: {conclusion.report_path}", file=sys.stderr if quiet else sys.stdout)
+    if conclusion.report_warning is not None:
+        print(f"rig {command}: warning: {conclusion.report_warning}", file=sys.stderr)
     return EXIT_OK if conclusion.passed else EXIT_REJECTED
 
 

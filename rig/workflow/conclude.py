@@ -37,6 +37,8 @@ class Conclusion:
     history_warning : None when the calibration went into the history; else the one-line reason it did
         not (the calibration stands: a history problem never changes a result).
     report_path : the HTML report written because the procedure asks for one (``report: true``), or None.
+    report_warning : None, or the one-line reason the report asked for could not be written (the calibration,
+        its verdict and its history record stand: ``rig report SESSION`` writes the report later).
     """
 
     session: Session
@@ -45,6 +47,7 @@ class Conclusion:
     acceptance: Acceptance | None
     history_warning: str | None = None
     report_path: Path | None = None
+    report_warning: str | None = None
 
     @property
     def verdict(self) -> str | None:
@@ -94,14 +97,21 @@ def report_asked(session: Session) -> bool:
     return session.procedure_asks("report") is True
 
 
-def write_conclusion_report(conclusion: Conclusion, *, history=None, session: Session | None = None) -> Path:
+def write_conclusion_report(conclusion: Conclusion, *, history=None, session: Session | None = None) -> Path | None:
     """Write the conclusion's HTML report (``SESSION/report.html``) from what is in memory; ``session``:
-    a fresher view of the same session (its final status), when the caller has one."""
+    a fresher view of the same session (its final status), when the caller has one. A report that cannot be
+    written (a full disk, ...) is :attr:`Conclusion.report_warning`, never the loss of the calibration written
+    before it: None is returned then."""
     from rig.lab.report import write_report  # deferred: the page and its figures, only when a report is asked
 
     if session is not None:
         conclusion.session = session
-    conclusion.report_path = write_report(conclusion.session.path, history_db=history,
-                                          calibration=conclusion.calibration_path, session=conclusion.session,
-                                          calibration_file=conclusion.calibration)
+    try:
+        conclusion.report_path = write_report(conclusion.session.path, history_db=history,
+                                              calibration=conclusion.calibration_path, session=conclusion.session,
+                                              calibration_file=conclusion.calibration)
+    except Exception as exc:  # noqa: BLE001 -- the report is the last thing made: its failure leaves the rest standing
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        conclusion.report_warning = (f"report not written ({type(exc).__name__}: {first}); the calibration stands: "
+                                     f"write the report with rig report {conclusion.session.path}")
     return conclusion.report_path

@@ -16,7 +16,10 @@ import yaml
 
 from calib.file import calibration as calfile
 from rig.cli import main
+from rig.cli.common import present
 from rig.lab import open_history, sensor_history
+from rig.session import load_session
+from rig.workflow.conclude import conclude
 from rig.workflow.run import run_procedure
 
 from conftest import PROCEDURES
@@ -141,3 +144,21 @@ def test_the_report_is_written_only_when_the_procedure_asks(tmp_path, asked):
     result = run_procedure(str(proc), seed=5, time_scale=0, out_dir=tmp_path / "s", history=tmp_path / "h.sqlite")
     assert (result.session_dir / "report.html").is_file() is asked
     assert (result.conclusion.report_path is not None) is asked
+
+
+def test_a_report_that_cannot_be_written_leaves_the_calibration_and_its_record_standing(tmp_path, capsys):
+    result = run_procedure(str(_procedure(tmp_path)), seed=5, time_scale=0, out_dir=tmp_path / "s",
+                           history=tmp_path / "h.sqlite")
+    session = result.session_dir
+    (session / "report.html").unlink()
+    (session / "report.html").mkdir()  # where the report goes, something that is not a file: it cannot be written
+    conclusion = conclude(load_session(session), out=tmp_path / "again.yaml", history=tmp_path / "h.sqlite",
+                          report=True)
+    assert calfile.read(tmp_path / "again.yaml").acceptance["passed"] is True and conclusion.report_path is None
+    assert conclusion.report_warning.startswith("report not written (") and f"rig report {session}" in \
+        conclusion.report_warning
+    with open_history(tmp_path / "h.sqlite") as h:
+        assert len(sensor_history(h, "MPU-9150@0x68#0x68/sim-seed-5")) == 1  # the same numbers: one record
+    assert present("run", conclusion) == 0  # the run's result stands; the warning is said, once, on stderr
+    (line,) = [x for x in capsys.readouterr().err.splitlines() if "report not written" in x]
+    assert line.startswith("rig run: warning: report not written (")
