@@ -7,7 +7,7 @@ One dialect for the procedure and rig-file schemas (``rig.config``), the calibra
   :func:`text`, :func:`label`, :func:`array`) whose validators say what was expected and what was
   given (``expected a number > 0, got -1``) and whose JSON Schema says the same bounds;
 - :class:`Strict`, a frozen model of one mapping that refuses an unknown key naming the allowed ones
-  (:func:`check_mapping` for other models);
+  and the likeliest one meant (:func:`check_mapping` for other models; :func:`did_you_mean`);
 - :func:`fail` (and :func:`field_problem`) for a validator's own message, located below the value it checks;
 - :func:`describe`, the one function that turns a pydantic ValidationError (with the YAML loader's
   :class:`~calib.file.yamlsafe.LineMap`, when there is one) into the parts of the one line
@@ -17,6 +17,7 @@ One dialect for the procedure and rig-file schemas (``rig.config``), the calibra
 
 from __future__ import annotations
 
+import difflib
 import math
 import numbers
 import re
@@ -88,8 +89,18 @@ def check_mapping(cls, data, info):
         if key in refused:
             raise fail(refused[key], at=(key,))
         if key not in allowed:
-            raise fail(f"unknown key (allowed: {', '.join(sorted(allowed))})", at=(key,))
+            raise fail(f"unknown key (allowed: {', '.join(sorted(allowed))}){did_you_mean(key, allowed)}", at=(key,))
     return data
+
+
+def did_you_mean(word, choices) -> str:
+    """``: did you mean 'dwell'?`` for the choice closest to a misspelt ``word`` (difflib, ratio >= 0.6, case
+    ignored); empty when none is close. Appended to a message that names the allowed choices."""
+    if not isinstance(word, str):
+        return ""
+    folded = {str(c).casefold(): str(c) for c in choices}
+    close = difflib.get_close_matches(word.casefold(), list(folded), n=1)
+    return f": did you mean {folded[close[0]]!r}?" if close else ""
 
 
 class Strict(BaseModel):

@@ -17,7 +17,9 @@ and hostile or broken YAML is refused while it is parsed, before any value is bu
 (``yaml.cyaml.CParser``: the scanner and parser in C, one event at a time, nothing recursive), anything
 else by :func:`load_located`, whose value or refusal is then the answer: the fast path only ever answers
 what ``load_located`` answers (tests/rig/session/test_manifest_yaml.py). :func:`load_located` also gives a
-:class:`LineMap` (the line of every key and list item) for errors that name ``file:line: key``.
+:class:`LineMap` (the line of every key and list item) for errors that name ``file:line: key``. A syntax
+error says its cause in words where it is a common one (:mod:`calib.file.yamlhints`: a tab, a dash without
+a space, an unclosed quote, a colon in a value), with the line of the cause and the fix.
 """
 
 from __future__ import annotations
@@ -26,6 +28,8 @@ import re
 
 import yaml
 from yaml.cyaml import CParser
+
+from calib.file import yamlhints
 
 MAX_BYTES = 1024 * 1024  # procedures, rig files, calibration files (a session manifest may be larger)
 MAX_DEPTH = 32  # nesting levels of mappings and lists
@@ -100,6 +104,8 @@ def load_located(text: str):
         if isinstance(exc, yaml.reader.ReaderError):  # a control character: its position, no mark
             line = text.count("\n", 0, exc.position) + 1
         problem = getattr(exc, "problem", None) or (str(exc).splitlines() or ["unreadable"])[0]
+        if isinstance(exc, (yaml.scanner.ScannerError, yaml.parser.ParserError)):  # syntax: the cause in words
+            line, problem = yamlhints.explain(text, problem, line)
         raise HostileYaml(f"not valid YAML: {problem}", line) from None
     except RecursionError:  # a backstop: MAX_DEPTH keeps the composer far from the interpreter's limit
         raise HostileYaml("not valid here: nested too deeply") from None

@@ -23,7 +23,7 @@ from pydantic import (
 
 from calib.accel.predict import Goal, parameter_names, seed_table_f
 from calib.acceptance import AcceptanceLimits, known_pattern
-from calib.file.fields import Strict, choice, fail, flag, label, number, text
+from calib.file.fields import Strict, choice, did_you_mean, fail, flag, label, number, text
 from drivers.sensors.chips import CHIPS, SENSOR_MODELS
 from drivers.ximc.stage_spec import MR191
 from rig.planning.kinematics import f_nominal
@@ -53,7 +53,7 @@ Seconds = number(gt=0, le=DAY_S, description="seconds")
 def _pose(v):
     if v not in POSE_NAMES:
         raise fail(f"unknown pose {v!r} (allowed: {', '.join(POSE_NAMES[:6])}, "
-                   "or any cube direction such as '+X+Y up', '-X+Y+Z up')")
+                   f"or any cube direction such as '+X+Y up', '-X+Y+Z up'){did_you_mean(v, POSE_NAMES)}")
     return v
 
 
@@ -373,8 +373,9 @@ def _one_kind(item):
         raise fail("expected a mapping: a pose, angles_deg, repeat, temperature, prompt, rate or ramp step")
     if step_kind(item) is None:
         kinds = [k for k in STEP_KINDS if k in item]
+        meant = "" if kinds else next(filter(None, (did_you_mean(k, STEP_KINDS) for k in item)), "")
         raise fail("each step needs exactly one of pose, angles_deg, repeat, temperature, prompt, rate, ramp"
-                   + (f" (got {', '.join(kinds)})" if kinds else ""))
+                   + (f" (got {', '.join(kinds)})" if kinds else meant))
     return item
 
 
