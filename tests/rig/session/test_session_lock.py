@@ -71,3 +71,58 @@ def test_a_run_refused_while_the_holder_is_still_writing_its_record_names_the_li
         with pytest.raises(SessionLocked, match=rf"being recorded by pid {os.getpid()} "):
             SessionLock(tmp_path).acquire()
         timer.join()
+
+
+def test_a_released_lock_leaves_no_lock_file_behind(tmp_path):
+    with SessionLock(tmp_path):
+        assert (tmp_path / "session.lock").is_file()
+    assert not (tmp_path / "session.lock").exists()
+
+
+def test_a_lock_file_removed_by_its_releasing_holder_is_opened_again_not_locked_unlinked(tmp_path):
+    """B opened the lock file while A held it; A releases (removing the file); B's flock then succeeds on a
+    removed file: B must open the path again, so that a third process C cannot lock a new file beside it."""
+    import fcntl
+
+    a = SessionLock(tmp_path).acquire()
+    stale = open(tmp_path / "session.lock", "a+")  # what B opened before A let go
+    a.release()
+    fcntl.flock(stale.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)  # B's lock: on a file no longer in the folder
+    try:
+        with SessionLock(tmp_path) as c:  # C gets the lock (the file B locked is not the session's lock)
+            assert (tmp_path / "session.lock").is_file()
+            with pytest.raises(SessionLocked):
+                SessionLock(tmp_path).acquire()  # and holds it against everyone after it
+            assert c.stale is None
+    finally:
+        stale.close()
+
+
+def test_a_holder_that_locked_a_removed_lock_file_opens_the_path_again(tmp_path, monkeypatch):
+    """A releases (removing the file) between B's open and B's flock: B locks the removed file, sees it is not
+    the session's lock any more, and opens and locks the path again."""
+    import fcntl
+
+    from rig.session import lock as lock_module
+
+    a = SessionLock(tmp_path).acquire()
+    real_flock = fcntl.flock
+    calls = []
+
+    def flock_after_a_lets_go(fd, op):
+        if op & fcntl.LOCK_EX:
+            if not calls:
+                a.release()  # A lets go between B's open and B's lock
+            calls.append(fd)
+        return real_flock(fd, op)
+
+    monkeypatch.setattr(lock_module.fcntl, "flock", flock_after_a_lets_go)
+    b = SessionLock(tmp_path).acquire()
+    monkeypatch.setattr(lock_module.fcntl, "flock", real_flock)
+    try:
+        assert len(calls) == 2  # locked twice: the removed file, then the path's new file
+        assert os.fstat(b._fh.fileno()).st_ino == os.stat(tmp_path / "session.lock").st_ino
+        with pytest.raises(SessionLocked):
+            SessionLock(tmp_path).acquire()
+    finally:
+        b.release()
