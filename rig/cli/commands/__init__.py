@@ -22,12 +22,16 @@ COMMANDS: dict[str, str] = {
     "replay": "re-run a recorded session through the replay rig",
     "sim": "start emulated controllers; show the simulated sensor",
     "ports": "list serial ports and I2C buses and what answers on them",
+    "check": "open every controller and the sensor bus, read who answers; move nothing",
+    "jog": "turn one axis by a few degrees (confirmed; Ctrl-C stops it)",
     "history": "calibration history: the sensors, or every calibration of one and its drift",
     "export": "export a calibration file to PX4, ArduPilot, imucal or plain JSON",
     "repair": "cut back what a crash left past a session's last finished step (after a backup); refuse anything else",
     "report": "one self-contained HTML report of a session: verdict, parameters, residuals, roll/pitch table, "
               "discrepancy, history",
     "verify": "check a session against its seal: the recording as made, or where it differs",
+    "characterize": "Allan deviation of a static recording: each axis's noise terms (white noise, bias instability, "
+                    "random walk) with uncertainties",
 }
 
 
@@ -53,6 +57,10 @@ def load(name: str) -> ModuleType:
         from rig.cli.commands import sim as module
     elif name == "ports":
         from rig.cli.commands import ports as module
+    elif name == "check":
+        from rig.cli.commands import check as module
+    elif name == "jog":
+        from rig.cli.commands import jog as module
     elif name == "history":
         from rig.cli.commands import history as module
     elif name == "export":
@@ -63,6 +71,8 @@ def load(name: str) -> ModuleType:
         from rig.cli.commands import report as module
     elif name == "verify":
         from rig.cli.commands import verify as module
+    elif name == "characterize":
+        from rig.cli.commands import characterize as module
     else:
         raise KeyError(f"no rig command {name!r}")
     return module
