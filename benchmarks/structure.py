@@ -36,6 +36,7 @@ DEFERRED: tuple[tuple[str, str, str], ...] = (
     ("rig.cli.failures", "rig.cli.main", "every layer's error types (calib, pandas), once a command runs"),
     ("scipy.optimize", "calib.numerics.magnitude", "the magnitude method's nonlinear fit, only when that method is asked for"),
     ("scipy.optimize", "calib.mag.ellipsoid", "the ellipsoid's nonlinear fit, only when a magnetometer is solved"),
+    ("allantools", "calib.noise.allan", "the Allan deviation and its intervals, only when rig characterize computes one"),
 )
 
 

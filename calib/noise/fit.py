@@ -1,0 +1,155 @@
+"""The noise terms fitted to an Allan deviation, with uncertainties and the fit's quality (docs/noise.md).
+
+The Allan variance is linear in the squared figures (:mod:`calib.noise.terms`), ``sigma^2(tau) =
+sum_j c_j f_j(tau)``, so the fit is a non-negative weighted linear least squares over the octave-spaced
+points. Each point's variance is ``2 sigma^2_model(tau)^2 / edf(tau)``, with Greenhall's degrees of
+freedom for the noise that dominates the model there (:func:`calib.noise.allan.with_edf`); the
+weights and the degrees of freedom are re-evaluated from the fit until it settles. The covariance of
+the ``c_j`` is ``(A^T W A)^-1``, scaled by chi2/dof when the points scatter more than their degrees
+of freedom say (Birge). A figure's confidence interval is that of its ``c_j`` (95 %, clipped at 0),
+square-rooted; a term the non-negative fit puts at 0 has an upper bound only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import nnls
+
+from calib.errors import CalibError
+from calib.noise.allan import AllanCurve, with_edf
+from calib.noise.terms import DEFAULT_TERMS, TERMS, NoiseFigures
+
+#: the averaging times the fit starts at by default: shorter ones see the chip's low-pass filter, s
+FIT_TAU_MIN_S = 0.1
+#: two-sided 95 % normal quantile of the stated intervals
+Z95 = 1.959963984540054
+#: a rate ramp asked "where seen" is kept when its squared figure stands this many sigma above 0
+RAMP_SEEN_SIGMA = 3.0
+ITERATIONS = 4
+#: the fit weighs the octave points as independent; overlapping Allan variances at neighbouring averaging
+#: times are correlated, so the covariance of each squared figure is scaled by this factor (the spread of
+#: (fitted - true) / stated sigma on synthetic noise of known terms, 60 units with N, B, K drawn 0.5-2x the
+#: MPU-9150 accelerometer's, 2 h at 100 Hz, calib.noise.synthetic, seeds 1-3: N 1.29-1.49, B 1.08-1.49, K 1.38-1.61;
+#: checked on other seeds in benchmarks/bench_allan.py)
+CORRELATION_INFLATION = {"N": 1.5, "B": 1.35, "K": 1.6, "R": 1.6}
+
+
+@dataclass(frozen=True)
+class TermFit:
+    """One fitted figure: ``value`` with its 1-sigma ``sigma`` and 95 % interval ``[lo, hi]`` (the axis's unit)."""
+
+    term: str
+    value: float
+    sigma: float
+    lo: float
+    hi: float
+
+    def covers(self, truth: float) -> bool:
+        return self.lo <= truth <= self.hi
+
+    def to_dict(self) -> dict:
+        return {"value": self.value, "sigma": self.sigma, "ci95": [self.lo, self.hi]}
+
+
+@dataclass(frozen=True)
+class NoiseFit:
+    """The fit of one axis: its figures, each term's fit, the quality and the curve it was fitted to.
+
+    chi2_dof : chi-squared per degree of freedom of the Allan variances about the model (1 for a good fit).
+    max_rel_dev : largest |ADEV / model - 1| over the fitted points.
+    tau_floor_s : averaging time of the fitted curve's minimum (the bias instability's correlation time,
+        IEEE Std 952: the floor is read there), s; None without a floor.
+    """
+
+    figures: NoiseFigures
+    terms: dict
+    chi2_dof: float
+    max_rel_dev: float
+    tau_floor_s: float | None
+    curve: AllanCurve
+    n_fitted: int
+
+    def to_dict(self) -> dict:
+        return {"terms": {t: f.to_dict() for t, f in self.terms.items()}, "chi2_dof": self.chi2_dof,
+                "max_rel_dev": self.max_rel_dev, "tau_floor_s": self.tau_floor_s, "points": self.n_fitted}
+
+
+def _design(tau: np.ndarray, terms) -> np.ndarray:
+    return np.column_stack([TERMS[t][1](tau) for t in terms])
+
+
+def _alpha(tau: np.ndarray, terms, c: np.ndarray) -> np.ndarray:
+    """The FM exponent of the term that dominates the model at each tau."""
+    parts = _design(tau, terms) * c[None, :]
+    return np.array([TERMS[terms[j]][2] for j in np.argmax(parts, axis=1)])
+
+
+def _solve(curve: AllanCurve, sel: np.ndarray, terms) -> tuple[np.ndarray, np.ndarray, float, AllanCurve]:
+    """Iterated weighted NNLS: (c, covariance of c, chi2/dof, curve with the final degrees of freedom)."""
+    tau, avar = curve.tau_s[sel], curve.adev[sel] ** 2
+    a = _design(tau, terms)
+    model = avar.copy()
+    c = np.zeros(len(terms))
+    for _ in range(ITERATIONS):
+        alpha = _alpha(curve.tau_s, terms, c) if c.any() else np.zeros(len(curve.tau_s), int)
+        curve = with_edf(curve, alpha)
+        sd = np.sqrt(2.0 / curve.edf[sel]) * np.maximum(model, 1e-300)
+        c, _ = nnls(a / sd[:, None], avar / sd)
+        model = a @ c
+    resid = (avar - model) / sd
+    dof = max(len(tau) - int(np.count_nonzero(c)), 1)
+    chi2_dof = float(resid @ resid / dof)
+    free = c > 0
+    cov = np.zeros((len(terms), len(terms)))
+    if free.any():
+        aw = a[:, free] / sd[:, None]
+        cov[np.ix_(free, free)] = np.linalg.pinv(aw.T @ aw) * max(chi2_dof, 1.0)
+    bound = ~free  # at zero: the 1-sigma of that term alone, for its upper bound
+    for j in np.flatnonzero(bound):
+        col = a[:, j] / sd
+        cov[j, j] = max(chi2_dof, 1.0) / float(col @ col)
+    return c, cov, chi2_dof, curve
+
+
+def _term_fit(term: str, c: float, var: float) -> TermFit:
+    s = math.sqrt(max(var, 0.0))
+    value = math.sqrt(max(c, 0.0))
+    lo = math.sqrt(max(c - Z95 * s, 0.0))
+    hi = math.sqrt(max(c + Z95 * s, 0.0))
+    sigma = s / (2 * value) if value > 0 else math.sqrt(s)
+    return TermFit(term, value, sigma, lo, hi)
+
+
+def fit_terms(curve: AllanCurve, terms=DEFAULT_TERMS, ramp: str = "seen", tau_min_s: float = FIT_TAU_MIN_S) -> NoiseFit:
+    """Fit ``terms`` (of N, B, K, R) to ``curve`` over its averaging times from ``tau_min_s`` (s).
+
+    ``ramp``: "seen" adds the rate ramp R when the fit finds it above :data:`RAMP_SEEN_SIGMA` sigma, "no"
+    never (R in ``terms`` always fits it). CalibError when fewer points than terms remain.
+    """
+    terms = tuple(t for t in TERMS if t in terms)
+    sel = curve.tau_s >= tau_min_s * (1 - 1e-9)
+    if int(sel.sum()) < len(terms) + 1:
+        raise CalibError(f"the Allan deviation has {int(sel.sum())} points from {tau_min_s:g} s; fitting "
+                         f"{', '.join(terms)} needs at least {len(terms) + 1}")
+    c, cov, chi2_dof, fitted = _solve(curve, sel, terms)
+    if ramp == "seen" and "R" not in terms and int(sel.sum()) >= len(terms) + 2:
+        with_r = (*terms, "R")
+        c2, cov2, chi2_2, fitted2 = _solve(curve, sel, with_r)
+        if c2[-1] > RAMP_SEEN_SIGMA * math.sqrt(cov2[-1, -1]):
+            terms, c, cov, chi2_dof, fitted = with_r, c2, cov2, chi2_2, fitted2
+    fits = {t: _term_fit(t, c[j], cov[j, j] * CORRELATION_INFLATION[t] ** 2) for j, t in enumerate(terms)}
+    figures = NoiseFigures(**{t: f.value for t, f in fits.items()})
+    model = np.sqrt(figures.avar(fitted.tau_s[sel]))
+    max_rel = float(np.max(np.abs(fitted.adev[sel] / model - 1.0)))
+    return NoiseFit(figures, fits, chi2_dof, max_rel, _floor_tau(figures, fitted.tau_s), fitted, int(sel.sum()))
+
+
+def _floor_tau(figures: NoiseFigures, tau: np.ndarray) -> float | None:
+    """The averaging time of the fitted curve's minimum, s (None without a bias instability)."""
+    if figures.B <= 0:
+        return None
+    grid = np.geomspace(tau[0], tau[-1] * 10, 400)
+    return float(grid[int(np.argmin(figures.avar(grid)))])
