@@ -171,6 +171,13 @@ class AccelCalibration(CalibrationSection):
             n += int(np.size(np.asarray(effect.get("estimate", []), dtype=object)))
         return n
 
+    def degrees_of_freedom(self) -> int:
+        """Residuals less estimated quantities: one residual per axis and step (one per step for the magnitude
+        method, which fits |f|) less :meth:`n_parameters`. 0 or less: an exactly determined fit (the flip
+        method on six faces), whose residual says nothing about the noise."""
+        per_step = 1 if self.fit.method == "magnitude" else 3
+        return per_step * int(self.fit.steps) - self.n_parameters()
+
     def misfit(self, level: float = MISFIT_LEVEL) -> tuple[bool, float]:
         """Whether the fit is worse than its noise explains, by the one rule
         (:func:`calib.numerics.design.misfit`: chi-square beyond its upper ``level`` quantile), and the
@@ -179,8 +186,7 @@ class AccelCalibration(CalibrationSection):
         step (one per step for the magnitude method, which fits |f|) less :meth:`n_parameters`."""
         fit = self.fit
         chi2_per_dof = float(fit.chi2_per_dof) if fit.chi2_per_dof is not None else float("nan")
-        per_step = 1 if fit.method == "magnitude" else 3
-        dof = per_step * int(fit.steps) - self.n_parameters()
+        dof = self.degrees_of_freedom()
         if dof <= 0 or not np.isfinite(chi2_per_dof):
             return False, 1.0
         return misfit(chi2_per_dof * dof, dof, level)

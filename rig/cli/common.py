@@ -76,12 +76,23 @@ def format_calibration(cal) -> str:
     return "\n".join(lines)
 
 
+#: a residual below this is rounding: the fit was exactly determined, g (1 ng)
+EXACT_RESIDUAL_G = 1e-9
+#: an effect's estimate is printed as found when it is this many sigmas from zero on some axis
+EFFECT_Z = 3.0
+
+
 def _accelerometer_lines(a) -> list[str]:
-    lines = [f"  model: {a.model}   fit: {a.fit.steps} steps, residual {a.fit.residual_rms_g * 1e6:.1f} ug rms, "
-             f"chi2/dof {a.fit.chi2_per_dof:.2f}"]
+    # exactly determined: no degrees of freedom, or a residual at rounding level (the flip method on one pose per face)
+    exact = a.degrees_of_freedom() <= 0 or abs(a.fit.residual_rms_g) < EXACT_RESIDUAL_G
+    fit = (f"chi2/dof {a.fit.chi2_per_dof:.2f}" if not exact else
+           "exactly determined (as many estimates as measurements: the residual is zero by construction and says "
+           "nothing about the noise)")
+    lines = [f"  model: {a.model}   fit: {a.fit.steps} steps, residual {a.fit.residual_rms_g * 1e6:.1f} ug rms, {fit}"]
     sig = a.sigma
+    at = f" (at t0 {a.temperature.t0_c:.2f} C)" if a.temperature else ""
     for j, axis in enumerate("xyz"):
-        lines.append(f"  {axis}: bias {a.bias_counts[j]:10.2f} +- {sig['bias_counts'][j]:.2f} counts   "
+        lines.append(f"  {axis}: bias {a.bias_counts[j]:10.2f} +- {sig['bias_counts'][j]:.2f} counts{at}   "
                      f"scale {a.scale_counts_per_g[j]:10.2f} +- {sig['scale_counts_per_g'][j]:.2f} counts/g")
     if a.misalignment:
         m = a.misalignment
@@ -89,10 +100,40 @@ def _accelerometer_lines(a) -> list[str]:
         lines.append("  misalignment (mrad): " + "  ".join(
             f"{k} {m[k] * 1e3:.3f} +- {sm.get(k, float('nan')) * 1e3:.3f}" for k in ("alpha_yz", "alpha_zy", "alpha_zx")))
     if a.temperature:
-        lines.append(f"  temperature: t0 {a.temperature.t0_c:.2f} C, order {a.temperature.order}")
+        lines += _tempco_lines(a.temperature, (sig.get("temperature") or {}).get("coefficients"))
     if a.effects:
-        lines.append("  effects: " + ", ".join(e["name"] for e in a.effects))
+        lines += _effect_lines(a.effects)
     return lines
+
+
+def _tempco_lines(t, sigmas) -> list[str]:
+    """The bias temperature coefficients, each order on a line, with their sigmas (counts/C^s)."""
+    c = np.asarray(t.coefficients, float)
+    s = np.asarray(sigmas, float) if sigmas is not None else np.full_like(c, np.nan)
+    lines = [f"  temperature: bias polynomial about t0 {t.t0_c:.2f} C, order {t.order}"]
+    for k in range(int(t.order)):
+        unit = "counts/C" if k == 0 else f"counts/C^{k + 1}"
+        lines.append(f"  bias tempco ({unit}): " + "  ".join(
+            f"{axis} {c[j, k]:+.4g} +- {s[j, k]:.2g}" for j, axis in enumerate("xyz")))
+    return lines
+
+
+def _effect_lines(effects) -> list[str]:
+    """Each fitted effect with its estimate per axis; those within EFFECT_Z sigmas of zero on every axis are
+    named as tested and not needed (their estimates stay in the file)."""
+    found, not_needed = [], []
+    for e in effects:
+        est, sig = e.get("estimate") or [], e.get("sigma") or []
+        z = [abs(v) / s for v, s in zip(est, sig) if v is not None and s not in (None, 0)]
+        if z and max(z) >= EFFECT_Z:
+            found.append(f"  effect {e['name']} ({e.get('unit', '')}): " + "  ".join(
+                f"{axis} {v:+.3g} +- {s:.2g}" for axis, v, s in zip(e.get("axes") or "xyz", est, sig)
+                if v is not None and s is not None))
+        else:
+            not_needed.append(e["name"])
+    if not_needed:
+        found.append(f"  tested, not needed (within {EFFECT_Z:g} sigma of zero on every axis): {', '.join(not_needed)}")
+    return found
 
 
 def _gyroscope_line(section) -> str:

@@ -1,0 +1,55 @@
+"""Results where people look (issue 33 item 4): what `rig run` and `rig solve` print states every estimated
+parameter with its sigma, tempcos included; effects that the fit tested and did not need are named as such;
+an exactly determined fit says so instead of a chi2/dof of 0.00."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from rig.cli import main
+
+from conftest import PROCEDURES
+
+
+@pytest.fixture(scope="module")
+def ramp_run(tmp_path_factory):
+    """``rig run procedures/thermal_ramp.yaml`` in virtual time: (its printout, its session directory)."""
+    root = tmp_path_factory.mktemp("ramp")
+    with pytest.MonkeyPatch.context() as mp, pytest.MonkeyPatch.context():
+        mp.setenv("RIG_HISTORY", str(root / "h.sqlite"))
+        import contextlib
+        import io
+
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            assert main(["run", str(PROCEDURES / "thermal_ramp.yaml"), "--seed", "2", "--time-scale", "0",
+                         "--out", str(root / "s"), "--quiet"]) == 0
+    return out.getvalue(), next((root / "s").iterdir())
+
+
+def test_the_bias_tempcos_are_printed_with_their_sigmas_and_the_bias_says_at_which_temperature(ramp_run):
+    out, _ = ramp_run
+    (line,) = [x for x in out.splitlines() if x.strip().startswith("bias tempco (counts/C):")]
+    assert re.fullmatch(r"\s*bias tempco \(counts/C\): x [+-][\d.]+ \+- [\d.]+  y [+-][\d.]+ \+- [\d.]+  "
+                        r"z [+-][\d.]+ \+- [\d.]+", line), line
+    biases = [x for x in out.splitlines() if re.match(r"\s*[xyz]: bias", x)]
+    assert len(biases) == 3 and all("counts (at t0 " in b for b in biases)
+
+
+def test_effects_the_fit_did_not_need_are_named_as_tested_and_not_needed(ramp_run):
+    out, _ = ramp_run
+    assert "effects: thermal_gradient, scale_tempco" not in out  # what was printed: as if they had been found
+    (line,) = [x for x in out.splitlines() if "tested, not needed" in x]
+    assert "thermal_gradient" in line and "scale_tempco" in line and "3 sigma" in line
+
+
+def test_an_exactly_determined_fit_says_so(simulated_lab, tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("RIG_HISTORY", str(tmp_path / "h.sqlite"))
+    assert main(["solve", str(simulated_lab["six"]), "--method", "flip", "-o", str(tmp_path / "flip.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert "chi2/dof 0.00" not in out and "exactly determined" in out
+    assert main(["solve", str(simulated_lab["six"]), "-o", str(tmp_path / "pinv.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert "exactly determined" not in out and re.search(r"chi2/dof \d+\.\d\d", out)
