@@ -76,6 +76,11 @@ class Recording:
     time_scale: float = 1.0
     #: a static step with a pose must read +-1 g along its pose's axis (imucal's parts)
     check_axis_sign: bool = False
+    #: magnetometer counts per uT (the spool's ``mag`` column) and the units they came in
+    mag_lsb_per_ut: float | None = None
+    mag_units: str | None = None
+    #: what became of each input column (the import's summary; docs/import.md)
+    columns: list[str] = field(default_factory=list)
 
     @property
     def has_temperature(self) -> bool:
@@ -85,22 +90,33 @@ class Recording:
     def has_gyro(self) -> bool:
         return bool(self.steps) and self.spool is not None and "gyro" in self.spool.columns
 
+    @property
+    def has_mag(self) -> bool:
+        return bool(self.steps) and self.spool is not None and "mag" in self.spool.columns
+
+    @property
+    def has_accel(self) -> bool:
+        """False for a recording without accelerometer columns (its session stores 0 counts: docs/import.md)."""
+        return self.spool is None or "acc" in self.spool.columns
+
     def times(self, raw: np.ndarray) -> np.ndarray:
         return raw if self.time_origin is None else (raw - self.time_origin) * self.time_scale
 
     def step_chunks(self, step: ImportedStep, rows: int | None = None) -> Iterator[dict]:
-        """The step's samples, ``rows`` at a time: ``t`` (s), ``counts`` (n, 3) int, ``temp`` or None,
-        ``gyro`` (n, 3) int or None."""
+        """The step's samples, ``rows`` at a time: ``t`` (s), ``counts`` (n, 3) int (zeros without an
+        accelerometer), ``temp`` or None, ``gyro`` and ``mag`` (n, 3) int or None."""
         rows = rows or CHUNK_ROWS
+        cols = self.spool.columns
         for a, b in step.rows:
             for lo in range(a, b, rows):
                 hi = min(b, lo + rows)
                 t = self.times(self.spool.read("t", lo, hi))
-                counts = np.rint(self.spool.read("acc", lo, hi)).astype(np.int64)
-                temp = self.spool.read("temp", lo, hi) if "temp" in self.spool.columns else None
-                gyro = np.rint(self.spool.read("gyro", lo, hi)).astype(np.int64) if "gyro" in self.spool.columns \
-                    else None
-                yield {"t": t, "counts": counts, "temp": temp, "gyro": gyro}
+                counts = np.rint(self.spool.read("acc", lo, hi)).astype(np.int64) if "acc" in cols \
+                    else np.zeros((hi - lo, 3), np.int64)
+                temp = self.spool.read("temp", lo, hi) if "temp" in cols else None
+                gyro = np.rint(self.spool.read("gyro", lo, hi)).astype(np.int64) if "gyro" in cols else None
+                mag = np.rint(self.spool.read("mag", lo, hi)).astype(np.int64) if "mag" in cols else None
+                yield {"t": t, "counts": counts, "temp": temp, "gyro": gyro, "mag": mag}
 
 
 # -- the spool -------------------------------------------------------------------------------------
@@ -512,21 +528,23 @@ def _step_column(rec: Recording, st: ImportedStep, name: str, start: int, count:
     return np.concatenate(parts) if len(parts) != 1 else parts[0]
 
 
+#: a static step's standard error comes from its own scatter: fewer samples than this cannot give one
+MIN_STATIC_SAMPLES = 10
+
+
 def check_recording(path: Path, rec: Recording, summaries: list[StepSummary]) -> None:
-    """Refuse a recording whose steps cannot be what they claim: fewer than 2 samples in a step,
-    values beyond any accelerometer's range, data that contradict their pose label."""
+    """Refuse a recording whose steps cannot be what they claim: a rotation step of fewer than 2 samples,
+    a static step of fewer than :data:`MIN_STATIC_SAMPLES`, values beyond any accelerometer's range, data
+    that contradict their pose label."""
     if rec.check_axis_sign:
         for st, s in zip(rec.steps, summaries):
             if st.kind == "static" and st.f_nominal is not None:
                 check_axis_sign(path, st, s.mean_counts)
     for st, s in zip(rec.steps, summaries):
-        if s.n < 2:
-            raise RigInputError(str(path), None, st.name, f"step {st.name!r} has {s.n} sample(s); "
-                                                          "a step needs at least 2")
         if s.first_big is not None:
             raise RigInputError(str(path), None, st.name, f"a value of {s.first_big:g} counts is beyond "
                                 f"{MAX_IMPORT_G:g} g ({rec.lsb_per_g:g} counts/g): not acceleration in {rec.units}")
-        if st.kind == "static" and st.f_nominal is not None:
+        if st.kind == "static" and st.f_nominal is not None and rec.has_accel:
             mean = s.mean_counts
             f = np.asarray(st.f_nominal, float)
             cosine = float(mean @ f / (np.linalg.norm(mean) * np.linalg.norm(f) or 1.0))
@@ -534,6 +552,12 @@ def check_recording(path: Path, rec: Recording, summaries: list[StepSummary]) ->
                 raise RigInputError(str(path), None, st.name, f"the data of step {st.name!r} point along "
                                     f"{np.round(mean / (np.linalg.norm(mean) or 1.0), 2).tolist()}, not its label's "
                                     f"{np.round(f, 2).tolist()}: mislabelled")
+        need = MIN_STATIC_SAMPLES if st.kind == "static" else 2
+        if s.n < need:
+            raise RigInputError(str(path), st.first_line, st.name, f"{st.kind} step {st.name!r} has {s.n} sample(s); "
+                                f"a {st.kind} step needs at least {need}"
+                                + (" (its standard error comes from its own scatter: label longer rests, or leave "
+                                   "out the label column and let static detection find them)" if need > 2 else ""))
 
 
 def check_axis_sign(path: Path, st: ImportedStep, mean: np.ndarray) -> None:

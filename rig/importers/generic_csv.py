@@ -5,8 +5,10 @@
     t_s,ax,ay,az,temp_c,label
     0.000,16390,12,-40,25.1,+Z up
 
-``t_s`` (s, increasing), ``ax, ay, az`` required; ``temp_c``, ``label`` optional; other columns ignored.
-Steps from the ``label`` column (a new step at each change; a pose name gives ``f_nominal``; a label
+Any of the sensors' columns (``ax,ay,az``, ``gx,gy,gz``, ``mx,my,mz``) in counts or physical units, time
+from ``t_s`` or a rate (``--rate``, ``# rate_hz:``, a preamble line ``Fs,100``), ``temp_c`` and ``label``
+optional, other names mapped by ``--columns`` (:mod:`rig.importers.columns`); every other column is named
+in the summary as ignored. Steps from the ``label`` column (a new step at each change; a pose name gives ``f_nominal``; a label
 containing ``rot`` a rotation step), else by static detection. Read block by block into the spool
 (:mod:`rig.importers.common`); static detection runs chunk by chunk on the spooled counts.
 """
@@ -19,13 +21,13 @@ from pathlib import Path
 import numpy as np
 
 from calib.numerics.static_detect import StaticDetector
-from rig.errors import RigInputError
-from rig.importers.common import (COUNTS_PER_G_EQUIVALENT, G_MS2, ImportedStep, Increasing, Recording, Runs, Spools,
-                                  Table, diffs, exact_median, open_text, read_line)
+from rig.importers.columns import (COUNTS_PER_G_EQUIVALENT, PREAMBLE_RATE, ColumnPlan, apply_column_map,
+                                   parse_column_map, plan_columns, rate_option)
+from rig.importers.common import (G_MS2, ImportedStep, Increasing, Recording, Runs, Spool, Spools, Table, diffs,
+                                  exact_median, open_text, read_line)
 from rig.planning.kinematics import f_nominal
 from rig.planning.poses import POSE_NAMES, pose_angles_deg
 
-UNITS = ("counts", "g", "m/s^2")
 
 
 def read_meta(path: Path, lines: list[str]) -> tuple[dict[str, str], int]:
@@ -38,75 +40,113 @@ def read_meta(path: Path, lines: list[str]) -> tuple[dict[str, str], int]:
         if m:
             meta[m.group(1).lower()] = m.group(2).strip()
         skip += 1
-    units = meta.get("units", "counts")
-    if units not in UNITS:
-        raise RigInputError(str(path), None, "units", f"expected counts, g or m/s^2, got {units!r}")
     return meta, skip
 
 
-def counts_per_g(path: Path, meta: dict[str, str]) -> float:
-    """``# lsb_per_g`` for counts; the counts-equivalent (10 ug per count) for physical units."""
-    if meta.get("units", "counts") != "counts":
-        return COUNTS_PER_G_EQUIVALENT
-    try:
-        lsb = float(meta["lsb_per_g"])
-    except (KeyError, ValueError):
-        lsb = 0.0
-    if not lsb > 0:
-        raise RigInputError(str(path), None, "lsb_per_g", "counts need a '# lsb_per_g: N' line (N > 0)")
-    return lsb
-
-
-def read_csv(path: Path, spools: Spools, g_ms2: float = G_MS2, **_) -> Recording:
-    """Generic CSV: comment lines, then a header with ``t_s, ax, ay, az`` and optional ``temp_c``, ``label``."""
-    with open_text(path) as fh:
-        comments, line = [], read_line(path, fh, 1)
-        while line.startswith("#"):
+def _head(path: Path, fh) -> tuple[dict[str, str], float | None, str, int]:
+    """Comment lines, then preamble lines stating the rate (``Fs,100``), then the header: the meta, the
+    preamble's rate, the header line and its line number."""
+    comments, preamble, n = [], None, 1
+    line = read_line(path, fh, n)
+    while line.startswith("#") or (line.strip() and PREAMBLE_RATE.match(line.rstrip("\n"))):
+        if line.startswith("#"):
             comments.append(line.rstrip("\n"))
-            line = read_line(path, fh, len(comments) + 1)
-        meta, skip = read_meta(path, comments)
-        units, lsb = meta.get("units", "counts"), counts_per_g(path, meta)
-        table = Table(path, fh, line, skip + 1, ["t_s", "ax", "ay", "az"], ",", splitlines=True)
-        has_temp, has_label = "temp_c" in table.header, "label" in table.header
-        spool = spools.new({"t": 1, "acc": 3, **({"temp": 1} if has_temp else {})})
-        increasing, runs = Increasing(), Runs(path, "label")
-        numeric = ["t_s", "ax", "ay", "az"] + (["temp_c"] if has_temp else [])
-        for b in table.blocks(numeric, ["label"] if has_label else []):
-            t, acc = b.numbers[:, 0], b.numbers[:, 1:4]
-            increasing.feed(t, b.lines)
-            if units == "g":
-                acc = acc * lsb
-            elif units == "m/s^2":
-                acc = acc / g_ms2 * lsb
-            spool.append(t=t, acc=acc, **({"temp": b.numbers[:, 4]} if has_temp else {}))
-            if has_label:
-                runs.feed([x.strip() for x in b.texts[0]], b.lines)
-        spool.finish()
-    increasing.check(path, "t_s")
+        else:
+            preamble = PREAMBLE_RATE.match(line.rstrip("\n")).group(2)
+        n += 1
+        line = read_line(path, fh, n)
+    meta, _ = read_meta(path, comments)
+    return meta, preamble, line, n
+
+
+def read_csv(path: Path, spools: Spools, g_ms2: float = G_MS2, rate_hz: float | None = None,
+             column_map: str | None = None, **_) -> Recording:
+    """Generic CSV: comment lines (and a rate preamble), then a header with any of the sensors' columns, a
+    time column or a rate, optional ``temp_c`` and ``label`` (:mod:`rig.importers.columns`)."""
+    with open_text(path) as fh:
+        meta, preamble, line, header_at = _head(path, fh)
+        table = Table(path, fh, line, header_at, [], ",", splitlines=True)
+        mapping = {**parse_column_map(path, meta.get("columns"), "columns"),
+                   **parse_column_map(path, column_map, "--columns")}
+        table.header = apply_column_map(path, table.header, mapping, header_at)
+        rate, rate_from = rate_option(path, rate_hz, meta, preamble)
+        plan = plan_columns(path, table.header, meta, header_at, g_ms2=g_ms2, rate_hz=rate, rate_from=rate_from,
+                            renamed=mapping)
+        spool, runs = _read_rows(path, table, plan, spools)
     n = spool.n_rows
     dt = exact_median(diffs(spool), n - 1) if n > 1 else float("nan")
-    rate = round(float(1.0 / dt), 4)
-    labelled = has_label  # a label column gives the steps, even empty labels ("segment N")
-    rec = Recording("csv", meta.get("sensor", "generic CSV"), lsb, rate, units,
-                    "labels" if labelled else "static detection", spool=spool)
-    if labelled:
-        rec.steps += labelled_steps(runs.runs)
+    rec = Recording("csv", meta.get("sensor", "generic CSV"), _lsb(plan), round(float(1.0 / dt), 4), _units(plan),
+                    "labels" if plan.has_label else "static detection", spool=spool, columns=plan.summary())
+    if "gyro" in plan.sensors:
+        rec.gyro_lsb_per_dps = plan.sensors["gyro"].lsb
+    if "mag" in plan.sensors:
+        rec.mag_lsb_per_ut, rec.mag_units = plan.sensors["mag"].lsb, plan.sensors["mag"].units
+    if plan.has_label:  # a label column gives the steps, even empty labels ("segment N")
+        rec.steps += labelled_steps(runs, poses="acc" in plan.sensors)
     elif n > 1:
-        t0, t_end = float(spool.read("t", 0, 1)[0]), float(spool.read("t", n - 1, n)[0])
-        detector = StaticDetector(dt, t0, init_s=min(30.0, 0.2 * (t_end - t0)))
-        for t, acc in zip(spool.chunks("t"), spool.chunks("acc")):
-            detector.feed(t, np.rint(acc).astype(np.int64))
-        for k, (a, b) in enumerate(detector.finish()):
-            rec.steps.append(ImportedStep(f"static {k + 1}", "static", [(a, b)], pose_group=1000 + k))
+        rec.steps += detected_steps(spool, dt, next(k for k in ("acc", "mag", "gyro") if k in plan.sensors))
     return rec
 
 
-def labelled_steps(runs: list[list]) -> list[ImportedStep]:
-    """One step per run of equal labels; a pose name gives the step's nominal specific force."""
+def _read_rows(path: Path, table: Table, plan: ColumnPlan, spools: Spools) -> tuple[Spool, list[list]]:
+    """Every row into the spool (time, each sensor in stored counts, temperature; the labels' runs kept)."""
+    widths = {"t": 1, **{k: 3 for k in plan.sensors}, **({"temp": 1} if plan.has_temp else {})}
+    spool = spools.new(widths)
+    increasing, runs = Increasing(), Runs(path, "label")
+    for b in table.blocks(plan.numeric(), ["label"] if plan.has_label else []):
+        col, arrays = 0, {}
+        if plan.time_column:
+            arrays["t"] = b.numbers[:, 0]
+            col = 1
+        else:
+            arrays["t"] = np.arange(table.n_rows - len(b), table.n_rows, dtype=np.float64) / plan.rate_hz
+        increasing.feed(arrays["t"], b.lines)
+        for key, p in plan.sensors.items():
+            v = b.numbers[:, col:col + 3]
+            arrays[key] = p.convert(v)
+            col += 3
+        if plan.has_temp:
+            arrays["temp"] = b.numbers[:, col]
+        spool.append(**arrays)
+        if plan.has_label:
+            runs.feed([x.strip() for x in b.texts[0]], b.lines)
+    spool.finish()
+    increasing.check(path, plan.renamed.get("t_s", "t_s"))
+    return spool, runs.runs
+
+
+def _lsb(plan: ColumnPlan) -> float:
+    """Counts per g of the stored accelerometer (the counts-equivalent when there is none: nothing reads it)."""
+    return plan.sensors["acc"].lsb if "acc" in plan.sensors else COUNTS_PER_G_EQUIVALENT
+
+
+def _units(plan: ColumnPlan) -> str:
+    """``import.units``: the accelerometer's units as before for an accelerometer-only file; else each
+    sensor's, ``accelerometer none`` when it has none (docs/import.md)."""
+    if list(plan.sensors) == ["acc"]:
+        return plan.sensors["acc"].units
+    names = {"acc": "accelerometer", "gyro": "gyroscope", "mag": "magnetometer"}
+    return "; ".join(f"{names[k]} {plan.sensors[k].units if k in plan.sensors else 'none'}" for k in names)
+
+
+def detected_steps(spool, dt: float, key: str) -> list[ImportedStep]:
+    """Static steps found by :class:`~calib.numerics.static_detect.StaticDetector` on sensor ``key``."""
+    n = spool.n_rows
+    t0, t_end = float(spool.read("t", 0, 1)[0]), float(spool.read("t", n - 1, n)[0])
+    detector = StaticDetector(dt, t0, init_s=min(30.0, 0.2 * (t_end - t0)))
+    for t, x in zip(spool.chunks("t"), spool.chunks(key)):
+        detector.feed(t, np.rint(x).astype(np.int64))
+    return [ImportedStep(f"static {k + 1}", "static", [(a, b)], pose_group=1000 + k)
+            for k, (a, b) in enumerate(detector.finish())]
+
+
+def labelled_steps(runs: list[list], poses: bool = True) -> list[ImportedStep]:
+    """One step per run of equal labels; a pose name gives the step's nominal specific force (``poses``:
+    only with an accelerometer, whose data check it)."""
     steps: list[ImportedStep] = []
     for a, b, label, line in runs:
         name = label or f"segment {len(steps) + 1}"
-        f = [float(x) for x in f_nominal(np.array(pose_angles_deg(name)))] if name in POSE_NAMES else None
+        f = [float(x) for x in f_nominal(np.array(pose_angles_deg(name)))] if poses and name in POSE_NAMES else None
         kind = "rotation" if "rot" in name.lower() else "static"
         steps.append(ImportedStep(name, kind, [(a, b)], f_nominal=f, first_line=line))
     return steps

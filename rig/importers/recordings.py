@@ -37,7 +37,7 @@ from rig.importers.generic_csv import read_csv
 from rig.importers.imu_tk import read_imu_tk
 from rig.importers.imucal import IMUCAL_POSES, IMUCAL_ROTATIONS, read_imucal
 from rig.importers.tofupilot import read_tofupilot
-from rig.session import (ImportInfo, ProcedureInfo, RigInfo, SensorInfo, SessionManifest, SessionWriter, StepRecord,
+from rig.session import (ImportInfo, MagnetometerInfo, ProcedureInfo, RigInfo, SensorInfo, SessionManifest, SessionWriter, StepRecord,
                          validate_session_id)
 
 READERS = {"imucal": read_imucal, "imu_tk": read_imu_tk, "tofupilot": read_tofupilot, "csv": read_csv}
@@ -51,11 +51,13 @@ __all__ = ["SOURCES", "READERS", "G_MS2", "COUNTS_PER_G_EQUIVALENT", "ImportedSt
 
 
 def import_recording(source: str, src, sessions_root, session_id: str | None = None, *, g_ms2: float = G_MS2,
-                     window_s: float = 120.0, notify: Callable[[str], None] | None = None) -> Path:
+                     window_s: float = 120.0, notify: Callable[[str], None] | None = None,
+                     rate_hz: float | None = None, column_map: str | None = None) -> Path:
     """Import ``src`` (a file of kind ``source``) as a complete session under ``sessions_root``.
 
     Returns the session directory. ``notify`` is told (one line each) of the partial directories of
-    killed imports that were removed.
+    killed imports that were removed. ``rate_hz`` (Hz) and ``column_map`` (``ours=theirs,...``): the
+    generic CSV's sample rate when it has no time column, and its other column names.
     """
     path = _checked_source(source, src, g_ms2)
     sid = session_id or f"import-{source}-{re.sub(r'[^A-Za-z0-9_-]+', '-', path.stem)}"
@@ -71,7 +73,8 @@ def import_recording(source: str, src, sessions_root, session_id: str | None = N
     work = Work(root, sid, source, path)
     done = False
     try:
-        rec = READERS[source](path, work.spools, g_ms2=g_ms2, window_s=window_s)
+        rec = READERS[source](path, work.spools, g_ms2=g_ms2, window_s=window_s, rate_hz=rate_hz,
+                              column_map=column_map)
         if not rec.steps:
             raise RigInputError(str(path), None, None, "no steps found in the recording")
         if len(rec.steps) > MAX_STEPS:
@@ -196,6 +199,9 @@ def import_manifest(rec: Recording, path: Path, sid: str, g_ms2: float) -> Sessi
                         sample_rate_hz=float(rec.sample_rate_hz), has_temperature=rec.has_temperature)
     if rec.has_gyro and rec.gyro_lsb_per_dps:
         sensor.gyro_lsb_per_dps = float(rec.gyro_lsb_per_dps)
+    if rec.has_mag and rec.mag_lsb_per_ut:
+        sensor.magnetometer = MagnetometerInfo(model=f"imported ({rec.mag_units})",
+                                               mag_lsb_per_ut=float(rec.mag_lsb_per_ut))
     steps = [StepRecord(index=i, name=st.name, kind=st.kind, angles_deg=None, f_nominal=st.f_nominal,
                         **({"pose_group": int(st.pose_group)} if st.pose_group is not None else {}))
              for i, st in enumerate(rec.steps)]
@@ -203,18 +209,20 @@ def import_manifest(rec: Recording, path: Path, sid: str, g_ms2: float) -> Sessi
         id=sid, created=datetime.now(timezone.utc).isoformat(timespec="seconds"), procedure=procedure,
         rig=RigInfo(kind="import", turntable=None, sensor=sensor, rig_file=None),
         import_=ImportInfo(source=rec.source, file=str(path), units=rec.units, g_ms2=float(g_ms2),
-                           lsb_per_g=float(rec.lsb_per_g), steps_from=rec.steps_from, notes=list(rec.notes)),
+                           lsb_per_g=float(rec.lsb_per_g), steps_from=rec.steps_from,
+                           notes=list(rec.notes) + list(rec.columns)),
         steps=steps)
 
 
 def write_session(rec: Recording, summaries: list[StepSummary], manifest: SessionManifest, root: Path) -> Path:
     """Write the recording's samples step by step, chunk by chunk, under ``root``; the session ends complete."""
-    cols = ("t_s", "step", "ax", "ay", "az", "temp_c") + (("wx", "wy", "wz") if rec.has_gyro else ())
+    cols = ("t_s", "step", "ax", "ay", "az", "temp_c") + (("wx", "wy", "wz") if rec.has_gyro else ()) \
+        + (("mx", "my", "mz") if rec.has_mag else ())
     w = SessionWriter.create(root, manifest.id, manifest, columns=cols)
     try:
         for i, (st, s) in enumerate(zip(rec.steps, summaries)):
             for c in rec.step_chunks(st):
-                w.append_samples(i, c["t"], c["counts"], temp_c=c["temp"], gyro_counts=c["gyro"])
+                w.append_samples(i, c["t"], c["counts"], temp_c=c["temp"], gyro_counts=c["gyro"], mag_counts=c["mag"])
             w.complete_step(i, {"n_samples": s.n, "t_start_s": s.t_start, "t_end_s": s.t_end, "temp_c": s.temp_mean})
         w.set_status("complete")
     except BaseException:

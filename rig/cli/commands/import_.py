@@ -26,15 +26,23 @@ def add_parser(sub) -> None:
     im.add_argument("--id", default=None, help="session id (default: import-SOURCE-FILESTEM)")
     im.add_argument("--g", type=float, default=9.80665, help="local gravity for m/s^2 sources (default 9.80665)")
     im.add_argument("--window-s", type=float, default=120.0, help="tofupilot: seconds per step window")
+    im.add_argument("--rate", type=float, default=None,
+                    help="csv without a t_s column: the sample rate, Hz (or a '# rate_hz: N' or 'Fs,N' line in the file)")
+    im.add_argument("--columns", default=None, metavar="OURS=THEIRS,...",
+                    help="csv: other column names, e.g. ax=AccX,ay=AccY,az=AccZ,t_s=time (docs/import.md)")
 
 
 def run(args) -> int:
     if not args.window_s > 0:
         raise UsageError(f"--window-s: expected a positive number of seconds, got {args.window_s:g}")
+    for option, value in (("--rate", args.rate), ("--columns", args.columns)):
+        if value is not None and args.source != "csv":
+            raise UsageError(f"{option} applies to --from csv only (the {args.source} format states its own)")
     outputs.OutputPolicy(inputs=[args.src]).directory(args.out, what="the session")
     try:
         path = import_recording(args.source, args.src, args.out, args.id, g_ms2=args.g, window_s=args.window_s,
-                                notify=lambda message: print(f"note: {message}"))
+                                notify=lambda message: print(f"note: {message}"), rate_hz=args.rate,
+                                column_map=args.columns)
     except FileExistsError as exc:
         raise UsageError(f"{exc.filename}: a session with this id exists already; give another with --id ID "
                          "(or another sessions directory with -o)") from None

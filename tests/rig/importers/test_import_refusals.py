@@ -14,7 +14,8 @@ HEAD = "# units: g\nt_s,ax,ay,az,label\n"
 
 
 @pytest.mark.parametrize("body, expected", [
-    ("0.0,0,0,1,+Z up\n", "needs at least 2"),
+    ("0.0,0,0,1,+Z up\n", "needs at least 10"),
+    ("0.0,0,0,1,+Z up\n0.01,0,0,1,+Z up\n", "a static step needs at least 10"),
     ("0.0,0,0,1,+Z up\n0.01,0,0,1,+Z up\n0.02,0,0,1e300,+Z up\n", "beyond 64 g"),
     ("0.0,0,0,1,-Z up\n0.01,0,0,1,-Z up\n0.02,0,0,1,-Z up\n", "mislabelled"),
     ("0.0,0,0,1,+Z up,5\n0.01,0,0,1,+Z up\n", "expected 5 fields"),
