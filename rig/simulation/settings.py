@@ -173,6 +173,27 @@ Tilt = number(ge=-45, le=45, description="deg")
 TableTilt = Annotated[tuple[Tilt, Tilt], BeforeValidator(_tilt)]
 
 
+def _factor_range(v):
+    ok = (isinstance(v, (list, tuple)) and len(v) == 2 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                      and math.isfinite(x) and 0.01 <= x <= 100 for x in v))
+    if not ok or v[0] > v[1]:
+        raise fail(f"expected [lo, hi] factors with 0.01 <= lo <= hi <= 100, got {v!r}")
+    return (float(v[0]), float(v[1]))
+
+
+FactorRange = Annotated[Optional[tuple[float, float]], BeforeValidator(_factor_range), WithJsonSchema({
+    "type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "number", "minimum": 0.01, "maximum": 100}})]
+
+
+class NoiseSpreadSection(Strict):
+    """``sim.noise_spread``: each simulated unit's noise figures drawn about its family's, a factor per axis and
+    term, log-uniform in [lo, hi] (drivers.sensors.sim.unit_noise; docs/noise.md)."""
+
+    white: FactorRange = None
+    bias_instability: FactorRange = None
+    random_walk: FactorRange = None
+
+
 class SimSection(Strict):
     """The ``sim:`` section of a ``kind: sim`` rig file (docs/rig-file.md, docs/simulated-rig.md)."""
 
@@ -191,6 +212,7 @@ class SimSection(Strict):
     gyro_errors: GyroOverrides = GyroOverrides()
     mag_errors: MagOverrides = MagOverrides()
     noise: Optional[choice(NOISE_MODELS)] = None  # None: the chips' default (drivers.sensors.sim.noise)
+    noise_spread: Optional[NoiseSpreadSection] = None  # None: every unit has its family's figures
     serial_base: number(ge=1, le=2**31 - 1, integer=True) = 0x5A00
 
 
@@ -275,6 +297,7 @@ class SimSettings:
     gyro_errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # GyroErrorModel overrides
     mag_errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # MagErrorModel overrides
     noise: str | None = None  # "white" | "dlpf" | None (the chip models' DEFAULT_NOISE_MODEL)
+    noise_spread: dict[str, tuple[float, float]] | None = None  # term -> factor range (drivers.sensors.sim.unit_noise)
     serial_base: int = 0x5A00
 
     @classmethod
@@ -288,6 +311,7 @@ class SimSettings:
                    table_tilt_deg=(float(s.table_tilt_deg[0]), float(s.table_tilt_deg[1])),
                    effects=given(s.effects) if s.effects is not None else {}, errors=given(s.errors),
                    gyro_errors=given(s.gyro_errors), mag_errors=given(s.mag_errors), noise=s.noise,
+                   noise_spread=given(s.noise_spread) if s.noise_spread is not None else None,
                    serial_base=s.serial_base)
 
 

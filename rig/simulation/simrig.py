@@ -22,6 +22,8 @@ from drivers.sensors.sim.bus import SimulatedI2CBus
 from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, MagErrorModel
 from drivers.sensors.sim.faults import SensorFaults
 from drivers.sensors.sim.mpu9150 import Mpu9150Model
+from drivers.sensors.sim.noise import resolve_noise
+from drivers.sensors.sim.unit_noise import draw_unit_noise
 from drivers.ximc.sim.emulator import ControllerEmulator, XimcFaults
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
@@ -60,6 +62,13 @@ class SimulatedRig:
         for obj, over in ((self.gyro_errors, self.settings.gyro_errors), (self.mag_errors, self.settings.mag_errors)):
             for k, v in (over.items() if obj is not None else ()):
                 setattr(obj, k, _broadcast_like(v, getattr(obj, k), k))
+        self.unit_noise = None
+        self.noise = settings.noise  # what the chip is built with: the model's name, or this unit's NoiseConfig
+        if settings.noise_spread:
+            errors = {"accel": self.accel_errors, "gyro": self.gyro_errors, "mag": self.mag_errors}
+            self.unit_noise = draw_unit_noise(self.seed, resolve_noise(settings.noise, sensor_model), errors,
+                                              settings.noise_spread)
+            self.noise = self.unit_noise.noise
         self.chamber = SimChamber(self.clock, settings.chamber)
         ximc_faults = ximc_faults or {}
         self.emulators: list[ControllerEmulator] = []
@@ -148,7 +157,8 @@ class SimulatedRig:
             "effects": {k: _plain(v) for k, v in self.settings.effects.items()},
             "time_scale": self.settings.time_scale,
             "clock": self.settings.clock if self.settings.time_scale else "virtual",
-            **({"noise": self.chip.noise.to_dict()} if self.settings.noise else {}),
+            **({"noise": self.chip.noise.to_dict()} if self.settings.noise or self.unit_noise else {}),
+            **({"unit_noise": self.unit_noise.truth()} if self.unit_noise else {}),
         }
 
 
@@ -179,14 +189,14 @@ def _plain(v):
 def _mpu9150(sim: "SimulatedRig", faults):
     """The MPU-9150 attaches itself and the AK8975 behind its I2C bypass."""
     chip = Mpu9150Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.seed, gyro_errors=sim.gyro_errors,
-                        mag_errors=sim.mag_errors, faults=faults, noise=sim.settings.noise)
+                        mag_errors=sim.mag_errors, faults=faults, noise=sim.noise)
     chip.attach(sim.bus, sim.sensor_address)
     return chip
 
 
 def _adxl345(sim: "SimulatedRig", faults):
     chip = Adxl345Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.seed, faults=faults,
-                        noise=sim.settings.noise)
+                        noise=sim.noise)
     sim.bus.add_device(sim.sensor_address, chip)
     return chip
 
