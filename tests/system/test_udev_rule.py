@@ -27,14 +27,11 @@ def test_every_rule_matches_the_standa_usb_ids_rig_ports_probes():
         assert 'ENV{ID_MM_DEVICE_IGNORE}="1"' in rule  # ModemManager keeps off the controllers
 
 
-def test_the_serial_port_gets_the_ximc_link_and_the_dialout_group():
+def test_the_serial_port_gets_the_ximc_link_the_template_rig_file_names_and_the_dialout_group():
     (tty,) = [r for r in _rules() if 'SUBSYSTEM=="tty"' in r]
     assert 'SYMLINK+="ximc/$attr{serial}"' in tty and 'GROUP="dialout"' in tty and 'MODE="0660"' in tty
-
-
-def test_the_template_rig_file_names_its_ports_as_the_rule_links_them():
     axes = yaml.safe_load((RIGS / "example_hardware.yaml").read_text())["turntable"]["axes"]
-    for name, axis in axes.items():
+    for name, axis in axes.items():  # the USB serial attribute is the controller's serial in 8 hex digits
         assert axis["port"] == f"/dev/ximc/{axis['serial']:08X}", name
 
 

@@ -96,11 +96,8 @@ def test_a_misspelt_key_pose_or_step_kind_gets_a_did_you_mean(bad, says, meant):
     line = _line(bad)
     assert line.startswith(says), line
     assert line.endswith(f": did you mean '{meant}'?"), line
-
-
-def test_nothing_close_gets_no_guess():
-    line = _line(GOOD.replace("dwell:", "zzzzzz:"))
-    assert "did you mean" not in line and line.endswith("target)"), line
+    far = _line(GOOD.replace("dwell:", "zzzzzz:"))  # nothing close: no guess
+    assert "did you mean" not in far and far.endswith("target)"), far
 
 
 def test_a_rig_file_key_gets_a_did_you_mean_too():
