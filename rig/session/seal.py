@@ -486,8 +486,12 @@ def _checker(path: Path, name: str, links: list, key: str, range_key: str, seal,
     returns when the file agrees and raises the first difference as a SealBroken."""
     sealed = isinstance(seal, dict)
     what = "rows" if name == _FILES[0] else "events"
+    prefix = "samples" if name == _FILES[0] else "events"
     fed = _Fed()
-    whole = hashlib.sha256()
+    # the chained links cover the file from its origin to the sealed end: they check every byte (the manifest that
+    # holds them is checked against the seal), so the whole file's hash would check the same bytes a second time
+    covered = sealed and bool(links) and seal.get(f"{prefix}_bytes") == links[-1][1][range_key][1]
+    whole = _Unused() if covered else hashlib.sha256()
     line = 1
     pos, head = 0, None
     for index, stats in links:
@@ -516,7 +520,6 @@ def _checker(path: Path, name: str, links: list, key: str, range_key: str, seal,
         head, pos, line = h.digest(), end, line + lines.n
     if not sealed:
         return
-    prefix = "samples" if name == _FILES[0] else "events"
     total = int(seal[f"{prefix}_bytes"])
     last = _key(name, links[-1][0]) if links else None
     after = "after the last step" if links else "of the file"
@@ -525,7 +528,7 @@ def _checker(path: Path, name: str, links: list, key: str, range_key: str, seal,
     if pos + rest < total:
         raise SealBroken(path, None, last, f"{total - pos - rest} bytes of the sealed {what} are missing at the "
                          f"end ({after}): removed after the recording was sealed")
-    if whole.hexdigest() != seal[f"{prefix}_sha256"]:
+    if not covered and whole.hexdigest() != seal[f"{prefix}_sha256"]:
         raise SealBroken(path, line if links else None, last,
                          f"the {what} {after} differ from the seal: {_changed(True)}")
     if size > total:
@@ -544,6 +547,13 @@ def _what(sealed: bool) -> str:
 def _changed(sealed: bool) -> str:
     return ("the recording was changed after it was sealed" if sealed else
             "the recording was changed after the step was recorded")
+
+
+class _Unused:
+    """A sink that takes bytes and does nothing with them."""
+
+    def update(self, chunk: bytes) -> None:
+        pass
 
 
 class _Lines:
