@@ -12,6 +12,7 @@ from __future__ import annotations
 import errno
 import re
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Callable
 
 from drivers.clock import MonotonicClock
@@ -23,6 +24,8 @@ from rig.devices.buses import open_bus
 from rig.devices.registry import open_rig_file
 from rig.planning.kinematics import STAGE_AXES
 
+#: the embedded simulated rig, ``sim`` on the command line (the file ``rig run --rig sim`` opens)
+SIM_RIG_FILE = Path(__file__).resolve().parents[2] / "rigs" / "sim.yaml"
 #: (serial port or I2C bus, why it cannot be opened) -> what to do about it (docs/hardware.md)
 OPEN_HINTS = {
     ("serial", errno.ENOENT): "is the controller plugged in and powered, and the udev rule installed (its "
@@ -35,6 +38,11 @@ OPEN_HINTS = {
     ("i2c", errno.EACCES): "join the i2c group and log in again (docs/hardware.md, 'Permissions')",
 }
 _ERRNO = re.compile(r"\[Errno (\d+)\] ([^:'\])]+)")
+
+
+def rig_file_path(spec: str) -> Path:
+    """``sim`` means the embedded simulated rig (:data:`SIM_RIG_FILE`); anything else is a rig file's path."""
+    return SIM_RIG_FILE if spec == "sim" else Path(spec)
 
 
 @dataclass(frozen=True)

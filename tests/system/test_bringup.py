@@ -19,7 +19,7 @@ import yaml
 from drivers.ximc.sim.protocol_ximcsim import attach, detach
 from rig.cli import main
 from rig.config.rigfile import load_rig_file
-from rig.devices.bringup import open_axis
+from rig.devices.bringup import open_axis, rig_file_path
 from rig.devices.jog import jog, plan_jog
 from rig.simulation.simrig import SimSettings, SimulatedRig
 from rig.simulation.simulated import publish_bus, withdraw_bus
@@ -55,7 +55,7 @@ def _hardware_rig(tmp_path, sim, ports, **change) -> str:
 
 
 def test_check_of_the_simulated_rig_reads_every_part_in_one_line_each(capsys):
-    assert main(["check", str(RIGS / "sim.yaml")]) == 0
+    assert main(["check", "sim"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert [ln.split()[:2] for ln in lines[:4]] == [["ok", "a1"], ["ok", "a2"], ["ok", "a3"], ["ok", "sensor"]]
     for ln in lines[:3]:
@@ -63,6 +63,7 @@ def test_check_of_the_simulated_rig_reads_every_part_in_one_line_each(capsys):
                          r"  speed limit 48 deg/s \(rig file 20\)  limit switch free", ln), ln
     assert "MPU-9150 at 0x68 on bus sim: WHO_AM_I 0x68 (register 0x75), as expected" in lines[3]
     assert lines[4] == "all 4 parts answer (a1, a2, a3, sensor); nothing moved"
+    assert rig_file_path("sim") == (RIGS / "sim.yaml").resolve()  # the rig `rig run --rig sim` opens
 
 
 def test_check_of_a_hardware_rig_file_names_each_failure_and_moves_nothing(lab, tmp_path, capsys):

@@ -5,9 +5,8 @@ from __future__ import annotations
 from rig.cli.codes import EXIT_BAD_INPUT, EXIT_OK
 from rig.cli.terminal import say
 from rig.config.rigfile import load_rig_file
-from rig.devices.bringup import CHECKS
+from rig.devices.bringup import CHECKS, rig_file_path
 from rig.workflow import kinds  # noqa: F401 - registers the "sim" rig kind (the simulator loads when it opens)
-from rig.workflow.run import resolve_rig
 
 
 def add_parser(sub) -> None:
@@ -16,7 +15,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    rig_file = load_rig_file(resolve_rig(args.rig))
+    rig_file = load_rig_file(rig_file_path(args.rig))
     checks = CHECKS[rig_file.kind](rig_file)
     for check in checks:
         print(f"{'ok  ' if check.ok else 'FAIL'}  {check.line}", flush=True)

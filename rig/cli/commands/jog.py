@@ -9,12 +9,11 @@ from contextlib import contextmanager
 from rig.cli.codes import EXIT_FAILURE, EXIT_OK
 from rig.cli.terminal import say
 from rig.config.rigfile import load_rig_file
-from rig.devices.bringup import open_axis
+from rig.devices.bringup import open_axis, rig_file_path
 from rig.devices.jog import MAX_JOG_DEG, check_step, jog, plan_jog
 from rig.execution.operator import OperatorAbsent
 from rig.planning.kinematics import STAGE_AXES
 from rig.workflow import kinds  # noqa: F401 - registers the "sim" rig kind (the simulator loads when it opens)
-from rig.workflow.run import resolve_rig
 
 
 def add_parser(sub) -> None:
@@ -27,7 +26,7 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     check_step(args.deg)  # before anything is opened
-    rig_file = load_rig_file(resolve_rig(args.rig))
+    rig_file = load_rig_file(rig_file_path(args.rig))
     config = rig_file.axes[args.axis]
     stage, close = open_axis(rig_file, args.axis)
     try:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from rig.cli.common import EXIT_OK
+from rig.cli.codes import EXIT_OK
 from rig.devices.ports import SENSOR_PROBES, STANDA_VID_PID, list_ports
 
 
