@@ -79,8 +79,7 @@ def _unclosed_quote(line: str) -> str | None:
         i += 1
     if quote is None:
         return None
-    return (f"the quote {quote} opened on this line is not closed: end the value with {quote} "
-            f"(e.g. '{line.strip()}{quote}')")
+    return f"the quote {quote} opened on this line is not closed: end the value with it: {line.strip()}{quote}"
 
 
 def _colon_in_value(line: str) -> str | None:
@@ -98,21 +97,28 @@ def _colon_in_value(line: str) -> str | None:
 #: the causes, each a check of one line (None: not this cause), tried on the lines up to the parser's
 HINTS: tuple[Callable[[str], str | None], ...] = (_tab, _dash, _unclosed_quote, _colon_in_value)
 
-#: the parser's jargon -> what it means, for a cause none of HINTS finds
-PLAIN_WORDS = {
-    "expected <block end>, but found": "this line does not line up with the lines above it (indentation, "
-                                       "or a list item where a key is expected)",
-    "mapping values are not allowed here": "a ':' where no key can start; put a value that contains ': ' in quotes",
-    "could not find expected ':'": "a line that is neither 'key: value' nor a list item '- ...' (a missing ':' "
-                                   "after a key?)",
-    "found character '\\t' that cannot start any token": "a tab where YAML expects spaces",
+#: the parser's jargon -> what it means, and whether the line to name is where the parser's context began
+#: (the start of the key it was reading) rather than where it gave up; for a cause none of HINTS finds
+PLAIN_WORDS: dict[str, tuple[str, bool]] = {
+    "expected <block end>, but found": ("this line does not line up with the lines above it (indentation, "
+                                        "or a list item where a key is expected)", False),
+    "mapping values are not allowed here": ("a ':' where no key can start; put a value that contains ': ' in "
+                                            "quotes", False),
+    "could not find expected ':'": ("a line that is neither 'key: value' nor a list item '- ...' (a missing ':' "
+                                    "after a key?)", True),
+    "found character '\\t' that cannot start any token": ("a tab where YAML expects spaces", False),
+    "expected ',' or '}'": ("a {...} is not closed, or two of its entries lack the comma between them (or a "
+                            "quote inside it is not closed)", False),
+    "expected ',' or ']'": ("a [...] is not closed, or two of its items lack the comma between them (or a "
+                            "quote inside it is not closed)", False),
 }
 
 
-def explain(text: str, problem: str, line: int | None) -> tuple[int | None, str]:
+def explain(text: str, problem: str, line: int | None, context_line: int | None = None) -> tuple[int | None, str]:
     """The line and the words of a parse error: a cause of :data:`HINTS` found on the parser's ``line`` or
     the nearest line above it (a quote opened earlier, a dash two lines up), else ``problem`` with its
-    jargon said plainly. ``line`` is 1-based (None: the whole text is searched from the end)."""
+    jargon said plainly (:data:`PLAIN_WORDS`). ``line`` is 1-based (None: the whole text is searched from the
+    end); ``context_line`` the line where the parser's context began (the key it was reading), if any."""
     lines = text.split("\n")
     last = min(line or len(lines), len(lines))
     for number in range(last, 0, -1):
@@ -120,7 +126,7 @@ def explain(text: str, problem: str, line: int | None) -> tuple[int | None, str]
             message = hint(lines[number - 1])
             if message:
                 return number, message
-    for jargon, words in PLAIN_WORDS.items():
+    for jargon, (words, at_context) in PLAIN_WORDS.items():
         if problem.startswith(jargon):
-            return line, words
+            return (context_line or line) if at_context else line, words
     return line, problem

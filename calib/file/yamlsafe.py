@@ -105,7 +105,8 @@ def load_located(text: str):
             line = text.count("\n", 0, exc.position) + 1
         problem = getattr(exc, "problem", None) or (str(exc).splitlines() or ["unreadable"])[0]
         if isinstance(exc, (yaml.scanner.ScannerError, yaml.parser.ParserError)):  # syntax: the cause in words
-            line, problem = yamlhints.explain(text, problem, line)
+            context = getattr(exc, "context_mark", None)
+            line, problem = yamlhints.explain(text, problem, line, context.line + 1 if context else None)
         raise HostileYaml(f"not valid YAML: {problem}", line) from None
     except RecursionError:  # a backstop: MAX_DEPTH keeps the composer far from the interpreter's limit
         raise HostileYaml("not valid here: nested too deeply") from None

@@ -43,7 +43,8 @@ SYNTAX = {
         "p.yaml:8: not valid YAML: a tab in the indentation: YAML indents with spaces only; replace the tab"),
     "a quote not closed (the error is found a line later)": (
         GOOD.replace('  - pose: "+Z up"', '  - pose: "+Z up'),
-        "p.yaml:7: not valid YAML: the quote \" opened on this line is not closed: end the value with \""),
+        "p.yaml:7: not valid YAML: the quote \" opened on this line is not closed: end the value with it: "
+        "- pose: \"+Z up\""),
     "a quote not closed on the last line": (
         GOOD.replace("solve: {model: triangular}", "solve: {model: 'triangular}"),
         "p.yaml:9: not valid YAML: the quote ' opened on this line is not closed"),
@@ -66,13 +67,23 @@ def test_a_common_syntax_mistake_is_named_with_its_line_and_fix(case):
 
 
 def test_an_apostrophe_inside_a_plain_value_is_not_taken_for_an_unclosed_quote():
-    assert explain("description: rock 'n roll\nname: [a\n", "expected ',' or ']'", 2) == (2, "expected ',' or ']'")
+    assert explain("description: rock 'n roll\nname: *a\n", "found undefined alias 'a'", 2) == (
+        2, "found undefined alias 'a'")
     assert explain("a: it's\nb: 'x''y' # it's\n", "whatever", 2) == (2, "whatever")
 
 
-def test_a_mistake_without_a_known_cause_keeps_its_line_in_plainer_words():
-    line = _line(GOOD.replace("dwell: {seconds: 2}", "dwell: {seconds: 2}\n  extra: 1"))
-    assert line.startswith("p.yaml:6: not valid YAML: this line does not line up with the lines above it"), line
+@pytest.mark.parametrize("bad, says", [
+    (GOOD.replace("dwell: {seconds: 2}", "dwell: {seconds: 2}\n  extra: 1"),
+     "p.yaml:6: not valid YAML: this line does not line up with the lines above it"),
+    (GOOD.replace("dwell: {seconds: 2}", "dwell\norder: as_written"),  # the key without its colon, not the next line
+     "p.yaml:5: not valid YAML: a line that is neither 'key: value' nor a list item '- ...' (a missing ':' after a "
+     "key?)"),
+    (GOOD.replace("solve: {model: triangular}", "solve: {model: triangular"),
+     "p.yaml:10: not valid YAML: a {...} is not closed, or two of its entries lack the comma between them"),
+])
+def test_a_mistake_without_a_known_cause_is_said_plainly_at_its_line(bad, says):
+    line = _line(bad)
+    assert line.startswith(says) and not any(j in line for j in JARGON), line
 
 
 def test_the_cli_says_it_in_one_line_exit_2(tmp_path, capsys):
