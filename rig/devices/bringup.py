@@ -157,8 +157,13 @@ def check_open_rig(rig, rig_file: RigFile) -> list[PartCheck]:
 
 
 def check_simulated(rig_file: RigFile) -> list[PartCheck]:
-    """Open a simulated rig (its emulators and chip) and read it; close it."""
-    rig = open_rig_file(rig_file, seed=0)
+    """Open a simulated rig (its emulators and chip) and read it; close it. A rig that does not open (a
+    ``faults:`` section that silences a controller) is one failed part, ``rig``."""
+    try:
+        rig = open_rig_file(rig_file, seed=0)
+    except Exception as exc:  # noqa: BLE001 - named in one line like any part that does not answer
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]  # names the axis and port
+        return [PartCheck("rig", False, f"rig  {rig_file.path}: the simulated rig did not open: {first}")]
     try:
         return check_open_rig(rig, rig_file)
     finally:

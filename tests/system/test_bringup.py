@@ -95,6 +95,17 @@ def test_check_names_a_bus_that_is_not_there(lab, tmp_path, capsys):
     assert sensor.startswith("FAIL  sensor  I2C bus nosuchbus: ") and "no I2C bus named 'nosuchbus'" in sensor
 
 
+def test_check_of_a_simulated_rig_that_does_not_open_is_one_failed_part(tmp_path, capsys):
+    rig = yaml.safe_load((RIGS / "sim.yaml").read_text())
+    rig["faults"] = {"ximc": {"a2": {"error_answer_rate": 1.0, "error_answer": "errc"}}}  # a2 refuses everything
+    (tmp_path / "mute.yaml").write_text(yaml.safe_dump(rig))
+    assert main(["check", str(tmp_path / "mute.yaml")]) == 2
+    said = capsys.readouterr()
+    (line,) = said.out.splitlines()
+    assert line.startswith(f"FAIL  rig  {tmp_path / 'mute.yaml'}: the simulated rig did not open: a2 ") and "errc" in line
+    assert said.err.splitlines() == [f"rig check: {tmp_path / 'mute.yaml'}: 1 of 1 parts failed (rig); nothing moved"]
+
+
 def test_check_of_a_file_that_is_not_a_rig_file_is_one_line_exit_2(tmp_path, capsys):
     bad = tmp_path / "r.yaml"
     bad.write_text("format: rig-file/1\nname: x\nkind: hardwre\n")
