@@ -3,6 +3,7 @@ which writes the file)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 
 import numpy as np
@@ -10,6 +11,7 @@ import numpy as np
 import calib
 from calib.errors import CalibError, ObservabilityError
 from calib.gyro import solve_gyro
+from calib.gyro.static_bias import StaticGyroBias, static_gyro_bias
 from calib.mag import solve_mag_ellipsoid, solve_mag_positions
 from rig import __version__
 from rig.analysis.coverage import session_coverage
@@ -25,6 +27,9 @@ def calibrate_session(session_dir, *, model: str | None = None, method: str | No
     the session loaded (or ``session``, loaded already), the procedure's ``solve:`` settings unless
     overridden, the accelerometer solved, the gyroscope and magnetometer sections when recorded."""
     session = session or load_session(session_dir)
+    if accelerometer_absent(session):
+        raise AbsentSensor(f"{session.path}: {ABSENT_ACCEL}: nothing calibrates an accelerometer (rig solve "
+                           "solves the sensors it has)")
     spec = session.solve_spec or {}
     model = model or spec.get("model") or "triangular"
     method = method or spec.get("method") or "pinv"
@@ -104,18 +109,99 @@ def sensor_section(session: Session) -> dict:
 
 def solve_gyro_and_mag(session: Session, spec: dict, accel=None) -> tuple[dict | None, dict | None]:
     """The gyroscope (rate steps) and magnetometer sections, when the session has their data."""
-    gyro = mag = None
+    return solve_gyro_section(session, accel), solve_mag_section(session, spec)
+
+
+def solve_gyro_section(session: Session, accel=None) -> dict | None:
+    """The gyroscope section from the rate steps (None without rate steps)."""
     if any(s.kind == "rate" for s in session.info.steps):
-        gyro = solve_gyro(rate_step_means(session, accel)).to_dict()
+        return solve_gyro(rate_step_means(session, accel)).to_dict()
+    return None
+
+
+def solve_mag_section(session: Session, spec: dict) -> dict | None:
+    """The magnetometer section (None without magnetometer readings)."""
     mag_steps = mag_step_means(session)
-    if mag_steps is not None:
-        method = spec.get("magnetometer") or ("positions" if mag_steps.field_nominal_ut is not None else "ellipsoid")
-        if method == "positions":
-            if mag_steps.field_nominal_ut is None:
-                raise ObservabilityError("the magnetometer position method needs the local field: add a site: "
-                                         "section to the rig file, or use solve: {magnetometer: ellipsoid}")
-            mag = solve_mag_positions(mag_steps).to_dict()
-        else:
-            site = session.info.rig.site
-            mag = solve_mag_ellipsoid(mag_steps, float(site.field_ut if site is not None else 1.0)).to_dict()
-    return gyro, mag
+    if mag_steps is None:
+        return None
+    method = spec.get("magnetometer") or ("positions" if mag_steps.field_nominal_ut is not None else "ellipsoid")
+    if method == "positions":
+        if mag_steps.field_nominal_ut is None:
+            raise ObservabilityError("the magnetometer position method needs the local field: add a site: "
+                                     "section to the rig file, or use solve: {magnetometer: ellipsoid}")
+        return solve_mag_positions(mag_steps).to_dict()
+    site = session.info.rig.site
+    return solve_mag_ellipsoid(mag_steps, float(site.field_ut if site is not None else 1.0)).to_dict()
+
+
+# -- the sensors a session has ---------------------------------------------------------------------
+
+#: how an absent accelerometer is named (one line, never a singular Jacobian)
+ABSENT_ACCEL = "the session has no accelerometer data (ax, ay, az are 0 counts: recorded or imported without them)"
+
+
+class AbsentSensor(CalibError):
+    """A sensor the session did not record was asked for."""
+
+
+def accelerometer_absent(session: Session) -> bool:
+    """Whether the session holds no accelerometer data: an import without its columns (``import.units``
+    ``accelerometer none``, docs/import.md), or every count exactly 0 (no accelerometer reads that)."""
+    imp = session.info.import_
+    if imp is not None and (imp.units or "").startswith("accelerometer none"):
+        return True
+    counts = session.samples["accel_counts"]
+    return len(counts) > 0 and not np.any(counts)
+
+
+def static_gyro(session: Session) -> StaticGyroBias | None:
+    """The gyroscope's zero-rate output from the complete static steps (None without gyroscope data or rests)."""
+    lsb = session.info.rig.sensor.gyro_lsb_per_dps
+    if "gyro_counts" not in session.samples or not lsb:
+        return None
+    blocks = []
+    for st in session.info.steps:
+        if st.is_static and st.status == "complete":
+            g = session.samples["gyro_counts"][session.samples["step"] == st.index]
+            if len(g) >= 2 and np.all(np.isfinite(g)):
+                blocks.append(g)
+    return static_gyro_bias(blocks, float(lsb)) if blocks else None
+
+
+def magnetometer_units(session: Session) -> str:
+    """``counts`` for a magnetometer imported in unknown units (its figures are counts), else ``uT``."""
+    mag = session.info.rig.sensor.magnetometer
+    return "counts" if mag is not None and "unknown" in (mag.model or "") else "uT"
+
+
+@dataclass
+class SensorResults:
+    """What a session without an accelerometer gives: each sensor it has, solved, and the ones it lacks."""
+
+    absent: list[str]
+    gyroscope: dict | None = None
+    gyro_static: StaticGyroBias | None = None
+    magnetometer: dict | None = None
+    problems: list[str] = field(default_factory=list)
+
+
+def solve_present_sensors(session: Session) -> SensorResults:
+    """Solve the gyroscope and magnetometer of a session without an accelerometer (each alone; a sensor
+    that cannot be solved says why in ``problems``). Raises :class:`AbsentSensor` when it has none of them."""
+    has_gyro = "gyro_counts" in session.samples and bool(session.info.rig.sensor.gyro_lsb_per_dps)
+    has_mag = "mag_counts" in session.samples
+    absent = ["accelerometer"] + ([] if has_gyro else ["gyroscope"]) + ([] if has_mag else ["magnetometer"])
+    if not (has_gyro or has_mag):
+        raise AbsentSensor(f"{session.path}: the session has no sensor data (no accelerometer, gyroscope or "
+                           "magnetometer columns): nothing to solve")
+    out = SensorResults(absent)
+    if has_gyro:
+        out.gyro_static = static_gyro(session)
+    spec = session.solve_spec or {}
+    for name, solve in (("gyroscope", lambda: solve_gyro_section(session)),
+                        ("magnetometer", lambda: solve_mag_section(session, spec))):
+        try:
+            setattr(out, name, solve())
+        except CalibError as exc:
+            out.problems.append(f"{name}: {exc}")
+    return out

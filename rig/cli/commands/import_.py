@@ -5,7 +5,7 @@ from __future__ import annotations
 import calib
 from calib.errors import CalibError
 from rig.analysis.discover import discover_session
-from rig.analysis.solve import check_plausible
+from rig.analysis.solve import accelerometer_absent, check_plausible, solve_present_sensors
 from rig.cli import outputs
 from rig.cli.common import EXIT_OK, UsageError
 from rig.errors import RigInputError, SessionFormatError
@@ -55,7 +55,8 @@ def run(args) -> int:
     print(f"session: {path}")
     print(f"  {n_samples} samples at {info.rig.sensor.sample_rate_hz:g} Hz, "
           f"{len(steps)} steps ({static} static, {known} with known poses) from {imp.steps_from}; "
-          f"units {imp.units}, {imp.lsb_per_g:g} counts/g")
+          f"units {imp.units}" + ("" if (imp.units or "").startswith("accelerometer none") else
+                                  f", {imp.lsb_per_g:g} counts/g"))
     for note in imp.notes:
         print(f"  note: {note}")
     if n_samples > TRY_MAX_SAMPLES:
@@ -72,6 +73,9 @@ def run(args) -> int:
 def next_steps(session, path, known: int) -> list[tuple[str, bool]]:
     """The follow-up commands, each tried here first on ``session`` (None: not tried): only those that work
     on this import are shown."""
+    if session is not None and accelerometer_absent(session):
+        res = solve_present_sensors(session)
+        return [(f"rig solve {path}", res.magnetometer is not None or res.gyro_static is not None)]
     if known >= 6:
         solve = (f"rig solve {path}", True)
     else:

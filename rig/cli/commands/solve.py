@@ -8,8 +8,10 @@ from pathlib import Path
 
 from calib.errors import CalibError
 from calib.accel.redundancy import pair_biases
+from calib.mag import MagCalibration
+from rig.analysis.solve import ABSENT_ACCEL, accelerometer_absent, magnetometer_units, solve_present_sensors, static_gyro
 from rig.cli import outputs
-from rig.cli.common import UsageError, format_calibration, json_default, parse_thermal, present, report_warnings
+from rig.cli.common import EXIT_OK, UsageError, format_calibration, json_default, parse_thermal, present, report_warnings
 from rig.session import load_session
 from rig.workflow.conclude import conclude
 
@@ -51,6 +53,8 @@ def run(args) -> int:
         print(f"rig solve: warning: the session is incomplete ({session.info.status}); steps not recorded: "
               f"{', '.join(pending[:10])}{' ...' if len(pending) > 10 else ''}; solving what was recorded",
               file=sys.stderr)
+    if accelerometer_absent(session):
+        return solve_without_accelerometer(session, args.json)
     with outputs.writing(out):  # an error writing the file names the path given
         conclusion = conclude(session, out=out.path, model=args.model, method=args.method, thermal=thermal,
                               report=False)
@@ -60,11 +64,53 @@ def run(args) -> int:
         print(json.dumps({"calibration": str(path), **cal.to_dict()}, indent=2, default=json_default))
     else:
         print(f"calibration: {path}")
-        print(format_calibration(cal))
+        print(format_calibration(cal).replace(" uT", f" {magnetometer_units(session)}"))
+        gyro = static_gyro(session)
+        if gyro is not None:
+            print(f"  {gyro.format_line()}")
         warn_if_misfit(cal)
         if args.method != "magnitude":
             print_redundancy(session)
     return verdict_code
+
+
+def solve_without_accelerometer(session, as_json: bool) -> int:
+    """A session without an accelerometer: its gyroscope and magnetometer solved alone and printed; no
+    calibration file (``rig-calibration/1`` holds an accelerometer section)."""
+    res = solve_present_sensors(session)
+    unit = magnetometer_units(session)
+    print(f"rig solve: note: {ABSENT_ACCEL}; solving the {' and '.join(n for n in ('gyroscope', 'magnetometer') if n not in res.absent)} alone; "
+          "no calibration file is written (rig-calibration/1 needs an accelerometer section)", file=sys.stderr)
+    for problem in res.problems:
+        print(f"rig solve: {problem}", file=sys.stderr)
+    if as_json:
+        print(json.dumps({"calibration": None, "absent": res.absent, "gyroscope": res.gyroscope,
+                          "magnetometer": res.magnetometer, "magnetometer_units": unit,
+                          "gyroscope_zero_rate_dps": None if res.gyro_static is None else
+                          {"bias": res.gyro_static.bias_dps, "sigma": res.gyro_static.sigma_dps,
+                           "n_steps": res.gyro_static.n_steps}}, indent=2, default=json_default))
+    else:
+        if res.magnetometer is not None:
+            print(format_magnetometer(MagCalibration.from_dict(res.magnetometer), unit))
+        if res.gyro_static is not None:
+            print(f"  {res.gyro_static.format_line()}")
+    solved = res.magnetometer is not None or res.gyro_static is not None or res.gyroscope is not None
+    if not solved:
+        raise CalibError(f"{session.path}: nothing could be solved: {'; '.join(res.problems) or 'no rest intervals'}")
+    return EXIT_OK
+
+
+def format_magnetometer(m: MagCalibration, unit: str) -> str:
+    """The magnetometer's result with its sigmas (``unit``: uT, or counts for unknown units)."""
+    sig = m.sigma
+    lines = [f"  magnetometer ({m.method}): {m.n_steps} steps, residual {m.residual_rms_ut:.4g} {unit} rms, "
+             f"chi2/dof {m.chi2_per_dof:.2f}",
+             "    hard iron " + "  ".join(f"{a} {v:+.4g} +- {sig[f'hard_iron_{a}']:.2g}"
+                                         for a, v in zip("xyz", m.hard_iron_ut)) + f" {unit}"]
+    for i, r in enumerate("xyz"):
+        lines.append(f"    a_{r}* " + "  ".join(f"{m.matrix[i][j]:+.5g} +- {sig[f'a_{r}{c}']:.2g}"
+                                               for j, c in enumerate("xyz")))
+    return "\n".join(lines)
 
 
 def warn_if_misfit(cal) -> None:
