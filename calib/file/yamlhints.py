@@ -51,6 +51,14 @@ def _dash(line: str) -> str | None:
     return f"a list item needs a space after its dash: write '{fixed}' instead of '{line.strip()}'"
 
 
+def dash_key(key) -> str:
+    """For a key that is a list item without the space after its dash (``-pose``, which YAML reads as a key
+    of a mapping): what to write instead; empty for any other key."""
+    if isinstance(key, str) and _DASH_NO_SPACE.fullmatch(key) and key[1:2].isalpha():
+        return f"; a list item needs a space after its dash: write '- {key[1:]}: ...' instead of '{key}: ...'"
+    return ""
+
+
 def _unclosed_quote(line: str) -> str | None:
     """The quote a line opens and does not close. A quote opens a value only where a value starts (after
     the indentation, ``- ``, ``: ``, and ``[``, ``{`` or ``,`` in a flow collection); elsewhere it is a
@@ -114,6 +122,24 @@ PLAIN_WORDS: dict[str, tuple[str, bool]] = {
 }
 
 
+_BLOCK_SCALAR = re.compile(r".*(?:^|[ ])[|>][-+0-9]*\s*(?:#.*)?")
+
+
+def _indent(line: str) -> int:
+    return len(line) - len(line.lstrip(" "))
+
+
+def _block_scalar_lines(lines: list[str]) -> set[int]:
+    """The (1-based) lines of the text of block scalars (``description: |`` and the lines indented below it)."""
+    inside, owner = set(), None
+    for number, text in enumerate(lines, 1):
+        if owner is not None and (not text.strip() or _indent(text) > owner):
+            inside.add(number)
+            continue
+        owner = _indent(text) if _BLOCK_SCALAR.fullmatch(text.rstrip()) else None
+    return inside
+
+
 def explain(text: str, problem: str, line: int | None, context_line: int | None = None) -> tuple[int | None, str]:
     """The line and the words of a parse error: a cause of :data:`HINTS` found on the parser's ``line`` or
     the nearest line above it (a quote opened earlier, a dash two lines up), else ``problem`` with its
@@ -121,7 +147,10 @@ def explain(text: str, problem: str, line: int | None, context_line: int | None 
     end); ``context_line`` the line where the parser's context began (the key it was reading), if any."""
     lines = text.split("\n")
     last = min(line or len(lines), len(lines))
+    literal = _block_scalar_lines(lines)
     for number in range(last, 0, -1):
+        if number in literal:
+            continue  # the text of a `|` or `>` block: anything goes there
         for hint in HINTS:
             message = hint(lines[number - 1])
             if message:

@@ -199,7 +199,7 @@ class _Builder:
                 self.fail(k_node, "a key must be a plain value, not a mapping or a list")
             k = self.scalar(k_node)
             if k in out:
-                self.fail(k_node, "duplicate key", str(k))
+                self.fail(k_node, "duplicate key" + yamlhints.dash_key(k), str(k))
             out[k] = self.build(v_node)
             lines[k] = k_node.start_mark.line + 1
         self.lines._record(out, n, lines)

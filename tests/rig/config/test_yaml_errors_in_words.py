@@ -86,6 +86,19 @@ def test_a_mistake_without_a_known_cause_is_said_plainly_at_its_line(bad, says):
     assert line.startswith(says) and not any(j in line for j in JARGON), line
 
 
+def test_every_step_without_its_space_is_a_duplicate_key_that_says_why():
+    line = _line(GOOD.replace('  - pose: "+Z up"\n  - pose: "-Z up"', '  -pose: "+Z up"\n  -pose: "-Z up"'))
+    assert line == ("p.yaml:8: -pose: duplicate key; a list item needs a space after its dash: write '- pose: ...' "
+                    "instead of '-pose: ...'"), line
+
+
+def test_the_text_of_a_block_scalar_is_never_taken_for_the_cause():
+    text = GOOD.replace("description: two faces", "description: |\n  Note: dwell: 2 s\n  -see \"docs")
+    text = text.replace("dwell: {seconds: 2}", "dwell: {seconds: 2}\n  extra: 1")
+    line = _line(text)
+    assert line.startswith("p.yaml:8: not valid YAML: this line does not line up with the lines above it"), line
+
+
 def test_the_cli_says_it_in_one_line_exit_2(tmp_path, capsys):
     proc = tmp_path / "p.yaml"
     proc.write_text(GOOD.replace('  - pose: "-Z up"', '  -pose: "-Z up"'))
