@@ -149,6 +149,6 @@ def test_the_history_reads_a_manifest_through_the_guarded_loader_too(tmp_path):
     from rig.lab.history import _read_manifest
     (tmp_path / "session.yaml").write_text("format: rig-session/1\n" + BOMB)
     t0 = time.perf_counter()
-    with pytest.raises(RigInputError, match="session manifest is not valid YAML"):
+    with pytest.raises(RigInputError, match=r"session\.yaml:2: .*aliases expand to more than 10000 values"):
         _read_manifest(tmp_path)
     assert time.perf_counter() - t0 < 0.5
