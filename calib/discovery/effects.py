@@ -31,7 +31,13 @@ thermal_hysteresis         g          p_j / 2 * h,  h = +1 after heating, -1 aft
 bias_tempco_cubic          g/C^3      p_j dT^3
 thermal_gradient           g/(C/s)    p_j dT/dt  (rate of temperature change, C/s)
 bias_jump                  g          p_j [t >= t_jump_s]  (t_jump_s: a nonlinear parameter, searched)
+pose_error                 deg        Mn (theta_b x f), theta_b = u_b p_bu + v_b p_bv: each placement b
+                                      (consecutive steps at one nominal pose) turned off nominal
 =========================  =========  ===========================================================
+
+``pose_error`` belongs to the recording (poses placed by hand), not the sensor: its parameters are
+per placement (two angles each, about the two axes perpendicular to the nominal force), it is a
+candidate only when no turntable set the poses, and it never enters a calibration file.
 
 ``thermal_gradient`` needs the temperature rate. In the search it is the least-squares
 slope of temp_c against t_s over each step's own samples; at ``apply`` time it is the
@@ -69,6 +75,8 @@ class EffectInputs:
     t_ref_s : reference time of the drift term, s.
     temp_rate : (K,) rate of temperature change, C/s, or None (its terms are then zero).
     t_jump_s : time of the bias jump, s, or None (its terms are then zero).
+    pose_block : (K,) integer label of each step's placement (a run of consecutive steps at one nominal
+        pose), or None (``pose_error`` then has no parameters).
     """
 
     f_g: np.ndarray
@@ -81,6 +89,7 @@ class EffectInputs:
     t_ref_s: float = 0.0
     temp_rate: np.ndarray | None = None
     t_jump_s: float | None = None
+    pose_block: np.ndarray | None = None
 
     def mn(self) -> np.ndarray:
         return np.eye(3) if self.matrix_g is None else np.asarray(self.matrix_g, float)
@@ -121,13 +130,19 @@ class Effect:
     on_sensor: bool
     contribution: Callable[[np.ndarray, EffectInputs], np.ndarray]
     sim_field: str | None = None
+    labels: Callable[[EffectInputs], tuple] | None = None  # per-session parameters (pose_error), else params
+
+    def param_labels(self, x: EffectInputs) -> tuple:
+        """The parameters of this effect in a session (``params`` unless they depend on the session)."""
+        return self.params if self.labels is None else self.labels(x)
 
     def columns_g(self, x: EffectInputs) -> np.ndarray:
         """Design columns (K, 3, P): the output term per unit of each parameter, g."""
         k = len(x.f_g)
-        out = np.zeros((k, 3, len(self.params)))
-        for i in range(len(self.params)):
-            e = np.zeros(len(self.params))
+        n = len(self.param_labels(x))
+        out = np.zeros((k, 3, n))
+        for i in range(n):
+            e = np.zeros(n)
             e[i] = 1.0
             out[:, :, i] = self.contribution(e, x)
         return out
@@ -178,6 +193,34 @@ def _jump(x):
     return (np.asarray(x.t_s, float) >= x.t_jump_s).astype(float)
 
 
+def _perpendicular(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors perpendicular to each row of ``f`` (K, 3) and to each other: the axes a small
+    misplacement of that pose can turn about (a turn about ``f`` itself changes nothing)."""
+    n = f / np.maximum(np.linalg.norm(f, axis=1), 1e-12)[:, None]
+    helper = np.where(np.abs(n[:, [0]]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    u1 = np.cross(n, helper)
+    u1 /= np.linalg.norm(u1, axis=1)[:, None]
+    return u1, np.cross(n, u1)
+
+
+def _placements(x) -> tuple:
+    if x.pose_block is None:
+        return ()
+    return tuple(f"placement{int(b)}_{a}" for b in np.unique(x.pose_block) for a in ("u", "v"))
+
+
+def _pose_error(p, x):
+    """Each placement turned by the small angles (p_u, p_v) deg about its two perpendicular axes:
+    f -> f + (theta x f), output Mn (theta x f)."""
+    if x.pose_block is None:
+        return np.zeros_like(x.f_g)
+    u1, u2 = _perpendicular(x.f_g)
+    idx = np.searchsorted(np.unique(x.pose_block), x.pose_block)
+    pp = np.radians(np.asarray(p, float)).reshape(-1, 2)[idx]
+    theta = pp[:, [0]] * u1 + pp[:, [1]] * u2
+    return np.cross(theta, x.f_g) @ x.mn().T
+
+
 def _heating(x):
     return np.zeros(len(x.f_g)) if x.heating is None else np.asarray(x.heating, float)
 
@@ -218,6 +261,9 @@ LIBRARY: dict[str, Effect] = {e.name: e for e in [
     Effect("bias_jump", "a bias step at a time found by the search (shock, mode change)", "g", SENSOR_AXES, ("time",),
            "steps before and after the jump (at least 3 on each side)", True,
            _per_axis(lambda x: _jump(x)[:, None]), sim_field="bias_jump_g"),
+    Effect("pose_error", "poses not where they should be: each hand placement turned off its nominal pose", "deg",
+           (), ("placement",), "poses placed by hand (no turntable angles), known nominal poses", False, _pose_error,
+           labels=_placements),
 ]}
 
 #: extra fields an effect entry of a calibration file carries, per effect
@@ -320,6 +366,8 @@ def validate_effect(e) -> str | None:
     if name not in LIBRARY:
         return f"unknown effect {name!r} (known: {', '.join(LIBRARY)})"
     lib = LIBRARY[name]
+    if lib.labels is not None:
+        return f"{name} describes a recording (its placements), not the sensor: never a calibration effect"
     if e.get("unit") != lib.unit:
         return f"unit: expected {lib.unit!r}, got {e.get('unit')!r}"
     for key in ("estimate", "sigma"):

@@ -31,7 +31,7 @@ from calib.discovery.effects import LIBRARY
 POWER = 0.8
 MAX_VIF = 1e4
 FORCE_EFFECTS = {"scale_tempco", "scale_nonlinearity", "cross_axis_nonlinearity", "full_misalignment",
-                 "table_tilt"}
+                 "table_tilt", "pose_error"}
 
 #: need -> (is it missing?, why): only missing data, never a design rule
 MISSING = {
@@ -40,6 +40,8 @@ MISSING = {
              "no temperature rate per step (temperature samples inside each step)"),
     "legs": (lambda s, c: c.heating is None, "no heating/cooling record"),
     "rotation": (lambda s, c: c.base_to_sensor is None, "pose rotations unknown"),
+    "placement": (lambda s, c: c.angles_deg is not None or c.base_to_sensor is not None,
+                  "the poses were set by the turntable (its angles are recorded), not placed by hand"),
 }
 
 
@@ -86,7 +88,7 @@ def observability(prob: Problem, name: str, alpha: float, model: list | None = N
     outside2 = np.sum((cw - q_basis @ (q_basis.T @ cw)) ** 2, axis=0)
     vif = np.where(keep & (outside2 > 0), norms2 / np.where(outside2 > 0, outside2, 1.0), np.inf)
     keep &= vif <= MAX_VIF
-    n_par = len(lib.params)
+    n_par = len(prob.labels[name])
     q = int(keep.sum())
     a = alpha / prob.multiplicity.get(name, 1)
     dof = len(cw) - int(determined(gw).sum()) - q  # left after the candidate
@@ -109,12 +111,13 @@ def triage(prob: Problem, names: list, alpha: float) -> tuple[list, list, dict, 
     """Split the candidates into observable and unobservable ones (with the reason) and give each
     observable one its rank, conditioning and MDM (:func:`observability`; alpha split over them)."""
     unobservable, why, observable, info = [], {}, [], {}
-    prob.build_columns(names)
+    lacking = {n: missing_data(n, prob.steps, prob.ctx, prob.pose_free, len(prob.jump_grid)) for n in names}
+    prob.build_columns([n for n in names if lacking[n] is None])  # columns only where the data exist
     for n in names:
-        problem = missing_data(n, prob.steps, prob.ctx, prob.pose_free, len(prob.jump_grid))
+        problem = lacking[n]
         if problem is None:
             keep = prob.observable_columns(n)
-            if keep[:len(LIBRARY[n].params)].any():
+            if keep[:len(prob.labels[n])].any():
                 prob.keep[n] = keep
                 observable.append(n)
                 continue

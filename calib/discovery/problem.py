@@ -78,6 +78,7 @@ class Problem:
         self.matrix_g = np.eye(3)
         self.cols: dict[str, np.ndarray] = {}
         self.keep: dict[str, np.ndarray] = {}
+        self.labels: dict[str, tuple] = {}  # each effect's parameters in this session
         self.jump_grid = jump_times(np.asarray(steps.t_s, float))
         self.t_jump = float(np.median(self.jump_grid)) if len(self.jump_grid) else None
         self.multiplicity = {"bias_jump": max(len(self.jump_grid), 1)}  # Bonferroni cost of the time search
@@ -141,7 +142,8 @@ class Problem:
         return EffectInputs(f_g=self.f, temp_c=None if s.temp_c is None else np.asarray(s.temp_c, float),
                             t_s=np.asarray(s.t_s, float), heating=self.ctx.heating,
                             base_to_sensor=self.ctx.base_to_sensor, matrix_g=self.matrix_g, t0_c=self.t0_c,
-                            t_ref_s=self.t_ref_s, temp_rate=self.ctx.temp_rate, t_jump_s=self.t_jump)
+                            t_ref_s=self.t_ref_s, temp_rate=self.ctx.temp_rate, t_jump_s=self.t_jump,
+                            pose_block=None if self.pose_free else pose_blocks(self.f, np.asarray(s.t_s, float)))
 
     def set_jump(self, t_jump_s: float) -> None:
         """Move the bias jump to ``t_jump_s`` (rebuilds its columns)."""
@@ -160,6 +162,7 @@ class Problem:
         x = self.inputs()
         for n in names:
             c = LIBRARY[n].columns_g(x)  # (K, 3, P)
+            self.labels[n] = LIBRARY[n].param_labels(x)
             cols = np.transpose(c, (1, 0, 2)).reshape(3 * self.k, -1) * self.lsb
             self.cols[n] = np.concatenate([cols, self.nuisance_columns(n)], axis=1)
             self._white.pop(n, None)
@@ -406,6 +409,17 @@ def floored_sf(t: float, q: int, dof: int, lam: float = 0.0) -> float:
 
 #: the tests :func:`calib.discovery.search.candidate_pvalues` can report (the search uses ``search``)
 TESTS = {"search": nested_test, "known_noise": known_noise_test, "scatter": f_test}
+
+
+def pose_blocks(f: np.ndarray, t_s: np.ndarray) -> np.ndarray:
+    """(K,) placement label of each step: runs of consecutive steps (in time) at one nominal pose share one
+    (a pose visited again later is a new placement)."""
+    order = np.argsort(t_s, kind="stable")
+    poses = np.round(np.asarray(f, float)[order], 6)
+    new = np.concatenate([[True], np.any(poses[1:] != poses[:-1], axis=1)])
+    out = np.empty(len(order), int)
+    out[order] = np.cumsum(new) - 1
+    return out
 
 
 def jump_times(t_s: np.ndarray) -> np.ndarray:

@@ -38,6 +38,8 @@ from calib.discovery.observe import missing_data, observability, triage
 from calib.discovery.problem import (Fit, Problem, RadialProblem,
                                      jump_times, scan_jump)
 from calib.discovery.report import localise, unexplained
+from calib.discovery.select import (BOUNDARY_FACTOR, NEEDS, NONLINEAR, jump_boundary, remaining, select,
+                                    supported)
 from calib.discovery.effects import LIBRARY
 from calib.errors import CalibError
 from calib.frames import SENSOR_AXES
@@ -46,11 +48,7 @@ from calib.numerics.wander import wander_rms_g
 __all__ = ["Discovery", "FoundEffect", "StepContext", "StepRow", "candidate_pvalues", "coverage_problem", "discover",
            "remaining", "verdict"]
 
-FORMAT = "rig-discover/4"
-TEMP_EFFECTS = ("bias_tempco_quadratic", "bias_tempco_cubic")  # enter only after bias_tempco
-NEEDS = {"bias_tempco": TEMP_EFFECTS}  # bias_tempco stays while a higher order is in
-POLYNOMIAL = ("bias_tempco",) + TEMP_EFFECTS  # the seed's thermal model: preferred among aliases
-ORDER = list(LIBRARY)  # among equally simple aliases, the library's order (the more common physics first)
+FORMAT = "rig-discover/5"
 MIN_RADIAL_STEPS = 12  # pose-free steps the magnitude baseline (9 parameters) needs, with dof to spare
 
 
@@ -143,6 +141,7 @@ class Discovery:
     wander_rms_g: float = 0.0  # rms bias wander between the step means the stated stability implies
     observability: dict = field(default_factory=dict)  # candidate -> rank, conditioning, MDM
     dropped: list = field(default_factory=list)  # named on the way, made unnecessary by the nuisance factor
+    unsupported: list = field(default_factory=list)  # {name, p_value}: selected, not significant in the final model
 
     def to_json(self) -> dict:
         verdict_ = {"gap_closed": bool(self.gap_closed), "dof_after": int(self.dof_after), "p_fit": self.p_fit}
@@ -153,7 +152,7 @@ class Discovery:
                 "chi2_per_dof_before": self.chi2_per_dof_before,
                 "chi2_per_dof_after": self.chi2_per_dof_after, **verdict_, "false_alarm": self.false_alarm,
                 "effects": [e.to_json() for e in self.effects], "aliases": [list(a) for a in self.aliases],
-                "dropped_by_lack_of_fit": list(self.dropped),
+                "dropped_by_lack_of_fit": list(self.dropped), "unsupported": list(self.unsupported),
                 "unobservable": list(self.unobservable),
                 "unobservable_why": dict(self.unobservable_why), "observability": _nan_none_dict(self.observability),
                 "where": self.where,
@@ -205,15 +204,17 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
         raise CalibError(f"unknown effect(s): {', '.join(unknown)} (known: {', '.join(LIBRARY)})")
     prob, t0, t_ref, base_fit, (observable, unobservable, why, _) = _prepared(steps, ctx, names, false_alarm, t0_c)
     fit = _Cache(prob)
-    selected, aliases = _select(prob, observable, false_alarm, fit)
+    selected, aliases = select(prob, observable, false_alarm, fit)
     factor, dropped = None, []
     if not verdict(fit(selected).rss, fit(selected).dof, false_alarm)[0]:
         kept, factor = lack_of_fit(prob, selected, false_alarm, fit, NEEDS)
         if factor is not None:
             dropped, selected = factor["dropped"], kept
-    final = _refit(prob, selected)
-    return _outcome(steps, ctx, prob, base_fit, final, selected, aliases, (unobservable, why), factor, dropped,
-                    false_alarm, t0, t_ref, observable)
+    selected, final, pvals, unsupported = supported(prob, selected, false_alarm, _refit, _Cache)
+    d = _outcome(steps, ctx, prob, base_fit, final, selected, aliases, (unobservable, why), factor, dropped,
+                 false_alarm, t0, t_ref, observable, pvals)
+    d.unsupported = [{"name": n, "p_value": p} for n, p in unsupported]
+    return d
 
 
 def candidate_pvalues(steps: StepMeans, ctx: StepContext | None = None, model=("bias_tempco",),
@@ -290,11 +291,12 @@ def _refit(prob: Problem, selected: list) -> Fit:
 
 
 def _outcome(steps, ctx, prob, base_fit, final, selected, aliases, unobs, factor, dropped, false_alarm, t0, t_ref,
-             observable) -> Discovery:
-    """Assemble the :class:`Discovery` from the fits."""
+             observable, pvals) -> Discovery:
+    """Assemble the :class:`Discovery` from the fits (``pvals``: each named effect's final-model p-value)."""
     sig = np.sqrt(np.diag(final.cov0))  # propagated step uncertainties, not rescaled by chi2/dof
     prefix = [prob.fit(selected[:i]) for i in range(len(selected) + 1)]  # the model after each addition
-    effects = _found_effects(prob, final, sig, selected, prefix)
+    effects = _found_effects(prob, final, sig, selected, prefix, pvals)
+    final.dof -= sum(NONLINEAR.get(n, 0) for n in selected)  # the jump's time is a fitted parameter too
     history = [("baseline", prob.rms_g(base_fit), base_fit.rss / base_fit.dof)]
     history += [(e.name, e.rms_after_g, prefix[i + 1].rss / prefix[i + 1].dof) for i, e in enumerate(effects)]
     noise = float(np.sqrt(np.mean(np.asarray(steps.sem_counts, float) ** 2)) / prob.lsb)
@@ -356,16 +358,21 @@ def _params_of(fit: Fit, name: str, values: np.ndarray, n_params: int) -> tuple[
     return est, out
 
 
-def _found_effects(prob: Problem, final: Fit, sig: np.ndarray, selected: list, prefix: list) -> list:
-    """One :class:`FoundEffect` per selected effect: estimates and 1-sigma, RMS after it (g), the p-value
-    of its nested test."""
+def _found_effects(prob: Problem, final: Fit, sig: np.ndarray, selected: list, prefix: list, pvals: dict) -> list:
+    """One :class:`FoundEffect` per selected effect: estimates and 1-sigma, RMS after it (g), its p-value in
+    the final model; a jump says which design boundaries its time coincides with (``t_jump_boundary``) and
+    the nuisance factors that are offsets per those boundaries' levels (``aliased_with_factor``)."""
     effects = []
     for i, n in enumerate(selected):
         lib = LIBRARY[n]
-        est, sd = _params_of(final, n, sig, len(lib.params))
-        extra = {"t_jump_s": prob.t_jump} if n == "bias_jump" else {}
-        effects.append(FoundEffect(n, list(lib.params), lib.unit, est.tolist(), sd.tolist(),
-                                   prob.rms_g(prefix[i + 1]), prob.test(n, prefix[i], prefix[i + 1])[1], extra))
+        est, sd = _params_of(final, n, sig, len(prob.labels[n]))
+        extra = {}
+        if n == "bias_jump":
+            kinds = jump_boundary(prob)
+            extra = {"t_jump_s": prob.t_jump, "t_jump_boundary": kinds,
+                     "aliased_with_factor": [BOUNDARY_FACTOR[k] for k in kinds]}
+        effects.append(FoundEffect(n, list(prob.labels[n]), lib.unit, est.tolist(), sd.tolist(),
+                                   prob.rms_g(prefix[i + 1]), float(pvals[n]), extra))
     return effects
 
 
@@ -382,74 +389,6 @@ def _step_rows(steps: StepMeans, prob: Problem, ctx: StepContext, base_fit: Fit,
                     None if ctx.heating is None else int(ctx.heating[i]), float(steps.t_s[i]),
                     None if prob.pose_free else prob.f[i].tolist(), r0[i].tolist(), r1[i].tolist(),
                     z0[i].tolist(), z1[i].tolist()) for i in range(k)]
-
-
-def remaining(observable: list, selected: list) -> list:
-    """The candidates that may enter a model holding ``selected``: the observable ones not in it, the
-    higher temperature orders only once ``bias_tempco`` is in."""
-    return [n for n in observable if n not in selected and (n not in TEMP_EFFECTS or "bias_tempco" in selected)]
-
-
-def _select(prob: Problem, observable: list, alpha: float, fit: _Cache) -> tuple[list, list]:
-    """Forward stepwise selection (Bonferroni over the candidates left), aliases, then a backward pass.
-
-    When the most significant candidate has aliases (neither it nor they significant once the other
-    is in), the data cannot tell them apart and :func:`_preference` decides which enters; the group is
-    reported, that one first.
-    """
-    selected: list[str] = []
-    aliases: list[list[str]] = []
-    prob.last_pass = {}
-    while True:
-        left = remaining(observable, selected)
-        if not left:
-            break
-        cur = fit(selected)
-        if "bias_jump" in left:
-            scan_jump(prob, selected)
-        pvals = {n: prob.test(n, cur, fit(selected + [n])) for n in left}
-        thr = alpha / len(left)
-        best = min(left, key=lambda n: (pvals[n][1], -pvals[n][0]))
-        if pvals[best][1] >= thr:
-            prob.last_pass = {n: (pvals[n][1], thr) for n in left}
-            break
-        group = [best] + [n for n in left if n != best and pvals[n][1] < thr and _aliased(prob, fit, selected,
-                                                                                         best, n, thr)]
-        chosen = min(group, key=lambda n: _preference(prob, n))
-        if len(group) > 1:
-            aliases.append([chosen] + [n for n in group if n != chosen])
-        selected.append(chosen)
-    return _backward(prob, selected, alpha, fit), aliases
-
-
-def _preference(prob: Problem, name: str) -> tuple:
-    """Sort key among aliases, the preferred first: a term of the temperature polynomial (the seed's own
-    thermal model, which its thermal calibration fits), then the fewest columns (nuisance columns
-    included: the simpler explanation), then the library's order (the more common physics)."""
-    return name not in POLYNOMIAL, int(prob.keep[name].sum()), ORDER.index(name)
-
-
-def _aliased(prob: Problem, fit: _Cache, selected: list, best: str, n: str, thr: float) -> bool:
-    """Neither ``best`` nor ``n`` is significant once the other is in the model."""
-    p_n = prob.test(n, fit(selected + [best]), fit(selected + [best, n]))[1]
-    p_b = prob.test(best, fit(selected + [n]), fit(selected + [n, best]))[1]
-    return p_n >= thr and p_b >= thr
-
-
-def _backward(prob: Problem, selected: list, alpha: float, fit: _Cache) -> list:
-    """Drop, the least significant first, what is no longer significant given the rest."""
-    selected = list(selected)
-    while selected:
-        full = fit(selected)
-        drops = {n: prob.test(n, fit([s for s in selected if s != n]), full)[1] for n in selected
-                 if not any(m in selected for m in NEEDS.get(n, ()))}
-        if not drops:
-            break
-        worst = max(drops, key=drops.get)
-        if drops[worst] <= alpha:
-            break
-        selected.remove(worst)
-    return selected
 
 
 def _matrix_from(fit: Fit) -> np.ndarray:
@@ -499,9 +438,9 @@ def _calibration(steps, prob, final, cov, selected, t0, t_ref, ctx):
     sig = np.sqrt(np.diag(cov))
     extra = []
     for n in selected:
-        if n in ("bias_tempco", "bias_tempco_quadratic"):
-            continue
         lib = LIBRARY[n]
+        if n in ("bias_tempco", "bias_tempco_quadratic") or lib.labels is not None:  # pose_error: the recording's
+            continue
         est, sd = (np.nan_to_num(v) for v in _params_of(final, n, sig, len(lib.params)))
         entry = {"name": n, "unit": lib.unit, "axes": list(lib.params), "estimate": est.tolist(),
                  "sigma": sd.tolist()}

@@ -122,6 +122,7 @@ def format_report(session: Session, d: Discovery) -> str:
                      + ", ".join(f"{n} {p:.2g} vs {t:.2g}" for n, (p, t) in near))
     for group in d.aliases:
         lines.append(f"aliases (the data cannot tell these apart; the first was used): {', '.join(group)}")
+    lines += selection_lines(session, d)
     if d.dropped:
         lines.append(f"named on the way, then dropped: {', '.join(d.dropped)} (what remains is better described by a "
                      f"generic factor, {d.unexplained['factor']['name'].replace('_', ' ')}, that makes them unnecessary)")
@@ -145,6 +146,25 @@ def format_report(session: Session, d: Discovery) -> str:
         cells = " ".join(f"{b * 1e6:7.0f} -> {a * 1e6:5.0f}" for b, a in zip(s.residual_before_g, s.residual_after_g))
         lines.append(f"  {s.name[:14]:<14} {temp} {leg:>4}   {cells}")
     return "\n".join(lines)
+
+
+def selection_lines(session: Session, d: Discovery) -> list[str]:
+    """What the selection says beyond the names: a jump on a design boundary, a pose error and its
+    remedy, the effects selected and then not supported by the final model."""
+    lines: list[str] = []
+    for e in d.effects:
+        if e.extra.get("t_jump_boundary"):
+            lines.append(f"the jump's time ({e.extra['t_jump_s']:.0f} s) is a design boundary "
+                         f"({', '.join(e.extra['t_jump_boundary'])}): an offset per "
+                         f"{' / '.join(f.replace('_', ' ') for f in e.extra['aliased_with_factor'])} describes it as "
+                         "well (aliased with the design, not a sudden change the data alone reveal)")
+    if any(e.name == "pose_error" for e in d.effects):
+        lines.append(f"the poses are not where they should be (hand placement): solve with the pose-free method, "
+                     f"rig solve {session.path} --method magnitude")
+    if d.unsupported:
+        lines.append("selected, then not significant in the final model (not named): "
+                     + ", ".join(f"{u['name']} p = {u['p_value']:.2g}" for u in d.unsupported))
+    return lines
 
 
 def mdm_line(name: str, o: dict) -> str:

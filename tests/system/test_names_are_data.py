@@ -284,7 +284,7 @@ def test_a_damaged_discover_document_is_a_note_not_a_failed_report(plain, tmp_pa
     (s / "discover.json").write_text(_damaged(plain["discover"], case), encoding="utf-8")
     assert main(["report", str(s), "-o", str(tmp_path / "r.html"), "--history", str(plain["db"])]) == 0
     section = Page((tmp_path / "r.html").read_text(encoding="utf-8")).text("discover")
-    assert f"discover.json: not a rig-discover/4 document {DAMAGED[case]}" in section, section
+    assert f"discover.json: not a {plain['discover']['format']} document {DAMAGED[case]}" in section, section
     assert section.endswith("; left out") and "has not been run" not in section
 
 
@@ -297,7 +297,7 @@ def test_a_damaged_document_beside_a_good_one_leaves_the_good_one_shown(plain, t
     page = Page((tmp_path / "r.html").read_text(encoding="utf-8"))
     section = page.text("discover")
     assert "discover-plot" in page.text_by_id and str(s / "discover-good.json") in section
-    assert "discover.json: not a rig-discover/4 document (steps[0].residual_before_g" in section
+    assert f"discover.json: not a {plain['discover']['format']} document (steps[0].residual_before_g" in section
     assert "other-tool.json" not in section  # another program's JSON is none of the report's business
 
 

@@ -16,7 +16,7 @@ from rig.cli.common import EXIT_OK, check_false_alarm, json_default, report_warn
 def add_parser(sub) -> None:
     dc = sub.add_parser("discover", help="find where the model and the data disagree; name the missing effect")
     dc.add_argument("session")
-    dc.add_argument("--json", action="store_true", help="print the rig-discover/4 JSON (docs/discrepancy.md) instead of the report")
+    dc.add_argument("--json", action="store_true", help="print the rig-discover/5 JSON (docs/discrepancy.md) instead of the report")
     dc.add_argument("--plot", metavar="FILE.png", default=None,
                     help="residuals before/after, by pose and temperature (a directory: written inside it)")
     dc.add_argument("-o", "--output", metavar="CALIB.yaml", default=None,
