@@ -18,13 +18,15 @@ import sqlite3
 from dataclasses import dataclass, field
 
 from calib.file.parameters import at_common_temperature
-from rig.analysis import plots
+from rig.lab.bias_temperature import TEMP_MATCH_C, ReferenceView, compared_parameters, reference_view
 from rig.lab.history import History, HistoryCorrupt
+from rig.lab.history_plot import history_figure, save_history_figure
+from rig.lab.units import shown, shown_unit
 
 DRIFT_LIMIT_SIGMA = 3.0
 #: the columns of ``calibrations`` that hold numbers (anything else in them is damage)
 NUMBER_COLUMNS = ("temp_mean_c", "temp_min_c", "temp_max_c", "residual_rms_g", "chi2_per_dof")
-INTEGER_COLUMNS = ("id", "steps")
+INTEGER_COLUMNS = ("id", "steps", "simulated")
 
 
 @dataclass
@@ -74,15 +76,19 @@ def _query(h: History, sql: str, params=()) -> list[sqlite3.Row]:
         h.conn.text_factory = before
 
 
-def list_sensors(h: History) -> list[dict]:
-    """Every sensor with its number of calibrations and the first and last calibration time."""
+def list_sensors(h: History, include_simulated: bool = True) -> list[dict]:
+    """Every sensor with its number of calibrations (``n``; ``simulated`` of them recorded on the simulated or
+    replay rig) and the first and last calibration time. ``include_simulated`` False: the hardware
+    calibrations only, and only the sensors that have one (the default view of ``rig history``)."""
     rows = _query(h, "SELECT s.sensor_key, s.model, s.address, s.serial, COUNT(c.id) AS n, "
+                     "COALESCE(SUM(c.simulated), 0) AS n_sim, "
                      "MIN(c.calibrated_at) AS first, MAX(c.calibrated_at) AS last FROM sensors s "
-                     "LEFT JOIN calibrations c ON c.sensor_key = s.sensor_key GROUP BY s.sensor_key "
-                     "ORDER BY s.sensor_key")
+                     "LEFT JOIN calibrations c ON c.sensor_key = s.sensor_key AND (? OR c.simulated = 0) "
+                     "GROUP BY s.sensor_key ORDER BY s.sensor_key", (int(include_simulated),))
     return [{"sensor_key": _text(r["sensor_key"]) or "", "model": _text(r["model"]), "address": _number(r["address"]),
-             "serial": _text(r["serial"]), "n": r["n"], "first": _text(r["first"]), "last": _text(r["last"])}
-            for r in rows]
+             "serial": _text(r["serial"]), "n": r["n"], "simulated": r["n_sim"], "first": _text(r["first"]),
+             "last": _text(r["last"])}
+            for r in rows if include_simulated or r["n"]]
 
 
 def resolve_sensor(h: History, sensor: str) -> str:
@@ -124,15 +130,22 @@ def _calibration_info(row: sqlite3.Row, where: str, notes: list[str]) -> dict:
     return info
 
 
-def sensor_history(h: History, key: str) -> list[CalibrationRecord]:
+def sensor_history(h: History, key: str, include_simulated: bool | None = None) -> list[CalibrationRecord]:
     """Every calibration of sensor ``key``, oldest first (calibration time, then record order); a
-    damaged value is missing, a damaged parameter left out, each with a note in the record's ``notes``."""
+    damaged value is missing, a damaged parameter left out, each with a note in the record's ``notes``.
+
+    ``include_simulated``: True every calibration, False those of hardware rigs only, None (the default view)
+    those of hardware rigs when the sensor has any, else its simulated ones (a simulated sensor's history)."""
     cals = _query(h, "SELECT * FROM calibrations WHERE sensor_key = ? ORDER BY calibrated_at, id", (key,))
+    if not include_simulated:
+        hardware = [r for r in cals if not r["simulated"]]
+        cals = hardware if hardware or include_simulated is False else cals
     out, where = [], {}
     for i, r in enumerate(cals):
         notes: list[str] = []
         here = f"calibration #{i + 1} (history row {_text(r['id'])})"
         info = _calibration_info(r, here, notes)
+        info["simulated"] = bool(info.get("simulated"))
         out.append(CalibrationRecord(info["id"], info, notes=notes))
         where[info["id"]] = here
     by_id = {c.id: c for c in out if c.id is not None}
@@ -163,18 +176,38 @@ def history_notes(records: list[CalibrationRecord]) -> list[str]:
     return [n for r in records for n in r.notes]
 
 
-def drift(records: list[CalibrationRecord], limit: float = DRIFT_LIMIT_SIGMA) -> dict[str, list[dict | None]]:
+def _pair(records: list[CalibrationRecord], view: ReferenceView, i: int) -> tuple[dict, dict, float | None, list | None]:
+    """Calibrations ``i - 1`` and ``i`` as the drift compares them: ``(previous, current, at_temp_c, across_c)``.
+    Both at the reference temperature: the view's values there. Otherwise the pair at its own common temperature
+    (:func:`calib.file.parameters.at_common_temperature`), and ``across_c`` the two temperatures when no model
+    brings the biases to one (both without temperature terms, more than ``TEMP_MATCH_C`` apart)."""
+    prev, cur = records[i - 1], records[i]
+    if view.at_reference(i - 1) and view.at_reference(i):
+        return compared_parameters(prev, view, i - 1), compared_parameters(cur, view, i), view.temp_c, None
+    p0, p1, common = at_common_temperature(prev.parameters, prev.info.get("temp_mean_c"), cur.parameters,
+                                           cur.info.get("temp_mean_c"))
+    t0, t1 = view.biases[i - 1].temp_c, view.biases[i].temp_c
+    across = None
+    if common is None and (t0 is None or t1 is None or abs(t1 - t0) > TEMP_MATCH_C):
+        across = [t0, t1]
+    return p0, p1, common, across
+
+
+def drift(records: list[CalibrationRecord], limit: float = DRIFT_LIMIT_SIGMA,
+          view: ReferenceView | None = None) -> dict[str, list[dict | None]]:
     """Per parameter, per calibration: None for the first (or when the parameter is new), else
-    ``{delta, combined_sigma, z, flagged}``; accelerometer biases of two calibrations of which one
-    or both have temperature terms are compared at one temperature (``at_temp_c``, see
-    :func:`calib.file.parameters.at_common_temperature`)."""
+    ``{delta, combined_sigma, z, flagged}``. Accelerometer biases are compared at the sensor's reference
+    temperature (:mod:`rig.lab.bias_temperature`, ``at_temp_c``) where both calibrations' biases hold there,
+    else at the pair's common temperature (``at_temp_c``), or, when no model brings them to one, as stated
+    (``across_temp_c``: the two temperatures)."""
+    view = view if view is not None else reference_view(records)
     names = list(dict.fromkeys(n for r in records for n in r.parameters))
-    pairs = [at_common_temperature(prev.parameters, prev.info.get("temp_mean_c"), cur.parameters,
-                                   cur.info.get("temp_mean_c")) for prev, cur in zip(records, records[1:])]
+    pairs = [_pair(records, view, i) for i in range(1, len(records))]
     out: dict[str, list[dict | None]] = {}
     for name in names:
         col: list[dict | None] = [None]
-        for p0, p1, common_c in pairs:
+        bias = name.startswith("accel.bias")
+        for p0, p1, common_c, across in pairs:
             if name not in p0 or name not in p1:
                 col.append(None)
                 continue
@@ -183,89 +216,136 @@ def drift(records: list[CalibrationRecord], limit: float = DRIFT_LIMIT_SIGMA) ->
             z = (v1 - v0) / comb if comb > 0 else float("nan")
             col.append({"delta": v1 - v0, "combined_sigma": comb, "z": z,
                         "flagged": bool(math.isfinite(z) and abs(z) > limit),
-                        **({"at_temp_c": common_c} if common_c is not None and name.startswith("accel.bias") else {})})
+                        **({"at_temp_c": common_c} if common_c is not None and bias else {}),
+                        **({"across_temp_c": across} if across is not None and bias else {})})
         out[name] = col
     return out
 
 
+def flagged_names(d: dict[str, list[dict | None]]) -> list[str]:
+    """The parameters whose change between two consecutive calibrations is beyond the limit."""
+    return sorted({n for n, col in d.items() for c in col if c and c["flagged"]})
+
+
 def history_document(key: str, records: list[CalibrationRecord]) -> dict:
-    """``rig history SENSOR --json``: the calibrations, their parameters and the drift."""
-    d = drift(records)
+    """``rig history SENSOR --json``: the calibrations, their parameters (as stored: value, sigma, unit; an
+    accelerometer bias also ``at_reference``, as compared) and the drift; ``reference_temperature``."""
+    view = reference_view(records)
+    d = drift(records, view=view)
     cals = []
     for i, r in enumerate(records):
-        params = {n: {"value": v, "sigma": s, "unit": u,
-                      **({"change": d[n][i]} if d.get(n) and d[n][i] is not None else {})}
-                  for n, (v, s, u) in r.parameters.items()}
+        b = view.biases[i]
+        params = {}
+        for n, (v, s, u) in r.parameters.items():
+            params[n] = {"value": v, "sigma": s, "unit": u,
+                         **({"at_reference": {"value": b.values[n][0], "sigma": b.values[n][1], "temp_c": b.temp_c,
+                                              "own_temperature": view.own_temperature(i)}} if n in b.values else {}),
+                         **({"change": d[n][i]} if d.get(n) and d[n][i] is not None else {})}
         cals.append({**r.info, "parameters": params})
-    flagged = sorted({n for n, col in d.items() for c in col if c and c["flagged"]})
     notes = history_notes(records)
     return {"format": "rig-history/1", "sensor": key, "drift_limit_sigma": DRIFT_LIMIT_SIGMA,
-            "calibrations": cals, "flagged": flagged,
+            "reference_temperature": view.to_json(), "calibrations": cals, "flagged": flagged_names(d),
             **({"notes": notes} if notes else {})}
 
 
-def _cell(value: float, sigma, change) -> str:
-    main = f"{value:.6g}" + (f"+-{sigma:.2g}" if sigma is not None else "")
+def _cell(value: float, sigma, unit, change, mark: str = "") -> str:
+    value, sigma, _ = shown(value, sigma, unit)
+    main = f"{value:.6g}" + (f"+-{sigma:.2g}" if sigma is not None else "") + mark
     if change is None:
         return main
     z = change["z"]
-    mark = " !" if change["flagged"] else ""
-    return f"{main} ({z:+.1f}s{mark})" if math.isfinite(z) else main
+    flag = " !" if change["flagged"] else ""
+    return f"{main} ({z:+.1f}s{flag})" if math.isfinite(z) else main
+
+
+def _own_mark(view: ReferenceView, i: int) -> str:
+    t = view.biases[i].temp_c
+    return (" @?C" if t is None else f" @{t:.1f}C") if view.own_temperature(i) else ""
+
+
+def _heading(i: int, r: CalibrationRecord) -> str:
+    t = r.info.get("temp_mean_c")
+    return (f"  #{i} {r.info['calibrated_at']}  {r.info.get('procedure_name') or '-'}  session "
+            f"{r.info.get('session_id')}  {'' if t is None else f'{t:.1f} C  '}"
+            f"residual {1e6 * (r.info.get('residual_rms_g') or float('nan')):.1f} ug  "
+            f"chi2/dof {r.info.get('chi2_per_dof') or float('nan'):.2f}"
+            + (f"  {r.info['verdict']}" if r.info.get("verdict") else "")
+            + ("  simulated" if r.info.get("simulated") else ""))
 
 
 def format_history(key: str, records: list[CalibrationRecord]) -> str:
-    """The table: one column per calibration, one row per parameter; ``(+1.2s)`` is the change since
-    the previous calibration in combined sigmas, ``!`` beyond 3."""
-    d = drift(records)
-    head = [f"sensor {key}: {len(records)} calibration(s)"]
-    for i, r in enumerate(records, 1):
-        t = r.info.get("temp_mean_c")
-        head.append(f"  #{i} {r.info['calibrated_at']}  {r.info.get('procedure_name') or '-'}  session "
-                    f"{r.info.get('session_id')}  {'' if t is None else f'{t:.1f} C  '}"
-                    f"residual {1e6 * (r.info.get('residual_rms_g') or float('nan')):.1f} ug  "
-                    f"chi2/dof {r.info.get('chi2_per_dof') or float('nan'):.2f}"
-                    + (f"  {r.info['verdict']}" if r.info.get("verdict") else ""))
-    cells = {n: [_cell(*r.parameters[n][:2], d[n][i]) if n in r.parameters else "-" for i, r in enumerate(records)]
-             for n in d}
+    """The table: one column per calibration, one row per parameter (angles in mrad, as ``rig run`` prints
+    them); accelerometer biases at the sensor's reference temperature (``@25.1C``: at its own temperature, no
+    model moves it); ``(+1.2s)`` is the change since the previous calibration in combined sigmas, ``!`` beyond 3."""
+    view = reference_view(records)
+    d = drift(records, view=view)
+    head = [f"sensor {key}: {len(records)} calibration(s)"] + [_heading(i, r) for i, r in enumerate(records, 1)]
+    cells = {}
+    for n in d:
+        row = []
+        for i, r in enumerate(records):
+            b = view.biases[i]
+            v, s, u = b.values[n] if n in b.values else r.parameters.get(n, (None, None, None))
+            row.append("-" if v is None else _cell(v, s, u, d[n][i], _own_mark(view, i) if n in b.values else ""))
+        cells[n] = row
     width = [max(len(f"#{i + 1}"), *(len(c[i]) for c in cells.values())) for i in range(len(records))]
     name_w = max([len("parameter (unit)")] + [len(f"{n} ({_unit(records, n)})") for n in cells])
     lines = [f"{'parameter (unit)':<{name_w}}  " + "  ".join(f"{f'#{i + 1}':>{w}}" for i, w in enumerate(width))]
     for n, row in cells.items():
         lines.append(f"{n + ' (' + _unit(records, n) + ')':<{name_w}}  " + "  ".join(
             f"{c:>{w}}" for c, w in zip(row, width)))
-    flagged = sorted({n for n, col in d.items() for c in col if c and c["flagged"]})
+    flagged = flagged_names(d)
     foot = (f"drift beyond {DRIFT_LIMIT_SIGMA:g} combined sigma: " + ", ".join(flagged)) if flagged else \
         f"no drift beyond {DRIFT_LIMIT_SIGMA:g} combined sigma"
-    moved = [f"#{i + 1} compared with #{i} at {c['at_temp_c']:.1f} C"
-             for i, c in enumerate(d.get("accel.bias_x", [])) if c and "at_temp_c" in c]
-    if moved:
-        foot += ("\naccelerometer biases with temperature terms are carried to the other calibration's "
-                 "temperature before comparing: " + "; ".join(moved))
+    foot += "\n" + _reference_lines(view, d.get("accel.bias_x", []))
     notes = [f"note: {n}" for n in history_notes(records)]
     return "\n".join(head + [""] + lines + ["", foot] + notes)
 
 
+def _reference_lines(view: ReferenceView, col: list[dict | None]) -> str:
+    """Under the table: the reference temperature, what was carried there, what stays at its own temperature."""
+    out = [view.describe()]
+    carried = [f"#{i + 1} from its t0 {b.carried_from_c:.1f} C" for i, b in enumerate(view.biases)
+               if b.carried_from_c is not None and abs(b.carried_from_c - (view.temp_c or 0.0)) > TEMP_MATCH_C]
+    if carried:
+        out.append("carried by their own bias polynomial (sigma propagated): " + "; ".join(carried))
+    own = [f"#{i + 1}" for i in range(len(view.biases)) if view.own_temperature(i)]
+    if own:
+        out.append("marked @T: stated at their own temperature, no temperature model moves them: " + ", ".join(own))
+    moved = [f"#{i + 1} compared with #{i} at {c['at_temp_c']:.1f} C" for i, c in enumerate(col)
+             if c and "at_temp_c" in c and (view.own_temperature(i) or view.own_temperature(i - 1))]
+    if moved:
+        out.append("accelerometer biases with temperature terms are carried to the other calibration's "
+                   "temperature before comparing: " + "; ".join(moved))
+    across = [f"#{i + 1} with #{i}" for i, c in enumerate(col) if c and "across_temp_c" in c]
+    if across:
+        out.append("compared as stated across temperatures (no temperature model; the change includes the "
+                   "temperature's): " + ", ".join(across))
+    return "\n".join(out)
+
+
 def _unit(records, name) -> str:
-    return next(r.parameters[name][2] for r in records if name in r.parameters) or "-"
+    return shown_unit(next(r.parameters[name][2] for r in records if name in r.parameters)) or "-"
 
 
 def plot_history(key: str, records: list[CalibrationRecord], path=None):
-    """Each parameter over the calibrations with 1-sigma error bars, one panel per parameter, its unit
-    on the y axis; the x axis names each calibration (number, date, procedure), the footnote its session.
+    """Each parameter over the calibrations with 1-sigma error bars (:mod:`rig.lab.history_plot`), biases at
+    the reference temperature, angles in mrad.
 
     ``path`` a file or a directory (then ``history-SENSOR.png`` inside it): writes the plot and returns
     the absolute path written; ``path`` None: returns the matplotlib Figure (nothing written).
     """
-    ticks = [f"#{i + 1}\n{(r.info.get('calibrated_at') or '')[:16].replace('T', ' ')}\n"
-             f"{r.info.get('procedure_name') or ''}" for i, r in enumerate(records)]
-    panels = [(name, _unit(records, name), [(i, *r.parameters[name][:2]) for i, r in enumerate(records)
-                                           if name in r.parameters]) for name in drift(records)]
-    sessions = [f"#{i + 1} {r.info.get('session_id') or '-'}" for i, r in enumerate(records)]
-    footnote = "sessions: " + ";  ".join(sessions) if len(records) <= 8 else \
-        f"sessions: {sessions[0]} ... {sessions[-1]} (rig history {key} lists them all)"
-    fig = plots.parameters_figure(f"calibration history of sensor {key}: {len(records)} calibration(s), "
-                                  "oldest first, 1-sigma error bars", ticks, panels, footnote=footnote)
-    if path is None:
-        return fig
-    target = plots.resolve_plot_path(path, plots.safe_name(f"history-{key}") + ".png")
-    return plots.save(fig, target, dpi=110)
+    view = reference_view(records)
+    panels = []
+    for name in drift(records, view=view):
+        pts = []
+        for i, r in enumerate(records):
+            b = view.biases[i]
+            if name in b.values:
+                own_c = (math.nan if b.temp_c is None else b.temp_c) if view.own_temperature(i) else None
+                pts.append((i, *shown(*b.values[name])[:2], own_c))
+            elif name in r.parameters:
+                pts.append((i, *shown(*r.parameters[name])[:2], None))
+        panels.append((name, _unit(records, name), pts))
+    fig = history_figure(key, records, panels, view.describe())
+    return fig if path is None else save_history_figure(fig, key, path)

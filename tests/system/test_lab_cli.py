@@ -42,7 +42,10 @@ def test_history_record_list_show_json_plot(session, tmp_path, capsys, monkeypat
     assert main(["history", "--record", str(session), "--calibration", str(alt)]) == 0  # recorded already
     assert main(["history", "--record", str(session), "--sensor-id", "SN-42"]) == 0
     capsys.readouterr()
-    assert main(["history"]) == 0
+    assert main(["history"]) == 0  # every record is of the simulated rig: none in the default list
+    listing = capsys.readouterr().out
+    assert "MPU-9150@0x68#0x68/sim-seed-3" not in listing and "2 sensor(s) calibrated only on the simulated" in listing
+    assert main(["history", "--all"]) == 0
     listing = capsys.readouterr().out
     assert "MPU-9150@0x68#0x68/sim-seed-3" in listing and "MPU-9150:SN-42" in listing
     assert main(["history", "sim-seed-3", "--plot", str(tmp_path / "h.png")]) == 0
@@ -88,11 +91,11 @@ def test_every_run_and_solve_is_recorded_in_the_history(recorded, tmp_path, monk
     monkeypatch.setenv("RIG_HISTORY", str(db))
     assert main(["solve", str(recorded["session"]), "-o", str(tmp_path / "again.yaml")]) == 0
     capsys.readouterr()
-    assert main(["history", "--json"]) == 0
+    assert main(["history", "--json", "--all"]) == 0  # a simulated run's records: listed with --all
     listing = json.loads(capsys.readouterr().out)
     assert [s["n"] for s in listing["sensors"]] == [1]  # the same calibration of the same session: one row
     assert main(["solve", str(recorded["session"]), "-o", str(tmp_path / "full.yaml"), "--model", "full"]) == 0
     capsys.readouterr()
-    assert main(["history", "--json"]) == 0
+    assert main(["history", "--json", "--all"]) == 0
     listing = json.loads(capsys.readouterr().out)
     assert [s["n"] for s in listing["sensors"]] == [2]  # a re-solve that differs: both

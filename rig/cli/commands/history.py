@@ -16,6 +16,8 @@ def add_parser(sub) -> None:
     s = sub.add_parser("history", help="calibration history: the sensors, or every calibration of one and its drift")
     s.add_argument("sensor", nargs="?", default=None, help="sensor key (or a unique part of it); none: list sensors")
     s.add_argument("--json", action="store_true", help="print the rig-history/1 document")
+    s.add_argument("--all", action="store_true",
+                   help="include the calibrations recorded on the simulated and replay rigs (left out by default)")
     s.add_argument("--plot", default=None, metavar="FILE.png",
                    help="parameters over time with 1-sigma error bars (a directory: written inside it)")
     s.add_argument("--follow", action="store_true", help=outputs.FOLLOW_HELP)
@@ -60,9 +62,10 @@ def _run(args) -> int:
             return EXIT_OK
     with open_history(args.history, create=False) as h:
         if args.sensor is None:
-            return _print_sensors(list_sensors(h), args)
+            hidden = 0 if args.all else len(list_sensors(h)) - len(list_sensors(h, include_simulated=False))
+            return _print_sensors(list_sensors(h, include_simulated=args.all), args, hidden)
         key = resolve_sensor(h, args.sensor)
-        records = sensor_history(h, key)
+        records = sensor_history(h, key, include_simulated=True if args.all else None)
     if plot is not None:
         if plot.directory:
             name = plots.safe_name(f"history-{key}") + ".png"
@@ -84,15 +87,24 @@ def _run(args) -> int:
 PLOT_DPI = 110
 
 
-def _print_sensors(sensors: list[dict], args) -> int:
+#: said under the sensor list when simulated sensors are left out of it (docs/history.md, "Simulated records")
+HIDDEN_NOTE = ("{n} sensor(s) calibrated only on the simulated or replay rig are not listed: rig history --all "
+               "lists them; rig history SENSOR shows one")
+
+
+def _print_sensors(sensors: list[dict], args, hidden: int = 0) -> int:
     if args.json:
-        print(json.dumps({"format": "rig-history/1", "sensors": sensors}, indent=2, default=json_default))
+        print(json.dumps({"format": "rig-history/1", "sensors": sensors, "simulated_included": bool(args.all),
+                          "sensors_not_listed": hidden}, indent=2, default=json_default))
         return EXIT_OK
     if not sensors:
-        print("no calibrations recorded yet")
-        return EXIT_OK
-    w = max(len("sensor"), *(len(s["sensor_key"]) for s in sensors))
-    print(f"{'sensor':<{w}}  {'calibrations':>12}  {'first':<25}  last")
-    for s in sensors:
-        print(f"{s['sensor_key']:<{w}}  {s['n']:>12}  {s['first'] or '-':<25}  {s['last'] or '-'}")
+        print("no calibrations recorded yet" if not hidden else "no calibrations recorded on a hardware rig yet")
+    else:
+        w = max(len("sensor"), *(len(s["sensor_key"]) for s in sensors))
+        print(f"{'sensor':<{w}}  {'calibrations':>12}  {'first':<25}  last")
+        for s in sensors:
+            sim = f"  ({s['simulated']} simulated)" if s.get("simulated") else ""
+            print(f"{s['sensor_key']:<{w}}  {s['n']:>12}  {s['first'] or '-':<25}  {s['last'] or '-'}{sim}")
+    if hidden:
+        print(HIDDEN_NOTE.format(n=hidden))
     return EXIT_OK

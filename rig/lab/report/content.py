@@ -27,9 +27,11 @@ from calib.gyro.result import NONORTHOGONALITY_NAMES
 from calib.mag.result import sigma_names as mag_sigma_names
 from calib.file.parameters import accel_parameters
 from rig.errors import RigInputError
-from rig.lab.drift import CalibrationRecord, drift, history_notes, sensor_history
+from rig.lab.bias_temperature import reference_view
+from rig.lab.drift import CalibrationRecord, drift, flagged_names, history_notes, sensor_history
 from rig.lab.history import HistoryError, default_path, open_history
 from rig.lab.identity import sensor_identity
+from rig.lab.units import shown
 from rig.session import Session, load_session, step_means
 
 #: the seed paper's verification procedure (an independent roll/pitch check)
@@ -105,6 +107,7 @@ class HistoryView:
     flagged: list[str] = field(default_factory=list)
     note: str = ""
     notes: list[str] = field(default_factory=list)  # damaged rows of the history: what is missing or left out
+    reference: str = ""  # the temperature the accelerometer biases are compared at (rig.lab.bias_temperature)
 
 
 @dataclass
@@ -268,15 +271,16 @@ def _num(x) -> float | None:
 
 
 def parameters(cal) -> list[Parameter]:
-    """Every parameter of the calibration file with its 1-sigma and unit (the history's names)."""
-    out = [Parameter("accelerometer", n, v, s, u) for n, v, s, u in accel_parameters(cal.accelerometer)]
+    """Every parameter of the calibration file with its 1-sigma and unit (the history's names; angles in mrad, as
+    ``rig run`` prints them: :mod:`rig.lab.units`)."""
+    out = [Parameter("accelerometer", n, *shown(v, s, u)) for n, v, s, u in accel_parameters(cal.accelerometer)]
     for e in cal.accelerometer.effects:
         lib = LIBRARY.get(e["name"])
         names = lib.params if lib is not None else [str(i) for i in range(len(e.get("estimate") or []))]
         for pname, v, s in zip(names, e.get("estimate") or [], e.get("sigma") or []):
             if v is not None:
-                out.append(Parameter("accelerometer effects", f"effect.{e['name']}.{pname}", float(v), _num(s),
-                                     str(e.get("unit", "-"))))
+                out.append(Parameter("accelerometer effects", f"effect.{e['name']}.{pname}",
+                                     *shown(float(v), _num(s), str(e.get("unit", "-")))))
     g = cal.gyroscope
     if g is not None:
         _vector(out, "gyroscope", "gyro.bias", g.bias_counts, [g.sigma.get(f"b_{x}") for x in "xyz"], "counts")
@@ -469,9 +473,8 @@ def history_view(session: Session, cal, cal_path: Path, history_db=None) -> Hist
     mine = [i for i, r in enumerate(records) if r.info.get("session_id") == session.id]
     exact = [i for i in mine if _cal_path(records[i]) == str(cal_path.resolve())]
     current = (exact or mine or [None])[-1]
-    flagged = sorted({n for n, col in drift(records).items() for c in col if c and c["flagged"]})
-    return HistoryView(path=path, key=key, records=records, current=current, flagged=flagged,
-                       notes=history_notes(records))
+    return HistoryView(path=path, key=key, records=records, current=current, flagged=flagged_names(drift(records)),
+                       notes=history_notes(records), reference=reference_view(records).describe())
 
 
 def _cal_path(record: CalibrationRecord) -> str:

@@ -202,8 +202,9 @@ def parameters_html(c: ReportContent) -> str:
             "calibration history).")
     if with_change:
         text += (" The change is in combined sigmas of this and the previous calibration of the sensor; ! marks more "
-                 "than 3. Biases reported at another temperature (a thermal model's t0, or another chamber "
-                 "temperature) show the temperature difference as a change, not ageing (docs/history.md).")
+                 "than 3. Accelerometer biases are compared at the sensor's usual temperature, a thermal "
+                 "calibration's carried there by its own bias polynomial (docs/history.md); the values shown are "
+                 "this calibration's own.")
     return section("parameters", "Parameters", note(text, "muted") + f'<table id="parameter-table" class="data">'
                    f"<thead><tr>{head}</tr></thead>{bodies}</table>")
 
@@ -323,7 +324,7 @@ def history_html(h: HistoryView) -> str:
     body = (note(f"sensor {h.key}: {len(h.records)} calibration(s) in {h.path}, oldest first", "muted")
             + table(["#", "calibrated", "procedure", "session", "temperature, °C", "residual, µg", "chi2/dof",
                      "verdict"], rows, id_="history-table", numeric=(4, 5, 6))
-            + f'<p class="summary">{escape(flagged)}</p>')
+            + f'<p class="summary">{escape(flagged)}</p>' + (note(h.reference, "muted") if h.reference else ""))
     if len(h.records) >= 2:
         body += figure(plot_history(h.key, h.records), f"parameters of sensor {h.key} over its calibrations",
                        "history-plot")

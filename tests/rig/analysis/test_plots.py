@@ -22,6 +22,7 @@ from rig.analysis.discover import discover_session, write_plot
 from rig.cli import main
 from rig.errors import RigInputError
 from rig.lab import open_history, plot_history, sensor_history
+from rig.lab.units import shown_unit
 
 from conftest import PROCEDURES, REPO
 
@@ -197,13 +198,15 @@ def test_history_figure_names_the_sensor_units_on_axes_and_the_sessions(recorded
     fig = plot_history(key, records)
     _drawn(fig)
     assert key in fig._suptitle.get_text()
-    panels = {a.get_title(): a for a in fig.axes if a.get_visible()}
-    units = {n: u for n, (_, _, u) in records[0].parameters.items()}
-    assert set(panels) == set(units)
+    panels = {a.get_title(): a for a in fig.axes if a.get_visible() and a.get_title()}
+    # the unit on the axis (the one rig run prints: angles in mrad), the name in the title: one unit each
+    units = {n: shown_unit(u) for n, (_, _, u) in records[0].parameters.items()}
+    assert set(panels) == set(units) and units["accel.alpha_yz"] == "mrad"
     for name, ax in panels.items():
-        assert ax.get_ylabel() == units[name]  # the unit on the axis, the name in the title: one unit each
-        assert [t.get_text().split("\n")[0] for t in ax.get_xticklabels()] == [f"#{i + 1}" for i in range(len(records))]
-        assert "six_position" in ax.get_xticklabels()[0].get_text()
+        assert ax.get_ylabel() == units[name]
+        assert [t.get_text() for t in ax.get_xticklabels()] == [f"#{i + 1}" for i in range(len(records))]
+    (legend,) = [a for a in fig.axes if a.get_visible() and not a.get_title()]  # the table under the panels
+    assert "six_position" in " ".join(t.get_text() for t in legend.texts)
     assert session.name in fig._supxlabel.get_text()
 
 

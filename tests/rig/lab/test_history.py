@@ -194,7 +194,9 @@ def test_biases_are_compared_at_one_temperature_when_a_calibration_has_temperatu
     # the stated bias sigma gains the coefficient's sigma times the 2.6 C it is carried over
     assert change["combined_sigma"] == pytest.approx(np.sqrt(0.35**2 + 0.14**2 + (0.025 * 2.6) ** 2))
     table = format_history("s", [before, after])
-    assert "no drift beyond 3 combined sigma" in table and "#2 compared with #1 at 27.6 C" in table
+    assert "no drift beyond 3 combined sigma" in table and "accelerometer biases at 27.6 C" in table
+    assert "#2 from its t0 25.0 C" in table  # the thermal calibration's bias shown where the other one holds
+    assert "396.4+-0.15 (+0.0s)" in table
 
 
 def test_a_real_bias_change_is_still_flagged_across_temperatures():

@@ -89,7 +89,7 @@ def test_rig_solve_twice_then_history_record_is_one_row(session, tmp_path, monke
     assert capsys.readouterr().out.startswith("already recorded: calibration 1 ")  # not "recorded": nothing added
     assert main(["solve", str(session), "-o", str(tmp_path / "full.yaml"), "--model", "full"]) == 0
     capsys.readouterr()
-    assert main(["history", "--json"]) == 0
+    assert main(["history", "--json", "--all"]) == 0  # records of the simulated rig: listed with --all
     assert '"n": 2' in capsys.readouterr().out
 
 

@@ -19,6 +19,7 @@ from calib.file import calibration as calfile
 from calib.file.parameters import sensor_parameters
 from rig.cli import main
 from rig.lab.report import content, render, write_report
+from rig.lab.units import shown
 
 from conftest import PROCEDURES
 from html_page import Page
@@ -79,13 +80,15 @@ def test_the_parameter_table_has_every_parameter_with_sigma_and_unit(lab, lab_re
     rows = {r[0]: r for r in page.rows["parameter-table"] if len(r) >= 4 and r[0].startswith("accel.")}
     expected = sensor_parameters(cal)
     assert set(rows) == {n for n, *_ in expected}
-    for name, value, sigma, unit in expected:
+    for name, *stored in expected:
+        value, sigma, unit = shown(*stored)  # angles in mrad, as rig run prints them
         shown_value, shown_sigma, shown_unit = rows[name][1:4]
         assert shown_unit == unit
         if sigma is not None:
             assert abs(float(shown_value) - value) <= 0.05 * sigma + 1e-12, (name, shown_value, value)
             assert float(shown_sigma) == pytest.approx(sigma, rel=0.06)
     assert page.rows["parameter-table"][0][:4] == ["parameter", "value", "1σ", "unit"]
+    assert rows["accel.alpha_yz"][3] == "mrad"
 
 
 def test_the_verdict_without_acceptance_limits_is_the_fit_quality(lab, lab_report):

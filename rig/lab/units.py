@@ -1,0 +1,30 @@
+"""One unit per quantity wherever a person reads it (issue 33 item 4).
+
+The history stores every parameter in the calibration file's unit (``accel.alpha_*`` in rad); ``rig run`` and
+``rig solve`` print misalignment angles in mrad, so ``rig history``'s table and figure and ``rig report``'s
+tables show them in mrad too (the ``--json`` documents keep the stored unit, named beside each value).
+"""
+
+from __future__ import annotations
+
+#: stored unit -> (unit shown to a person, factor from stored to shown)
+SHOWN_UNITS: dict[str, tuple[str, float]] = {"rad": ("mrad", 1e3)}
+
+
+def shown(value: float, sigma: float | None, unit: str | None) -> tuple[float, float | None, str | None]:
+    """``(value, sigma, unit)`` in the unit shown to a person."""
+    to, k = SHOWN_UNITS.get(unit or "", (unit, 1.0))
+    return value * k, None if sigma is None else sigma * k, to
+
+
+def shown_unit(unit: str | None) -> str | None:
+    """The unit a quantity stored in ``unit`` is shown in."""
+    return SHOWN_UNITS.get(unit or "", (unit, 1.0))[0]
+
+
+def shown_change(change: dict | None, unit: str | None) -> dict | None:
+    """A drift change (``delta``, ``combined_sigma`` in the stored unit) in the shown unit (z is unitless)."""
+    k = SHOWN_UNITS.get(unit or "", (unit, 1.0))[1]
+    if change is None or k == 1.0:
+        return change
+    return {**change, "delta": change["delta"] * k, "combined_sigma": change["combined_sigma"] * k}
