@@ -89,6 +89,28 @@ class CoverageRecord(TypedDict):
     pending_steps: list[Text]
 
 
+@with_config(ConfigDict(extra="forbid"))
+class NoiseUsed(TypedDict):
+    """One sensor's bias-wander figures the solve used (docs/noise.md): the flicker's B (the registry's convention,
+    ``sqrt(2)`` times the Allan floor), the random walk K and the flicker corner, in ``unit``."""
+
+    unit: Text
+    bias_instability: FiniteFloat
+    random_walk: FiniteFloat
+    flicker_corner_s: FiniteFloat
+
+
+@with_config(ConfigDict(extra="forbid"))
+class NoiseRecord(TypedDict):
+    """Written only when the unit's own noise profile (``rig-noise/1``) replaced the chip family's figures."""
+
+    source: Text
+    sensor_key: Text
+    measured_at: Text
+    session: OptionalText
+    sensors: dict[str, NoiseUsed]
+
+
 class CalibrationFile(CalibrationSection):
     """One ``rig-calibration/1`` file: header fields and the typed sensor sections.
 
@@ -127,10 +149,12 @@ class CalibrationFile(CalibrationSection):
         None, description="the procedure's accuracy target, its prediction from the recorded steps and whether it is met")
     acceptance: Optional[AcceptanceRecord] = Field(
         None, description="the procedure's accept: limits, each check and the verdict (absent: no limits)")
+    noise: Optional[NoiseRecord] = Field(
+        None, description="the unit's noise profile the sigmas used instead of the family's figures (absent: the family's)")
     extra: SkipJsonSchema[dict] = Field(default_factory=dict, exclude=True)
 
     #: written only when present (files without them are the common case and stay as they were)
-    OMITTED_WHEN_NONE: ClassVar[tuple[str, ...]] = ("coverage", "target", "acceptance")
+    OMITTED_WHEN_NONE: ClassVar[tuple[str, ...]] = ("coverage", "target", "acceptance", "noise")
 
     def to_dict(self) -> dict:
         d = super().to_dict()

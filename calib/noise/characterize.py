@@ -16,10 +16,9 @@ from calib.frames import SENSOR_AXES
 from calib.noise.allan import allan_curve
 from calib.noise.checks import check_gaps, check_static
 from calib.noise.fit import FIT_TAU_MIN_S, fit_terms
-from calib.noise.terms import DEFAULT_TERMS, NoiseFigures, check_duration
+from calib.noise.terms import DEFAULT_TERMS, UNITS, NoiseFigures, check_duration
 
-#: sensor -> its unit, as the figures carry it
-UNITS = {"accel": "g", "gyro": "deg/s", "mag": "uT"}
+__all__ = ["UNITS", "Characterisation", "characterize"]
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,8 @@ TERMS: dict[str, tuple[str, object, int]] = {
     "K": ("random walk", lambda tau: tau / 3.0, -2),
     "R": ("rate ramp", lambda tau: tau**2 / 2.0, -2),
 }
+#: sensor -> the unit its figures are in
+UNITS = {"accel": "g", "gyro": "deg/s", "mag": "uT"}
 #: the terms a characterisation fits unless told otherwise (R is fitted only where seen)
 DEFAULT_TERMS = ("N", "B", "K")
 #: the shortest record that can state a term: this many times the longest averaging time it needs

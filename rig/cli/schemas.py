@@ -16,6 +16,7 @@ from pathlib import Path
 
 from rig.composition import wire
 from rig.config import json_schema as config_schemas
+from rig.lab import noise_profiles
 from rig.session import json_schema as session_schema
 
 PROG = "python -m rig.cli.schemas"
@@ -26,6 +27,7 @@ def published() -> dict:
     wire()
     out = {name: (lambda name=name: config_schemas.render(name)) for name in config_schemas.SCHEMAS}
     out[session_schema.FILE_NAME] = session_schema.render
+    out[noise_profiles.SCHEMA_FILE] = noise_profiles.render_schema
     return out
 
 

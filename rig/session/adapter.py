@@ -80,17 +80,22 @@ def accel_stability(chip: ChipSpec | None) -> BiasStability | None:
 def bias_stability(session) -> BiasStability | None:
     """The recorded chip's accelerometer bias characterisation, or None for a sensor the registry does
     not know (imports of other sensors: their bias sigmas are the fit's alone)."""
-    return accel_stability(recorded_chip(session))
+    return unit_stability(session, "accel") or accel_stability(recorded_chip(session))
+
+
+def unit_stability(session, sensor: str) -> BiasStability | None:
+    """The unit's own figures for ``sensor`` when its noise profile was attached (``Session.unit_noise``), else None."""
+    return (getattr(session, "unit_noise", None) or {}).get(sensor)
 
 
 def gyro_bias_stability(session) -> BiasStability | None:
     """The recorded chip's gyroscope bias characterisation (deg/s), or None."""
-    return chip_stability(recorded_chip(session), "gyro")
+    return unit_stability(session, "gyro") or chip_stability(recorded_chip(session), "gyro")
 
 
 def mag_bias_stability(session) -> BiasStability | None:
     """The recorded chip's magnetometer offset characterisation (uT), or None."""
-    return chip_stability(recorded_chip(session), "mag")
+    return unit_stability(session, "mag") or chip_stability(recorded_chip(session), "mag")
 
 
 def capture_window(t_s: np.ndarray) -> tuple[float, float]:

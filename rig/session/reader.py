@@ -53,6 +53,8 @@ class Session:
     info: SessionManifest
     samples: dict
     warnings: list[str] = field(default_factory=list)
+    #: sensor -> the unit's own BiasStability from its noise profile (rig.lab.noise_profiles), used instead of the family's
+    unit_noise: dict = field(default_factory=dict)
 
     @property
     def id(self) -> str:

@@ -21,6 +21,7 @@ from calib.file.calibration import CalibrationFile
 from rig.analysis.solve import calibrate_session
 from rig.lab.acceptance import judge
 from rig.lab.history import record_calibration
+from rig.lab.noise_profiles import use_unit_profile
 from rig.session import Session
 
 
@@ -77,7 +78,10 @@ def conclude(session: Session, *, out=None, model: str | None = None, method: st
 
     Raises CalibError (the session cannot be solved), SessionFormatError; nothing is written then.
     """
+    noise = use_unit_profile(session, history)  # the unit's own noise figures when it was characterised
     cal = calibrate_session(session.path, model=model, method=method, thermal=thermal, session=session)
+    if noise is not None:
+        cal = cal.model_copy(update={"noise": noise})
     path = Path(out) if out is not None else session.path / "calibration.yaml"
     acceptance = judge(session, cal, calibration_path=path, history=history)
     if acceptance is not None:

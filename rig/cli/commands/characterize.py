@@ -11,6 +11,7 @@ from rig.analysis import characterize as chz
 from rig.analysis import plots
 from rig.cli import outputs
 from rig.cli.common import EXIT_OK, json_default, report_warnings
+from rig.lab import noise_profiles
 from rig.session.reader import load_session
 
 #: the resolution the plot is drawn at
@@ -29,13 +30,22 @@ def add_parser(sub) -> None:
     c.add_argument("--json", action="store_true", help="print the characterisation as JSON (docs/noise.md)")
     c.add_argument("--plot", metavar="FILE.png", default=None,
                    help="the Allan deviations with the fitted lines (a directory: written inside it)")
+    c.add_argument("-o", "--output", metavar="PROFILE.json", default=None,
+                   help="write the unit's noise profile (rig-noise/1, docs/noise.md)")
+    c.add_argument("--record", action="store_true",
+                   help="store the profile under the unit's identity beside the calibration history: later "
+                        "solves of this unit use its figures instead of the family's")
+    c.add_argument("--history", default=None, help="the history database the profile is stored beside (default: "
+                                                   "$RIG_HISTORY, else the user's)")
     c.add_argument("--follow", action="store_true", help=outputs.FOLLOW_HELP)
 
 
 def run(args) -> int:
     terms = parse_terms(args.terms)
     policy = outputs.OutputPolicy(inputs=[args.session], session=args.session, follow=args.follow)
-    plot = None
+    plot = profile_out = None
+    if args.output is not None:
+        profile_out = policy.file(args.output, what="the profile", own=("noise-profile*.json",), stdout=True)
     if args.plot is not None:  # checked before the session is read
         plot = policy.file(args.plot, option="--plot", what="the plot", directory=True)
         if not plot.directory:
@@ -51,6 +61,14 @@ def run(args) -> int:
             plot = plot.inside(name)
         fig = chz.adev_figure(result, f"Allan deviation: session {session.id}, step {step}")
         extra["plot"] = str(outputs.write_figure(plot, fig, PLOT_DPI))
+    if profile_out is not None or args.record:
+        profile = noise_profiles.profile_from(session, result, step)
+        if args.record:
+            extra["recorded"] = str(noise_profiles.record_profile(profile, args.history))
+        if profile_out is not None:
+            written = outputs.write(profile_out, profile.model_dump_json(indent=2) + "\n")
+            if written is not None:
+                extra["profile"] = str(written)
     if args.json:
         print(json.dumps({**to_json(session, result, step, notes), **extra}, indent=2, default=json_default))
         return EXIT_OK

@@ -59,7 +59,7 @@ def test_the_one_schema_writer_finds_every_published_schema_up_to_date(tmp_path,
 
     assert main(["--check", str(REPO / "docs" / "schemas")]) == 0
     assert main([str(tmp_path)]) == 0 and sorted(p.name for p in tmp_path.iterdir()) == [
-        "procedure.schema.json", "rig-file.schema.json", "session.schema.json"]
+        "noise.schema.json", "procedure.schema.json", "rig-file.schema.json", "session.schema.json"]
     (tmp_path / "session.schema.json").write_text("{}")
     assert main(["--check", str(tmp_path)]) == 1
     assert "out of date (run python -m rig.cli.schemas" in capsys.readouterr().err

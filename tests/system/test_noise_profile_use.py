@@ -1,0 +1,66 @@
+"""A unit's noise profile (rig-noise/1) replaces the family's figures in its calibrations (issue 28 item 3): the
+solve weighs the bias wander with the unit's figures and the calibration file says which it used."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import yaml
+
+from rig.cli import main
+from rig.lab.noise_profiles import NoiseProfile, load_profile, profiles_dir, record_profile
+
+PROCEDURES = Path(__file__).resolve().parents[2] / "procedures"
+KEY = "MPU-9150@0x68#0x68/sim-seed-9"
+
+
+def _term(v: float) -> dict:
+    return {"value": v, "sigma": 0.1 * v, "ci95": [0.8 * v, 1.2 * v]}
+
+
+def _profile(b_floor_g: float, k_g: float) -> NoiseProfile:
+    axis = {"N": _term(350e-6), "B": _term(b_floor_g), "K": _term(k_g), "tau_floor_s": 300.0, "chi2_dof": 0.5}
+    return NoiseProfile.model_validate({
+        "sensor": {"key": KEY, "model": "MPU-9150"}, "measured_at": "2026-11-01T10:00:00+00:00", "session": "allan-1",
+        "duration_s": 7800.0, "rate_hz": 100.0, "accel": {"unit": "g", "x": axis, "y": axis, "z": axis}})
+
+
+def _six_position(root: Path, name: str, monkeypatch) -> dict:
+    monkeypatch.setenv("RIG_HISTORY", str(root / "history.sqlite"))
+    assert main(["run", str(PROCEDURES / "six_position.yaml"), "--seed", "9", "--time-scale", "0", "--out",
+                 str(root / name), "--quiet"]) == 0
+    return yaml.safe_load((next((root / name).iterdir()) / "calibration.yaml").read_text())
+
+
+def test_the_units_profile_sets_the_bias_wander_and_the_file_says_so(tmp_path, monkeypatch):
+    family = _six_position(tmp_path, "family", monkeypatch)
+    assert "noise" not in family  # no profile: the family's figures, and the file as it always was
+    record_profile(_profile(4 * 40e-6 / math.sqrt(2), 4 * 4e-6), tmp_path / "history.sqlite")  # a unit 4x noisier
+    unit = _six_position(tmp_path, "unit", monkeypatch)
+    used = unit["noise"]
+    assert used["source"] == "unit profile" and used["sensor_key"] == KEY
+    assert used["measured_at"] == "2026-11-01T10:00:00+00:00" and used["session"] == "allan-1"
+    accel = used["sensors"]["accel"]
+    assert math.isclose(accel["bias_instability"], 160e-6, rel_tol=1e-9) and math.isclose(accel["random_walk"], 16e-6)
+    ratio = [u / f for u, f in zip(unit["accelerometer"]["sigma"]["bias_counts"],
+                                   family["accelerometer"]["sigma"]["bias_counts"])]
+    assert all(ratio_j > 1.5 for ratio_j in ratio), ratio  # the wander dominates a six-position bias sigma
+
+
+def test_characterize_writes_and_records_a_valid_profile(tmp_path, capsys):
+    text = (PROCEDURES / "allan.yaml").read_text().replace("seconds: 7800", "seconds: 120")
+    (tmp_path / "a.yaml").write_text(text)
+    assert main(["run", str(tmp_path / "a.yaml"), "--seed", "9", "--time-scale", "0", "--out", str(tmp_path / "s"),
+                 "--quiet"]) == 0
+    session = next((tmp_path / "s").iterdir())
+    db = tmp_path / "h.sqlite"
+    capsys.readouterr()
+    assert main(["characterize", str(session), "--terms", "N", "--record", "--history", str(db), "-o",
+                 str(tmp_path / "p.json"), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    stored = load_profile(doc["recorded"])
+    assert stored == load_profile(tmp_path / "p.json") and stored.sensor.key == KEY
+    assert Path(doc["recorded"]).parent.parent == profiles_dir(db)
+    assert stored.accel.x.B is None and stored.gyro is not None and 20 < stored.temperature_c < 35
