@@ -28,6 +28,7 @@ from drivers.sensors.sim.error_model import (
 from drivers.sensors.sim.noise import NOISE_MODELS
 from rig.config.sections import register_section
 from rig.config.validate import validate_plain
+from rig.simulation.geometry import G0_M_S2, GeometryClass
 from rig.simulation.world import ChamberConfig, FieldConfig, RingingConfig
 
 #: how a time-scaled simulated clock treats a reader that falls behind (docs/simulated-rig.md, "Clocks")
@@ -194,6 +195,28 @@ class NoiseSpreadSection(Strict):
     random_walk: FactorRange = None
 
 
+_GC = GeometryClass()
+
+
+class GeometrySection(Strict):
+    """``sim.geometry``: the turntable's own errors, drawn per seed from these datasheet-class magnitudes
+    (rig.simulation.geometry; docs/simulated-rig.md, "The turntable's own errors"). Off unless ``enabled``."""
+
+    enabled: flag("the simulated table has its own errors (angular, lost motion, wobble, non-orthogonality, "
+                  "sensor mounting, local gravity)") = False
+    zero_offset_deg: number(ge=0, le=10, description="stage zero offsets, half-width, deg") = _GC.zero_offset_deg
+    periodic_deg: number(ge=0, le=10, description="worm-gear periodic error amplitude, half-width, deg") = _GC.periodic_deg
+    period_deg: number(gt=0, le=360, description="period of the worm-gear error (one worm turn), deg") = _GC.period_deg
+    accumulated_deg: number(ge=0, le=10, description="once-per-revolution error amplitude, half-width, deg") = \
+        _GC.accumulated_deg
+    lost_motion_deg: number(ge=0, le=10, description="lost motion on reversal, largest, deg") = _GC.lost_motion_deg
+    wobble_deg: number(ge=0, le=10, description="axis wobble, largest, deg") = _GC.wobble_deg
+    non_orthogonality_deg: number(ge=0, le=10, description="inter-axis non-orthogonality, half-width, deg") = \
+        _GC.non_orthogonality_deg
+    mounting_deg: number(ge=0, le=45, description="sensor mounting misalignment, half-width, deg") = _GC.mounting_deg
+    gravity_m_s2: number(ge=9.7, le=9.9, description="local gravity at the simulated site, m/s^2") = G0_M_S2
+
+
 class SimSection(Strict):
     """The ``sim:`` section of a ``kind: sim`` rig file (docs/rig-file.md, docs/simulated-rig.md)."""
 
@@ -213,6 +236,7 @@ class SimSection(Strict):
     mag_errors: MagOverrides = MagOverrides()
     noise: Optional[choice(NOISE_MODELS)] = None  # None: the chips' default (drivers.sensors.sim.noise)
     noise_spread: Optional[NoiseSpreadSection] = None  # None: every unit has its family's figures
+    geometry: GeometrySection = GeometrySection()  # the turntable's own errors (off unless enabled)
     serial_base: number(ge=1, le=2**31 - 1, integer=True) = 0x5A00
 
 
@@ -298,6 +322,8 @@ class SimSettings:
     mag_errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # MagErrorModel overrides
     noise: str | None = None  # "white" | "dlpf" | None (the chip models' DEFAULT_NOISE_MODEL)
     noise_spread: dict[str, tuple[float, float]] | None = None  # term -> factor range (drivers.sensors.sim.unit_noise)
+    geometry: GeometryClass | None = None  # the table's own error classes; None: a perfect table
+    gravity_m_s2: float = G0_M_S2  # local gravity of the simulated site (with geometry only)
     serial_base: int = 0x5A00
 
     @classmethod
@@ -312,7 +338,15 @@ class SimSettings:
                    effects=given(s.effects) if s.effects is not None else {}, errors=given(s.errors),
                    gyro_errors=given(s.gyro_errors), mag_errors=given(s.mag_errors), noise=s.noise,
                    noise_spread=given(s.noise_spread) if s.noise_spread is not None else None,
-                   serial_base=s.serial_base)
+                   serial_base=s.serial_base, **_geometry(s.geometry))
+
+
+def _geometry(section: GeometrySection) -> dict:
+    """SimSettings' geometry fields of a ``sim.geometry`` section (no classes when it is not enabled)."""
+    if not section.enabled:
+        return {}
+    classes = section.model_dump(exclude={"enabled", "gravity_m_s2"})
+    return {"geometry": GeometryClass(**classes), "gravity_m_s2": float(section.gravity_m_s2)}
 
 
 register_section("sim", SimSection, kinds=("sim",), doc="the simulated rig (docs/simulated-rig.md)")

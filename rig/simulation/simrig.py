@@ -30,6 +30,9 @@ from rig.planning.kinematics import STAGE_AXES
 from rig.simulation.settings import EFFECT_FIELDS, EFFECT_PARAMS, SimSettings
 from rig.simulation.world import AxisLink, SimChamber, WorldModel
 
+#: the seed's own stream for the turntable's hidden geometry (no other draw of the seed changes with it)
+GEOMETRY_STREAM = 0x6E0
+
 
 class SimulatedRig:
     """Emulators + simulated sensor + world model, ready for the runner.
@@ -78,13 +81,16 @@ class SimulatedRig:
                                      seed=self.seed * 10 + i)
             self.emulators.append(emu)
         self.ports: dict[str, str] = {}
+        self.geometry = (settings.geometry.draw(np.random.default_rng([self.seed, GEOMETRY_STREAM]),
+                                                settings.gravity_m_s2) if settings.geometry is not None else None)
         self.world = WorldModel(
-            axes=[AxisLink(e.position_deg_at, e.speed_deg_s_at, float(s), float(h))
+            axes=[AxisLink(e.position_deg_at, e.speed_deg_s_at, float(s), float(h), e.direction_at)
                   for e, s, h in zip(self.emulators, axis_signs, home_offsets_deg)],
             chamber=self.chamber,
             table_tilt_deg=self._tilt(),
             magnetic_field=settings.magnetic_field,
             ringing=settings.ringing,
+            geometry=self.geometry,
         )
         self.bus = SimulatedI2CBus(1)
         self.sensor_address = sensor_address
@@ -159,6 +165,8 @@ class SimulatedRig:
             "clock": self.settings.clock if self.settings.time_scale else "virtual",
             **({"noise": self.chip.noise.to_dict()} if self.settings.noise or self.unit_noise else {}),
             **({"unit_noise": self.unit_noise.truth()} if self.unit_noise else {}),
+            **({"geometry": {"classes": dataclasses.asdict(self.settings.geometry), **self.geometry.truth()}}
+               if self.geometry is not None else {}),
         }
 
 

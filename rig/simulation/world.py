@@ -18,6 +18,7 @@ import numpy as np
 
 from drivers.sensors.sim.physics import PhysicsBatch
 from rig.planning.kinematics import rot_x, rot_y, rot_z
+from rig.simulation.geometry import TableGeometry
 
 
 @dataclass(frozen=True)
@@ -166,6 +167,7 @@ class AxisLink:
     speed_deg_s_at: Callable[[np.ndarray], np.ndarray]
     sign: float = 1.0
     home_offset_deg: float = 0.0
+    direction_at: Callable[[np.ndarray], np.ndarray] | None = None  # the motor's last direction, +1 or -1
 
 
 @dataclass
@@ -177,6 +179,7 @@ class WorldModel:
     table_tilt_deg: tuple[float, float] = (0.0, 0.0)
     magnetic_field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
     ringing: RingingConfig = dataclasses.field(default_factory=RingingConfig)
+    geometry: TableGeometry | None = None  # the turntable's own errors (None: a perfect table)
     _last_moving_t: float = -np.inf
 
     def angles_deg_at(self, t_s: np.ndarray) -> np.ndarray:
@@ -194,24 +197,41 @@ class WorldModel:
                 for ax in self.axes]
         return np.stack(cols, axis=1)
 
+    def directions_at(self, t_s: np.ndarray) -> np.ndarray:
+        """The direction each kinematic axis last turned (N, 3), +1 or -1 (+1 where the link does not say)."""
+        t = np.atleast_1d(np.asarray(t_s, float))
+        cols = [ax.sign * (np.broadcast_to(np.asarray(ax.direction_at(t), float), t.shape)
+                           if ax.direction_at is not None else np.ones(t.shape)) for ax in self.axes]
+        return np.stack(cols, axis=1)
+
     def tilt_matrix(self) -> np.ndarray:
         tx, ty = np.radians(self.table_tilt_deg)
         return rot_x(np.array([tx]))[0] @ rot_y(np.array([ty]))[0]
 
-    def __call__(self, t_s: np.ndarray) -> PhysicsBatch:
-        t = np.atleast_1d(np.asarray(t_s, float))
+    def _attitude(self, t: np.ndarray, rates: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Sensor -> world rotations (N, 3, 3), specific force (N, 3) in g0 and body rate (N, 3) rad/s."""
+        if self.geometry is not None:
+            angles, directions = self.angles_deg_at(t), self.directions_at(t)
+            r = self.geometry.sensor_to_world(self.tilt_matrix(), angles, directions)
+            f = self.geometry.gravity_g0() * (np.transpose(r, (0, 2, 1)) @ np.array([0.0, 0.0, 1.0]))
+            return r, f, self.geometry.body_rate(angles, directions, rates)
         ang = np.radians(self.angles_deg_at(t))
-        rates = np.radians(self.rates_deg_s_at(t))
         rz, rx, ry = rot_z(ang[:, 0]), rot_x(ang[:, 1]), rot_y(ang[:, 2])
         r = self.tilt_matrix() @ rz @ rx @ ry  # (N,3,3) sensor -> world
-        rt = np.transpose(r, (0, 2, 1))
-        f = rt @ np.array([0.0, 0.0, 1.0])
+        f = np.transpose(r, (0, 2, 1)) @ np.array([0.0, 0.0, 1.0])
         # body angular rate: w = Ry^T Rx^T (a1' e_z) + Ry^T (a2' e_x) + a3' e_y
         ryt = np.transpose(ry, (0, 2, 1))
         rxt = np.transpose(rx, (0, 2, 1))
         w = (ryt @ rxt @ np.array([0.0, 0.0, 1.0])) * rates[:, 0:1]
         w += (ryt @ np.array([1.0, 0.0, 0.0])) * rates[:, 1:2]
         w += np.array([0.0, 1.0, 0.0]) * rates[:, 2:3]
+        return r, f, w
+
+    def __call__(self, t_s: np.ndarray) -> PhysicsBatch:
+        t = np.atleast_1d(np.asarray(t_s, float))
+        rates = np.radians(self.rates_deg_s_at(t))
+        r, f, w = self._attitude(t, rates)
+        rt = np.transpose(r, (0, 2, 1))
         f = f + self._ringing(t, np.any(np.abs(rates) > 1e-9, axis=1))
         m = rt @ self.magnetic_field.world_vector_ut()
         return PhysicsBatch(specific_force_g=f, angular_rate_dps=np.degrees(w),

@@ -71,6 +71,7 @@ class AxisMotion:
         self.cmd_error = False
         self.error_at: float | None = None  # clock time at which the running command ends in error
         self.gpio = 0
+        self.direction_before = 1.0  # the direction the motor last turned before the current profile (+1 or -1)
 
     # -- reading ---------------------------------------------------------------------------
     def now(self) -> MotionNow:
@@ -85,6 +86,17 @@ class AxisMotion:
     def speed_deg_s_at(self, t_s):
         """True angular rate at clock time(s) ``t_s``, deg/s."""
         return self.profile.velocity(np.asarray(t_s, float)) / USTEPS * self.stage.deg_per_step
+
+    def direction_at(self, t_s):
+        """The direction (+1 or -1) the motor last turned at clock time(s) ``t_s``: the sign of its speed
+        while it turns, else of the current profile's travel so far, else the direction before the profile
+        (+1 before any motion). What a gear train's lost motion follows (``rig.simulation.geometry``)."""
+        t = np.asarray(t_s, float)
+        v = self.profile.velocity(t)
+        travel = self.profile.position(t) - self.profile.phases[0].p
+        started = t >= self.profile.phases[0].t
+        d = np.where(np.abs(travel) > 1e-9, np.sign(travel), self.direction_before)
+        return np.where(started & (np.abs(v) > 0), np.sign(v), np.where(started, d, self.direction_before))
 
     def counter_of_deg(self, angle_deg: float) -> float:
         """Counter microsteps at which the stage stands at physical ``angle_deg``."""
@@ -111,6 +123,7 @@ class AxisMotion:
         self.cmd_error = False
         self.gpio &= ~(P.STATE_LEFT_EDGE | P.STATE_RIGHT_EDGE)
         self.error_at = None
+        self.direction_before = float(self.direction_at(profile.phases[0].t))
         for where, is_limit in ((faults.stall_at_deg, False), (faults.limit_deg, True)):
             if where is None:
                 continue
@@ -125,6 +138,7 @@ class AxisMotion:
 
     def halt(self, now: MotionNow) -> None:
         """Stop dead where the motor is (``stop``)."""
+        self.direction_before = float(self.direction_at(now.t))
         self.profile = Profile.rest(now.t, now.p)
         self.cmd, self.cmd_error, self.error_at = P.MVCMD_STOP, False, None
 

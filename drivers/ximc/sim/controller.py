@@ -134,6 +134,11 @@ class Controller:
         with self._lock:
             return self.motion.speed_deg_s_at(t_s)
 
+    def direction_at(self, t_s):
+        """The direction (+1 or -1) the motor last turned at clock time(s) ``t_s`` (what lost motion follows)."""
+        with self._lock:
+            return self.motion.direction_at(t_s)
+
     # -- helpers -----------------------------------------------------------------------------------
     def _limits(self) -> tuple[float, float, float]:
         """Top speed (usteps/s), acceleration and deceleration (usteps/s^2) of a move."""

@@ -108,6 +108,11 @@ class ControllerEmulator:
         """True angular rate of the stage at clock time(s) ``t_s``, deg/s (scalar or array)."""
         return self.controller.speed_deg_s_at(t_s)
 
+    def direction_at(self, t_s):
+        """The direction (+1 or -1) the motor last turned at clock time(s) ``t_s`` (the world model's lost
+        motion follows it; ``rig.simulation.geometry``)."""
+        return self.controller.direction_at(t_s)
+
     # -- lifecycle ---------------------------------------------------------------------------
     def start(self) -> str:
         """Open the pseudo-terminal and serve; returns the device path."""
