@@ -33,6 +33,7 @@ from calib.discovery.report import unexplained, unexplained_lines
 from calib.frames import SENSOR_AXES
 from calib.numerics.wander import wander_cov_g2
 from rig.analysis.discover import step_context
+from rig.analysis.same_unit import Units, units_of
 from rig.errors import RigInputError
 from rig.session import Session, load_session, step_means
 
@@ -71,6 +72,7 @@ class Comparison:
     p_chi2: float
     structure: dict | None = None
     skipped: list = field(default_factory=list)  # (index, name, why)
+    units: Units | None = None  # the two sessions' sensor keys; different units are said first
 
     @property
     def flagged(self) -> np.ndarray:
@@ -138,7 +140,8 @@ class Comparison:
                           "difference_g": (self.a.value_g[k] - self.b.value_g[k]).tolist(),
                           "se_g": np.hypot(self.a.se_g[k], self.b.se_g[k]).tolist(), "z": self.z[k].tolist(),
                           "disagree": self.flagged[k].tolist()})
-        return {"format": FORMAT, "a": _side_json(self.a), "b": _side_json(self.b), "quantity": self.quantity,
+        return {"format": FORMAT, "headline": headline(self), "units": self.units.to_json() if self.units else None,
+                "a": _side_json(self.a), "b": _side_json(self.b), "quantity": self.quantity,
                 "quantity_note": self.quantity_note, "unit": "g", "false_alarm": self.false_alarm,
                 "agree": bool(self.agree), "z_threshold": self.z_threshold, "cells": self.dof,
                 "cells_disagreeing": int(self.flagged.sum()), "chi2": self.chi2, "dof": self.dof,
@@ -252,7 +255,8 @@ def compare_sessions(path_a, path_b, *, false_alarm: float = 0.01, calibrated: b
     zc, chi2, p = judge(z, false_alarm)
     c = Comparison(a=sa, b=sb, indices=idx, names=[a.info.steps[i].name for i in idx],
                    quantity="calibrated" if calibrated else "raw", quantity_note=note, false_alarm=false_alarm,
-                   z=z, z_threshold=zc, chi2=chi2, p_chi2=p, skipped=skipped)
+                   z=z, z_threshold=zc, chi2=chi2, p_chi2=p, skipped=skipped,
+                   units=units_of(a.info.to_dict(), b.info.to_dict()))
     if not c.agree and len(idx) >= 2:
         # where: each difference in its own marginal standard deviations (a jump stays a step in time)
         marginal = (sa.value_g - sb.value_g) / np.sqrt(sa.se_g ** 2 + sb.se_g ** 2 + np.diag(sum(wanders))[:, None])
@@ -260,8 +264,46 @@ def compare_sessions(path_a, path_b, *, false_alarm: float = 0.01, calibrated: b
     return c
 
 
-def format_report(c: Comparison) -> str:
-    """The plain-text report: what was compared, the per-step table, the verdict and where."""
+# -- what a technician reads first ---------------------------------------------------------------------------
+DETAILS_HINT = "the statistics behind this: rig compare A B --details (every step, its z, where); --json has all"
+
+
+def _structure_sentences(c: Comparison) -> list[str]:
+    """The structure of the differences as things to look for (``step in time near 48 s (axes x): look for ...``)."""
+    if c.structure is None:
+        return []
+    return [s for s in unexplained_lines(c.structure) if ": look for " in s]
+
+
+def headline(c: Comparison) -> list[str]:
+    """One or two sentences a technician can act on: two different units; agree; or where they differ and
+    what to look for."""
+    u = c.units
+    if u is not None and u.different:
+        return [f"These are two different units ({u.a} vs {u.b}; {u.why}): their differences are the units' own "
+                "errors, not a change in either, so there is nothing to compare.",
+                "Compare a unit with its own earlier sessions, or follow it with rig history."]
+    twin = [f"{u.twin}."] if u is not None and u.twin else []
+    if c.agree:
+        return [f"A and B agree at the noise level ({len(c.indices)} steps x 3 axes): nothing to act on."] + twin
+    w = c.where()
+    where = (f"at {len(w['steps'])} of {len(c.indices)} steps (axes {', '.join(w['axes'])})" if w["cells"]
+             else "overall, though no single step stands out")
+    look = _structure_sentences(c)
+    first = f"A and B differ beyond the noise {where}" + (f": {look[0]}." if look else ".")
+    return [first, "Re-run the procedure to see whether it repeats before acting on it."] + twin
+
+
+def format_report(c: Comparison, details: bool = False) -> str:
+    """The headline (:func:`headline`); with ``details`` then what was compared, the per-step table, the verdict
+    and where."""
+    if not details:
+        return "\n".join(headline(c) + [DETAILS_HINT])
+    return "\n".join(headline(c) + ["", _statistics(c)])
+
+
+def _statistics(c: Comparison) -> str:
+    """What was compared, the per-step table, the verdict and where."""
     lines = [f"A: {c.a.session.id} ({c.a.session.path})", f"B: {c.b.session.id} ({c.b.session.path})",
              f"compared: {c.quantity_note}",
              f"{len(c.indices)} static steps x 3 axes; z = (A - B) whitened by each step's own standard errors "

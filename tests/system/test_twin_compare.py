@@ -164,7 +164,10 @@ def test_the_twin_validates_and_reproduces_the_measured_step_means(loop):
 def test_compare_calibrated_and_the_text_report(loop):
     doc = _compare(loop["measured"]["scale_tempco"], loop["runs"][("scale_tempco", "full")], "--calibrated")
     assert doc["quantity"] == "calibrated" and doc["agree"] is True
-    text = _rig("compare", loop["measured"]["bias_jump"], loop["runs"][("bias_jump", "baseline")])[0]
+    text = _rig("compare", loop["measured"]["bias_jump"], loop["runs"][("bias_jump", "baseline")], "--details")[0]
+    first = text.splitlines()[0]  # the headline first: the twin is of the same unit, so where and what to look for
+    assert first.startswith("A and B differ beyond the noise at ") and "look for" in first, text
+    assert "different units" not in text and "recorded on the digital twin of A" in text
     verdict = next(line for line in text.splitlines() if line.startswith("verdict:"))
     assert "disagree at steps" in verdict and "largest z" in verdict
     near = [float(t) for t in re.findall(r"step in time near (\d+) s", text)]

@@ -16,6 +16,8 @@ def add_parser(sub) -> None:
     c.add_argument("session_a")
     c.add_argument("session_b")
     c.add_argument("--json", action="store_true", help="print the rig-compare/2 JSON instead of the report")
+    c.add_argument("--details", action="store_true",
+                   help="after the verdict, the statistics: every step's difference and z, chi2, where they disagree")
     c.add_argument("--calibrated", action="store_true",
                    help="compare specific force calibrated by each session's own calibration.yaml "
                         "(default: raw counts, which needs the same sensor model and range)")
@@ -32,5 +34,5 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(c.to_json(), indent=2, default=json_default))
     else:
-        print(cmp.format_report(c))
+        print(cmp.format_report(c, details=args.details))
     return EXIT_OK
