@@ -21,6 +21,7 @@ from pydantic.dataclasses import dataclass as schema_dataclass
 from pydantic.json_schema import SkipJsonSchema
 
 from calib.file.fields import Strict, check_mapping, choice, fail, flag, label, number
+from calib.numerics import gravity as gravity_
 from drivers.sensors.chips import CHIPS, SENSOR_MODELS
 from drivers.ximc.stage_spec import MR191
 from rig.config.sections import SectionUnavailable, section
@@ -101,6 +102,37 @@ class SiteConfig:
         return check_mapping(cls, data, info)
 
 
+@schema_dataclass(frozen=True, config=_DATACLASS_CONFIG)
+class GravityConfig:
+    """Local gravity at the rig (docs/rig-file.md, docs/uncertainty.md): measured (``g_m_s2``, with its
+    standard uncertainty ``u_m_s2``), or from ``latitude_deg`` and ``height_m`` by the normal gravity formula;
+    absent: standard gravity with the spread of gravity over the Earth as its uncertainty."""
+
+    mapping_hint: ClassVar[str] = "expected a mapping {g_m_s2, u_m_s2} or {latitude_deg, height_m}"
+    g_m_s2: Optional[number(ge=9.7, le=9.9, in_range=True, description="measured local gravity, m/s^2")] = None
+    u_m_s2: Optional[number(gt=0, le=0.1, description="its standard uncertainty, m/s^2")] = None
+    latitude_deg: Optional[number(ge=-90, le=90, in_range=True, description="geodetic latitude, deg")] = None
+    height_m: number(ge=-500, le=9000, description="ellipsoidal height, m (with latitude_deg)") = 0.0
+
+    @model_validator(mode="before")
+    @classmethod
+    def _known_keys(cls, data, info):
+        data = check_mapping(cls, data, info)
+        if isinstance(data, dict):
+            if "g_m_s2" in data and ("latitude_deg" in data or "height_m" in data):
+                raise fail("expected either g_m_s2 (measured) or latitude_deg and height_m (normal gravity), "
+                           "not both", at=("g_m_s2",))
+            if "g_m_s2" not in data and "latitude_deg" not in data:
+                raise fail("expected g_m_s2 (measured) or latitude_deg (normal gravity)")
+        return data
+
+    def resolve(self) -> gravity_.Gravity:
+        """The stated gravity with its standard uncertainty."""
+        if self.g_m_s2 is not None:
+            return gravity_.measured(self.g_m_s2, self.u_m_s2)
+        return gravity_.from_site(self.latitude_deg, self.height_m, self.u_m_s2)
+
+
 def _bus(v):
     if v is None or (isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= 1_000_000) or (
             isinstance(v, str) and v.strip()):
@@ -166,6 +198,7 @@ class RigFileDoc(Strict):
     turntable: Turntable
     sensor: SensorConfig
     site: Optional[SiteConfig] = None
+    gravity: Optional[GravityConfig] = None
     sim: Optional[dict] = None
     faults: Optional[dict] = None
 
@@ -192,6 +225,8 @@ class RigFile:
     sim: dict | None = None  # the validated sim: section as given (see rig.simulation.settings)
     faults: dict | None = field(default=None)  # the validated faults: section as given
     site: SiteConfig | None = None
+    #: local gravity as the calibration assumes it, with its standard uncertainty (default: standard gravity)
+    gravity: gravity_.Gravity = field(default_factory=gravity_.standard_gravity)
     sections: dict[str, Any] = field(default_factory=dict, repr=False)  # section name -> validated model
 
     @property
@@ -216,7 +251,8 @@ def parse_rig_file(text: str, path: str = "<rig>") -> RigFile:
     dumped = {k: m.model_dump(exclude_unset=True, by_alias=True) for k, m in sections.items()}
     return RigFile(path=path, name=spec.name if spec.name is not None else Path(path).stem, kind=spec.kind,
                    home_policy=spec.home, axes=axes, sensor=sensor, sim=dumped.get("sim"),
-                   faults=dumped.get("faults"), site=spec.site, sections=sections)
+                   faults=dumped.get("faults"), site=spec.site, sections=sections,
+                   gravity=spec.gravity.resolve() if spec.gravity is not None else gravity_.standard_gravity())
 
 
 def _section(name: str, kind: str, doc: dict, path: str, loc):
