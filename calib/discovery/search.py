@@ -46,7 +46,7 @@ from calib.frames import SENSOR_AXES
 from calib.numerics.wander import wander_rms_g
 
 __all__ = ["Discovery", "FoundEffect", "StepContext", "StepRow", "candidate_pvalues", "coverage_problem", "discover",
-           "remaining", "verdict"]
+           "final_problem", "remaining", "verdict"]
 
 FORMAT = "rig-discover/5"
 MIN_RADIAL_STEPS = 12  # pose-free steps the magnitude baseline (9 parameters) needs, with dof to spare
@@ -244,6 +244,15 @@ def candidate_pvalues(steps: StepMeans, ctx: StepContext | None = None, model=("
             scan_jump(prob, held)
         out[n] = prob.test(n, cur, fit(held + [n]), test)[1]
     return out
+
+
+def final_problem(steps: StepMeans, ctx: StepContext | None, names: list, false_alarm: float = MISFIT_LEVEL,
+                  t0_c: float | None = None) -> tuple[Problem, list]:
+    """The search's problem of ``steps`` refitted with the effects ``names`` as :func:`discover` leaves it
+    (M re-linearised, the jump's time searched), and the observable candidates."""
+    prob, _, _, _, triaged = _prepared(steps, ctx or StepContext(), list(LIBRARY), false_alarm, t0_c)
+    _refit(prob, list(names))
+    return prob, triaged[0]
 
 
 def _prepared(steps: StepMeans, ctx: StepContext, names: list, false_alarm: float, t0_c: float | None = None):

@@ -1,4 +1,4 @@
-"""``rig discover SESSION [--plot FILE] [-o CALIB] [--twin RIG] [--follow]``: where the model and the data disagree,
+"""``rig discover SESSION [--plot FILE] [-o CALIB] [--twin RIG] [--propose OUT] [--follow]``: where the model and the data disagree,
 and which effect is missing."""
 
 from __future__ import annotations
@@ -8,6 +8,7 @@ import json
 from calib.numerics.design import MISFIT_LEVEL
 from rig.analysis import discover as dsc
 from rig.analysis import plots
+from rig.analysis import propose as prop
 from rig.analysis import twin as twn
 from rig.cli import outputs
 from rig.cli.common import EXIT_OK, check_false_alarm, json_default, report_warnings
@@ -25,6 +26,9 @@ def add_parser(sub) -> None:
     dc.add_argument("--twin", metavar="RIG.yaml", default=None,
                     help="write the digital twin: a simulated-rig file whose sensor is the fitted model plus the "
                          "named effects, and the session's procedure beside it (docs/twin.md)")
+    dc.add_argument("--propose", metavar="OUT.yaml", default=None,
+                    help="when aliases remain, write the session's procedure with the steps that tell them apart "
+                         "appended (T-optimal set-points, predicted power printed; docs/discrepancy.md)")
     dc.add_argument("--false-alarm", type=float, default=MISFIT_LEVEL,
                     help="probability of naming an effect in a session that has none (default 0.01)")
 
@@ -48,6 +52,8 @@ def run(args) -> int:
         cal_out = policy.file(args.output, what="the calibration", own=OWN, make_parents=True)
     if args.twin is not None:
         twin = policy.file(args.twin, option="--twin", what="the twin", directory=True)
+    proposal = None if args.propose is None else policy.file(args.propose, option="--propose", what="the proposal",
+                                                             make_parents=True)
     session, d = dsc.discover_session(args.session, false_alarm=args.false_alarm)
     report_warnings("discover", session)
     extra = {}
@@ -62,6 +68,9 @@ def run(args) -> int:
             extra["calibration"] = str(dsc.write_calibration(session, d, cal_out.path))
     if twin is not None:
         extra.update(write_twin(session, d, twin))
+    if proposal is not None:
+        with outputs.writing(proposal):
+            extra.update(prop.write_proposal(session, d, proposal.path))
     if args.json:
         print(json.dumps({**d.to_json(), **extra}, indent=2, default=json_default))
     else:
