@@ -1,0 +1,140 @@
+"""rig characterize's fit against units whose hidden noise differs from their family's (issue 28 targets).
+
+Target 1: on simulated units whose hidden N, B, K differ from the family figures by factors 0.5-2, the
+fitted terms fall within their stated (95 %) confidence intervals in at least 90 % of units.
+Target 4: a 2-hour 100 Hz recording characterised in under 30 s and 1 GB.
+
+Two sources of units, each drawn with factors log-uniform in [0.5, 2] per axis and term:
+
+- ``synthetic``: calib.noise.synthetic (white noise, band-limited flicker, random walk), the MPU-9150
+  accelerometer's figures (N 330 ug/rtHz: what its 400 ug/rtHz density gives at 100 Hz through the 44 Hz
+  filter; floor 40/sqrt(2) ug; K 4 ug/sqrt(s));
+- ``chip``: the simulated MPU-9150's own sample path (Mpu9150Model, dlpf noise, 44 Hz filter, 100 Hz,
+  quantised), the unit drawn by drivers.sensors.sim.unit_noise as the rig file's ``sim: noise_spread:`` does;
+  the true Allan N of the filtered white noise is density x sqrt(pi B / 2 x (1 + phi) / (1 - phi) / rate),
+  phi = exp(-2 pi B / rate), and the true floor the registry's B / sqrt(2) (docs/noise.md).
+
+    python benchmarks/bench_allan.py [--units 60] [--chip-units 20] [--seconds 7200]
+
+Measured 2026-11-25 on the shared 2-core machine (other sessions' tests running), 2 h at 100 Hz, each
+unit's x axis, the share of units whose fitted term lies inside its stated 95 % interval
+(``--units 60 --chip-units 20``; 4 min):
+
+==========================  =====  =====  =====  ==========  ===================================
+source                      N      B      K      all three   target (>= 90 % per term)
+==========================  =====  =====  =====  ==========  ===================================
+synthetic, 60 units         97 %   98 %   87 %   85 %        K missed (87 %)
+chip (simulated MPU-9150),  85 %   90 %   95 %   70 %        N missed (85 %: 3 of 20; its interval
+20 units                                                     is +-1.5 %, the AR(1) truth approximate)
+==========================  =====  =====  =====  ==========  ===================================
+
+Timing (target < 30 s, < 1 GB): 9 axes (accelerometer, gyroscope, magnetometer) x 2 h at 100 Hz,
+characterised in process in 1.6-2.3 s, peak RSS 183 MB (the whole benchmark process, data included).
+``rig characterize`` on a 2 h 10 min simulated session, end to end (reading samples.csv): see docs/noise.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import resource
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from calib.noise.allan import allan_curve
+from calib.noise.characterize import characterize
+from calib.noise.fit import fit_terms
+from calib.noise.synthetic import noise
+from calib.noise.terms import NoiseFigures
+from drivers.clock import VirtualClock
+from drivers.sensors.sim.error_model import AccelErrorModel
+from drivers.sensors.sim.mpu9150 import Mpu9150Model
+from drivers.sensors.sim.noise import NoiseConfig
+from drivers.sensors.sim.physics import StaticPhysics
+from drivers.sensors.sim.unit_noise import draw_unit_noise
+
+RATE_HZ = 100.0
+SPREAD = {"white": (0.5, 2.0), "bias_instability": (0.5, 2.0), "random_walk": (0.5, 2.0)}
+FAMILY = NoiseFigures(N=330e-6, B=40e-6 / math.sqrt(2), K=4e-6)
+DLPF_HZ = 44.0  # MPU-9150 DLPF_CFG 3
+
+
+def synthetic_unit(seed: int, n: int) -> tuple[NoiseFigures, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    f = np.exp(rng.uniform(math.log(0.5), math.log(2.0), 3))
+    truth = NoiseFigures(N=FAMILY.N * f[0], B=FAMILY.B * f[1], K=FAMILY.K * f[2])
+    return truth, noise(NoiseFigures(N=truth.N, B=truth.B * math.sqrt(2), K=truth.K), n, RATE_HZ, rng)
+
+
+def chip_unit(seed: int, seconds: float) -> tuple[NoiseFigures, np.ndarray]:
+    """The x axis of a simulated MPU-9150 unit drawn with the spread, lying still, 100 Hz / 44 Hz, quantised."""
+    errors = AccelErrorModel(noise_density_g_per_rthz=[400e-6] * 3)
+    unit = draw_unit_noise(seed, NoiseConfig.for_chip("MPU-9150", "dlpf"), {"accel": errors}, SPREAD)
+    clock = VirtualClock()
+    chip = Mpu9150Model(StaticPhysics((0.0, 0.0, 1.0)), errors, clock=clock, seed=seed, noise=unit.noise)
+    chip.regs[0x1A], chip.regs[0x19], chip.regs[0x6B] = 3, int(round(1000 / RATE_HZ)) - 1, 0x01
+    chip._restart_grid()
+    out = []
+    for _ in range(int(math.ceil(seconds / 600.0))):
+        clock.sleep(600.0)
+        out.append(np.round(chip.sampler.catch_up(keep_last=10**9)["accel_g"][:, 0] * 8192) / 8192)
+    phi = math.exp(-2 * math.pi * DLPF_HZ / RATE_HZ)
+    n_eff = errors.noise_density_g_per_rthz[0] * math.sqrt(math.pi * DLPF_HZ / 2 * (1 + phi) / (1 - phi) / RATE_HZ)
+    truth = NoiseFigures(N=n_eff, B=unit.noise.accel_bias_instability_g[0] / math.sqrt(2),
+                         K=unit.noise.accel_random_walk_g_per_rts[0])
+    return truth, np.concatenate(out)[: int(seconds * RATE_HZ)]
+
+
+def coverage(units) -> dict:
+    hits = {t: 0 for t in "NBK"}
+    every = 0
+    for truth, y in units:
+        fit = fit_terms(allan_curve(y, RATE_HZ))
+        inside = {t: fit.terms[t].covers(getattr(truth, t)) for t in "NBK"}
+        for t, ok in inside.items():
+            hits[t] += ok
+        every += all(inside.values())
+    n = len(units)
+    return {**{t: hits[t] / n for t in "NBK"}, "all": every / n, "units": n}
+
+
+def timing(seconds: float) -> dict:
+    """Characterise a 2-hour 100 Hz record of nine axes (accelerometer, gyroscope, magnetometer), in process."""
+    rng = np.random.default_rng(1)
+    n = int(seconds * RATE_HZ)
+    fam = {"accel": FAMILY, "gyro": NoiseFigures(N=4.4e-3, B=2e-3 / math.sqrt(2), K=2e-4),
+           "mag": NoiseFigures(N=0.03, B=0.1 / math.sqrt(2), K=0.01)}
+    series = {s: np.column_stack([noise(NoiseFigures(N=f.N, B=f.B * math.sqrt(2), K=f.K), n, RATE_HZ, rng)
+                                  for _ in range(3)]) + ([0, 0, 1] if s == "accel" else 0) for s, f in fam.items()}
+    t = np.arange(n) / RATE_HZ
+    start = time.perf_counter()
+    characterize(t, series, RATE_HZ, ("N", "B", "K"), fam)
+    wall = time.perf_counter() - start
+    return {"wall_s": wall, "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--units", type=int, default=60)
+    ap.add_argument("--chip-units", type=int, default=20)
+    ap.add_argument("--seconds", type=float, default=7200.0)
+    args = ap.parse_args()
+    n = int(args.seconds * RATE_HZ)
+    tm = timing(args.seconds)
+    print(f"timing: 9 axes x {args.seconds:.0f} s at {RATE_HZ:g} Hz characterised in {tm['wall_s']:.1f} s, "
+          f"peak RSS {tm['peak_rss_mb']:.0f} MB (target < 30 s, < 1 GB)")
+    syn = coverage([synthetic_unit(1000 + i, n) for i in range(args.units)])
+    print("synthetic: " + ", ".join(f"{k} {v:.0%}" if k != "units" else f"{v} units" for k, v in syn.items()))
+    if args.chip_units:
+        chip = coverage([chip_unit(2000 + i, args.seconds) for i in range(args.chip_units)])
+        print("chip:      " + ", ".join(f"{k} {v:.0%}" if k != "units" else f"{v} units" for k, v in chip.items()))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
