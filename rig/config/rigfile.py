@@ -28,6 +28,7 @@ from rig.config.sections import SectionUnavailable, section
 from rig.config.validate import validate_document, validate_located
 from rig.config.yamlload import read_source
 from rig.errors import RigInputError
+from rig.planning.approach import APPROACHES
 from rig.planning.kinematics import STAGE_AXES
 
 FORMAT = "rig-file/1"
@@ -70,6 +71,8 @@ class AxisConfig:
     soft_limits_deg: SoftLimits = (-400.0, 400.0)
     cable_wrap_deg: number(gt=0, le=LIMIT_DEG) = 400.0
     slip_ring: flag("the axis may spin without limit (rate steps)") = False
+    approach: choice(tuple(APPROACHES), "expected none, positive or negative, got {got}") = "none"
+    overshoot_deg: number(gt=0, le=10, description="planned overshoot of a move that arrives the other way, deg") = 0.5
 
     @model_validator(mode="before")
     @classmethod

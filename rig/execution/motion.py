@@ -11,6 +11,7 @@ import numpy as np
 from drivers.ximc.stage import TurntableError
 from rig.errors import RigInputError
 from rig.execution.context import RunContext
+from rig.planning import approach
 from rig.planning import targets as planning
 from rig.planning.kinematics import STAGE_AXES
 
@@ -38,12 +39,22 @@ def move_to(ctx: RunContext, step) -> None:
     rig = ctx.rig
     current = {name: rig.axes[name].stage.get_position_deg() for name in STAGE_AXES}
     targets = plan_targets(rig, step.angles_deg, current)
-    for name in STAGE_AXES:
+    first = approach.pre_targets(current, targets, {n: rig.axes[n].config for n in STAGE_AXES})
+    if first:  # the axes that would arrive against their approach direction overshoot first
+        _move_axes(ctx, step, current, first)
+        current.update(first)
+    _move_axes(ctx, step, current, targets)
+
+
+def _move_axes(ctx: RunContext, step, current: dict[str, float], targets: dict[str, float]) -> None:
+    """Move the axes of ``targets`` at once; raise ``TurntableError`` if one falls short."""
+    rig = ctx.rig
+    for name in targets:
         if abs(targets[name] - current[name]) > 1e-6:
             ctx.event("move", step=step.index, axis=name, from_deg=current[name], to_deg=targets[name])
             rig.axes[name].stage.move_deg(targets[name])
     _coarse_wait(rig, targets)
-    for name in STAGE_AXES:
+    for name in targets:
         stage = rig.axes[name].stage
         stage.command_wait_for_stop(50, timeout_s=ctx.options.move_timeout_s)
         reached = stage.get_position_deg()
