@@ -201,12 +201,20 @@ def target_text(p: StepProgress, short: bool = False) -> str:
 
 def plain_progress_line(p: StepProgress) -> str:
     """One line for logs: step, phase, temperature, noise, the prediction against the target, the
-    step's and the run's remaining time."""
-    eta = f"  ETA {_fmt_s(p.eta_s)}" if p.eta_s is not None else ""
+    step's and the run's remaining time in wall-clock time (rig time / the time scale; none in virtual time)."""
+    step_s, run_s = _wall_s(p, p.eta_s), _wall_s(p, p.run_eta_s)
+    eta = f"  ETA {_fmt_s(step_s)}" if step_s is not None else ""
     noise = f"  noise {p.noise_ug:.0f} ug" if p.noise_ug is not None and p.noise_ug == p.noise_ug else ""
     temp = f"  {p.temp_c:.2f} C" if p.temp_c is not None and p.temp_c == p.temp_c else ""
-    run_eta = f"  run ETA {_fmt_s(p.run_eta_s)}" if p.run_eta_s is not None else ""
+    run_eta = f"  run ETA {_fmt_s(run_s)}" if run_s is not None else ""
     return f"[{p.index + 1}/{p.total}] {p.name}: {p.phase}{temp}{noise}{target_text(p)}{eta}{run_eta}"
+
+
+def _wall_s(p: StepProgress, rig_s: float | None) -> float | None:
+    """``rig_s`` seconds of rig time in wall seconds (None: unknown, as in virtual time)."""
+    if rig_s is None or p.wall_per_rig_s is None:
+        return None
+    return rig_s * p.wall_per_rig_s
 
 
 def _fmt_s(s: float) -> str:

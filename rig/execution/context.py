@@ -71,6 +71,8 @@ class RunContext:
     #: the run's accuracy-target policy, made by the first targeted pose
     target: TargetPolicy | None = None
     wall0_s: float = field(default_factory=time.monotonic)
+    #: (wall, rig) time of the first progress report: the run's observed pace (ETAs in wall-clock time)
+    pace0: tuple[float, float] | None = None
 
     def session_time(self) -> float:
         """Seconds since the session started (continues across resumes)."""
@@ -90,10 +92,34 @@ class RunContext:
         current = self.estimates_s[step.index] if eta_s is None else eta_s
         run_eta = sum(self.estimates_s[step.index + 1:]) + current
         self.operator.progress(StepProgress(index=step.index, total=self.total_steps, name=step.name, phase=phase,
-                                            run_eta_s=run_eta, **fields))
+                                            run_eta_s=run_eta, wall_per_rig_s=self.wall_per_rig_s(),
+                                            **fields))
+
+    def wall_per_rig_s(self) -> float | None:
+        """Wall seconds a second of rig time takes in this run: the pace observed since the first progress report
+        once :data:`PACE_MIN_RIG_S` of rig time have passed (a time-scaled simulated clock that this machine
+        holds back runs slower than its scale), before that the clock's nominal pace (:func:`wall_per_rig_s`)."""
+        wall, rig = time.monotonic(), self.rig.clock.now()
+        if self.pace0 is None:
+            self.pace0 = (wall, rig)
+        wall0, rig0 = self.pace0
+        if rig - rig0 >= PACE_MIN_RIG_S:
+            return (wall - wall0) / (rig - rig0)
+        return wall_per_rig_s(self.rig.clock)
 
     def finish(self, step: PlannedStep, stats: dict, status: str, n_samples: int, problems: list[str]) -> None:
         """Commit a captured step (durable on return) and note its outcome."""
         self.recorder.complete_step(step.index, stats, status=status)
         self.event("capture", step=step.index, n_samples=n_samples, status=status)
         self.outcomes.append(StepOutcome(step.index, status, n_samples, problems))
+
+
+#: rig seconds after which a run's ETAs use its observed pace instead of the clock's nominal one
+PACE_MIN_RIG_S = 5.0
+
+
+def wall_per_rig_s(clock) -> float | None:
+    """Wall seconds per second of ``clock``'s time: ``1 / time_scale`` of a paced clock (1 on hardware, 1/K at
+    ``--time-scale K``); None for a virtual clock (its time costs only the machine's speed)."""
+    scale = getattr(clock, "time_scale", None)
+    return 1.0 / float(scale) if scale else None

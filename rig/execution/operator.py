@@ -21,7 +21,9 @@ class StepProgress:
 
     ``index`` is 0-based; ``phase`` is one of move, settle, capture, spin-up, temperature, prompt.
     Times are seconds of rig time; ``noise_ug`` is the largest per-axis sample standard deviation
-    so far (micro-g); ``run_eta_s`` the remaining time of the whole run. With an accuracy target,
+    so far (micro-g); ``run_eta_s`` the remaining time of the whole run; ``wall_per_rig_s`` the wall seconds a
+    second of rig time takes (1 on hardware, 1/K at ``--time-scale K``, then the pace observed in the run;
+    None while unknown: virtual time before a pace is observed), so a display shows ETAs in wall-clock time. With an accuracy target,
     ``predicted`` is the calibration's predicted figure (this pose stopping now, the poses to come
     getting their planned dwell) against ``target``, both in ``target_unit`` (deg for the largest
     roll/pitch error).
@@ -35,6 +37,7 @@ class StepProgress:
     noise_ug: float | None = None
     temp_c: float | None = None
     run_eta_s: float | None = None
+    wall_per_rig_s: float | None = 1.0
     predicted: float | None = None
     target: float | None = None
     target_unit: str | None = None
