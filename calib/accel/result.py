@@ -126,6 +126,16 @@ class AccelCalibration(CalibrationSection):
     effects: list[dict] = unit("-", "terms added by rig discover -o", default_factory=list)
     sigma: AccelSigma = unit("-", "1-sigma of each quantity, its units")
     fit: FitSummary = unit("-", "fit summary")
+    uncertainty: Optional[dict] = unit("-", "expanded uncertainty U = k u_c in sigma's keys, k, combined_standard and "
+                                       "the budget of Type A and B contributions (docs/uncertainty.md); absent: "
+                                       "none was made", default=None)
+
+    def to_dict(self) -> dict:
+        """As the file holds it; ``uncertainty`` only when a budget was made (files without one are unchanged)."""
+        d = super().to_dict()
+        if d.get("uncertainty") is None:
+            d.pop("uncertainty", None)
+        return d
 
     @field_validator("effects", mode="before")
     @classmethod
@@ -137,6 +147,19 @@ class AccelCalibration(CalibrationSection):
             if problem:
                 raise field_problem(f"[{i}]", problem)
         return [dict(e) for e in effects]
+
+    @field_validator("uncertainty", mode="before")
+    @classmethod
+    def _valid_uncertainty(cls, u: Any) -> Any:
+        if u is None:
+            return u
+        k = u.get("k") if isinstance(u, dict) else None
+        if not isinstance(k, (int, float)) or isinstance(k, bool) or not k > 0:
+            raise field_problem("k", f"expected the coverage factor, a number > 0, got {k!r}")
+        budget = u.get("budget")
+        if not isinstance(budget, list) or not all(isinstance(c, dict) and c.get("type") in ("A", "B") for c in budget):
+            raise field_problem("budget", "expected a list of contributions, each with type A or B")
+        return dict(u)
 
     @model_validator(mode="after")
     def _consistent(self) -> "AccelCalibration":

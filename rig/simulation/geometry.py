@@ -27,6 +27,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from calib.numerics.budget import TableClass
 from rig.planning.kinematics import rot_x, rot_y, rot_z
 
 #: standard gravity, m/s^2 (the calibration file's g: specific force in units of g0)
@@ -174,22 +175,11 @@ class TableGeometry:
 
 
 @dataclass(frozen=True)
-class GeometryClass:
-    """The datasheet-class magnitudes the hidden geometry is drawn from (``sim.geometry``; half-widths of
-    rectangular distributions, except the non-negative lost motion and wobble, drawn in [0, a]).
-
-    The values and their sources are in ``docs/simulated-rig.md`` ("The turntable's own errors"); the
-    8MR191 catalogue gives none of them, so they are the class of small worm-gear rotation stages.
-    """
-
-    zero_offset_deg: float = 0.01
-    periodic_deg: float = 0.005
-    period_deg: float = 2.0
-    accumulated_deg: float = 0.02
-    lost_motion_deg: float = 0.02
-    wobble_deg: float = 0.003
-    non_orthogonality_deg: float = 0.02
-    mounting_deg: float = 0.1
+class GeometryClass(TableClass):
+    """The datasheet-class magnitudes the hidden geometry is drawn from (``sim.geometry``): the classes the
+    uncertainty budget states (:class:`calib.numerics.budget.TableClass`, the one place of their values;
+    half-widths of rectangular distributions, except the non-negative lost motion and wobble, drawn in [0, a]).
+    The values and their sources are in ``docs/simulated-rig.md`` ("The turntable's own errors")."""
 
     def draw(self, rng: np.random.Generator, gravity_m_s2: float = G0_M_S2) -> TableGeometry:
         """A hidden geometry drawn from these classes (every phase uniform in [0, 360))."""

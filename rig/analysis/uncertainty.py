@@ -1,0 +1,64 @@
+"""The uncertainty budget of a session's accelerometer calibration (docs/uncertainty.md): the rig's Type B
+inputs from its rig file (gravity, approach direction, turntable classes) and ``accelerometer.uncertainty``
+made by :func:`calib.accel.budget.uncertainty_section` with the solve the session used.
+
+``rig.analysis.solve.calibrate_session`` attaches it when asked (``budget=True``); off by default until the
+simulated rig's geometry errors are switched on (docs/simulated-rig.md), so files and goldens are unchanged.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+from pathlib import Path
+
+import calib
+from calib.accel.budget import uncertainty_section
+from calib.accel.inputs import StepMeans
+from calib.accel.result import AccelCalibration
+from calib.numerics.budget import DEFAULT_K, RigErrors, TableClass
+from rig.config.rigfile import RigFile, load_rig_file
+from rig.errors import RigInputError
+from rig.planning.kinematics import STAGE_AXES
+
+_CLASS_KEYS = tuple(f.name for f in dataclasses.fields(TableClass))
+
+
+def session_rig_file(session) -> RigFile | None:
+    """The session's rig file when it is still there and unchanged (its recorded sha256), else None."""
+    rig = session.info.rig
+    path, digest = rig.rig_file, rig.rig_file_sha256
+    if not path or not digest:
+        return None
+    p = Path(path) if Path(path).is_absolute() else Path.cwd() / path
+    try:
+        if hashlib.sha256(p.read_bytes()).hexdigest() != digest:
+            return None
+        return load_rig_file(p)
+    except (OSError, RigInputError):
+        return None
+
+
+def rig_errors(rig_file: RigFile | None) -> RigErrors:
+    """The rig's Type B inputs: its stated gravity, whether every axis approaches its poses from one side, and
+    the turntable's classes (a simulated rig's ``sim.geometry`` classes; else the datasheet classes)."""
+    if rig_file is None:
+        return RigErrors.from_classes()
+    geometry = (rig_file.sim or {}).get("geometry") or {}
+    table = TableClass(**{k: float(v) for k, v in geometry.items() if k in _CLASS_KEYS})
+    one_direction = all(rig_file.axes[n].approach != "none" for n in STAGE_AXES)
+    return RigErrors.from_classes(table, rig_file.gravity, one_direction=one_direction)
+
+
+def resolver(accel: AccelCalibration, model: str, method: str):
+    """A solve of perturbed steps the same way ``accel`` was solved (its thermal order and t0 fixed)."""
+    thermal = accel.temperature.order if accel.temperature is not None else "off"
+    t0 = accel.temperature.t0_c if accel.temperature is not None else None
+    return lambda steps: calib.solve(steps, model=model, method=method, thermal=thermal, t0_c=t0)
+
+
+def with_budget(accel: AccelCalibration, steps: StepMeans, model: str, method: str, rig: RigErrors,
+                k: float = DEFAULT_K) -> AccelCalibration:
+    """``accel`` with its ``uncertainty`` (U = k u_c, k, the budget); ``sigma`` unchanged."""
+    section = uncertainty_section(accel, steps, resolver(accel, model, method), rig, k)
+    return accel.model_copy(update={"uncertainty": section})
