@@ -1,14 +1,14 @@
 """One unit per quantity wherever a person reads it (issue 33 item 4).
 
 The history stores every parameter in the calibration file's unit (``accel.alpha_*`` in rad); ``rig run`` and
-``rig solve`` print misalignment angles in mrad, so ``rig history``'s table and figure and ``rig report``'s
+``rig solve`` print misalignment angles in mrad (and a first-order tempco in counts/C), so ``rig history``'s table and figure and ``rig report``'s
 tables show them in mrad too (the ``--json`` documents keep the stored unit, named beside each value).
 """
 
 from __future__ import annotations
 
 #: stored unit -> (unit shown to a person, factor from stored to shown)
-SHOWN_UNITS: dict[str, tuple[str, float]] = {"rad": ("mrad", 1e3)}
+SHOWN_UNITS: dict[str, tuple[str, float]] = {"rad": ("mrad", 1e3), "counts/C^1": ("counts/C", 1.0)}
 
 
 def shown(value: float, sigma: float | None, unit: str | None) -> tuple[float, float | None, str | None]:
