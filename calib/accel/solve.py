@@ -31,6 +31,7 @@ from calib.numerics.design import (SENSOR_AXES, AxisFit, Inputs, LinearModel, Te
                           session_rule, solve_gls, solve_wls, temp_term, undetermined)
 from calib.errors import CalibError, ObservabilityError
 from calib.numerics.magnitude import fit_magnitude
+from calib.numerics.stability import axis_cov
 from calib.numerics.wander import wander_cov_g2
 
 THERMAL_AUTO_MIN_SPAN_C = 2.0
@@ -162,11 +163,11 @@ def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> A
     designs = {a: lm.design(a, x) for a in SENSOR_AXES}
     check_model({a: (designs[a], lm.names(a), lm.terms[a]) for a in SENSOR_AXES})
     wander = steps.bias_stability is not None
-    w_counts2 = wander_counts2(steps) if wander else None  # the same wander for the three axes: computed once
-    fits = {}
+    w_axes = axis_wander_counts2(steps) if wander else None  # (3, K, K): the same for the three axes unless a unit's
+    fits = {}                                                 # own figures differ per axis (docs/noise.md)
     for j, a in enumerate(SENSOR_AXES):
         y, sem = steps.mean_counts[:, j], steps.sem_counts[:, j]
-        fits[a] = (solve_gls(designs[a], y, wander_covariance(steps, sem, w_counts2), lm.names(a)) if wander
+        fits[a] = (solve_gls(designs[a], y, wander_covariance(steps, sem, w_axes[j]), lm.names(a)) if wander
                    else solve_wls(designs[a], y, sem, lm.names(a)))
     fits = session_rule(fits)
     if wander:  # the wander is in the fit's covariance already: not added to the bias sigma again
@@ -189,6 +190,13 @@ def wander_covariance(steps: StepMeans, sem_counts: np.ndarray, w_counts2: np.nd
     already (it is the same for every output axis)."""
     w = wander_counts2(steps) if w_counts2 is None else w_counts2
     return np.diag(np.asarray(sem_counts, float) ** 2) + w
+
+
+def axis_wander_counts2(steps: StepMeans) -> np.ndarray:
+    """:func:`wander_counts2` per output axis, (3, K, K): each axis's own wander when the stability has per-axis
+    figures (:class:`calib.numerics.stability.AxisStability`), else the one wander (computed once) for all three."""
+    w = axis_cov(steps.bias_stability, np.asarray(steps.t_s, float), steps.duration_s, len(SENSOR_AXES))
+    return float(steps.lsb_per_g) ** 2 * w
 
 
 def wander_counts2(steps: StepMeans) -> np.ndarray:

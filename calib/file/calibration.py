@@ -92,12 +92,15 @@ class CoverageRecord(TypedDict):
 @with_config(ConfigDict(extra="forbid"))
 class NoiseUsed(TypedDict):
     """One sensor's bias-wander figures the solve used (docs/noise.md): the flicker's B (the registry's convention,
-    ``sqrt(2)`` times the Allan floor), the random walk K and the flicker corner, in ``unit``."""
+    ``sqrt(2)`` times the Allan floor) and the random walk K, their RMS over the axes and each axis's (x, y, z),
+    and the flicker corner, in ``unit``."""
 
     unit: Text
     bias_instability: FiniteFloat
     random_walk: FiniteFloat
     flicker_corner_s: FiniteFloat
+    bias_instability_xyz: list[FiniteFloat]
+    random_walk_xyz: list[FiniteFloat]
 
 
 @with_config(ConfigDict(extra="forbid"))

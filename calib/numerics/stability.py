@@ -61,6 +61,38 @@ class BiasStability:
                           tau_min_s=tau_min_s, per_decade=per_decade)
 
 
+@dataclass(frozen=True)
+class AxisStability(BiasStability):
+    """A sensor whose axes wander each by its own figures (a unit's noise profile, docs/noise.md): ``axes`` one
+    :class:`BiasStability` per output axis (x, y, z). The scalar figures are their RMS, what a consumer that weighs
+    the three axes with one wander uses (:meth:`sigma`, :meth:`cov`); :meth:`axis_cov` gives each axis its own."""
+
+    axes: tuple = ()
+
+    @classmethod
+    def of(cls, axes) -> "AxisStability":
+        axes = tuple(axes)
+        return cls(_rms([a.bias_instability for a in axes]), _rms([a.random_walk_per_rts for a in axes]),
+                   axes[0].flicker_corner_s, axes[0].unit, axes)
+
+    def axis_cov(self, t_mid_s, duration_s, **kw) -> np.ndarray:
+        """(A, K, K): :meth:`BiasStability.cov` of each axis."""
+        return np.stack([a.cov(t_mid_s, duration_s, **kw) for a in self.axes])
+
+
+def _rms(values) -> float:
+    return math.sqrt(sum(x * x for x in values) / len(values))
+
+
+def axis_cov(stability: BiasStability, t_mid_s, duration_s, n_axes: int = 3, **kw) -> np.ndarray:
+    """(A, K, K) wander covariance per output axis: each axis's own for an :class:`AxisStability`, else the one
+    :meth:`BiasStability.cov` for every axis (computed once)."""
+    if isinstance(stability, AxisStability) and stability.axes:
+        return stability.axis_cov(t_mid_s, duration_s, **kw)
+    w = stability.cov(t_mid_s, duration_s, **kw)
+    return np.broadcast_to(w, (n_axes, *w.shape))
+
+
 def flicker_mean_factor(a: float) -> float:
     """``F(a) = integral from a to infinity of 2 (x - 1 + exp(-x)) / x^3 dx``: the variance of a mean over
     T of flicker whose correlation times reach up to T_c (a = T / T_c), per unit ``c^2 / (2 pi)``.

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Literal, Optional
 from pydantic import BaseModel, ConfigDict, Field
 
 from calib.noise.terms import REGISTRY_B_FLOOR, UNITS
-from calib.numerics.stability import BiasStability
+from calib.numerics.stability import AxisStability, BiasStability
 from drivers.sensors.chips import CHIPS
 from rig.config.validate import validate_plain
 from rig.errors import RigInputError
@@ -177,18 +177,6 @@ def render_schema() -> str:
     return json.dumps(schema(), indent=2, sort_keys=True) + "\n"
 
 
-def pooled(stabilities: tuple[BiasStability, ...]) -> BiasStability:
-    """One figure per sensor for the solvers (they weigh the three axes with one wander): the RMS over the axes
-    of B and of K."""
-    first = stabilities[0]
-    return BiasStability(_rms([s.bias_instability for s in stabilities]),
-                         _rms([s.random_walk_per_rts for s in stabilities]), first.flicker_corner_s, first.unit)
-
-
-def _rms(xs) -> float:
-    return math.sqrt(sum(x * x for x in xs) / len(xs))
-
-
 def use_unit_profile(session, history=None) -> dict | None:
     """Attach the newest noise profile of ``session``'s unit (its identity as the history keys it) to the session
     (``Session.unit_noise``: the solvers' bias stability per sensor) and return the calibration file's ``noise``
@@ -200,7 +188,7 @@ def use_unit_profile(session, history=None) -> dict | None:
         return None
     if profile is None:
         return None
-    used = {sensor: pooled(axes) for sensor, axes in unit_stabilities(profile).items() if any(
+    used = {sensor: AxisStability.of(axes) for sensor, axes in unit_stabilities(profile).items() if any(
         s.bias_instability > 0 or s.random_walk_per_rts > 0 for s in axes)}
     if not used:
         return None
@@ -208,4 +196,6 @@ def use_unit_profile(session, history=None) -> dict | None:
     return {"source": "unit profile", "sensor_key": key, "measured_at": profile.measured_at,
             "session": profile.session,
             "sensors": {s: {"unit": b.unit, "bias_instability": b.bias_instability, "random_walk": b.random_walk_per_rts,
-                            "flicker_corner_s": b.flicker_corner_s} for s, b in used.items()}}
+                            "flicker_corner_s": b.flicker_corner_s,
+                            "bias_instability_xyz": [a.bias_instability for a in b.axes],
+                            "random_walk_xyz": [a.random_walk_per_rts for a in b.axes]} for s, b in used.items()}}

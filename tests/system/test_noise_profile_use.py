@@ -7,6 +7,7 @@ import json
 import math
 from pathlib import Path
 
+import pytest
 import yaml
 
 from rig.cli import main
@@ -44,6 +45,7 @@ def test_the_units_profile_sets_the_bias_wander_and_the_file_says_so(tmp_path, m
     assert used["measured_at"] == "2026-11-01T10:00:00+00:00" and used["session"] == "allan-1"
     accel = used["sensors"]["accel"]
     assert math.isclose(accel["bias_instability"], 160e-6, rel_tol=1e-9) and math.isclose(accel["random_walk"], 16e-6)
+    assert accel["random_walk_xyz"] == pytest.approx([16e-6] * 3)
     ratio = [u / f for u, f in zip(unit["accelerometer"]["sigma"]["bias_counts"],
                                    family["accelerometer"]["sigma"]["bias_counts"])]
     assert all(ratio_j > 1.5 for ratio_j in ratio), ratio  # the wander dominates a six-position bias sigma
