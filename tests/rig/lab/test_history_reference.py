@@ -20,7 +20,7 @@ from matplotlib.text import Text
 
 from rig.cli import main
 from rig.lab import drift, format_history, history_document, open_history, plot_history, sensor_history
-from rig.lab.history import MIGRATIONS, calibration_row, store_row
+from rig.lab.history import MIGRATIONS, calibration_row, is_simulated, store_row
 from rig.session.manifest import SessionManifest
 
 from conftest import PROCEDURES
@@ -183,6 +183,13 @@ def test_simulated_records_stay_out_of_the_default_view(session, base, tmp_path,
     assert sorted(c["simulated"] for c in json.loads(capsys.readouterr().out)["calibrations"]) == [False, True]
     assert main(["history", "sim-seed-3", "--history", str(db)]) == 0  # a simulated sensor, named: shown
     assert "1 calibration(s)" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("kind, simulated", [("sim:8smc5-emulator", True), ("sim:8smc5-controller-in-memory", True),
+                                             ("replay:8smc5-emulator", True), ("standa-8smc", False), (None, False)])
+def test_which_rigs_are_simulated(kind, simulated):
+    manifest = {"rig": {"kind": "import" if kind is None else None, "turntable": {"kind": kind} if kind else None}}
+    assert is_simulated(manifest) is simulated  # an imported recording (rig.kind import) is not
 
 
 def test_records_stored_before_the_migration_are_marked_by_their_rig(base, tmp_path):
