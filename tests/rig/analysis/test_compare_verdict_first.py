@@ -52,6 +52,8 @@ def test_two_different_units_are_said_first_and_no_shock_is_suggested(sessions, 
     text = "\n".join(lines)
     assert "shock" not in text and "step in time" not in text and "chi2" not in text  # statistics: --details
     assert len(lines) <= 3
+    details = "\n".join(_compare(capsys, sessions["a3"], sessions["c7"], "--details"))
+    assert details.startswith(lines[0]) and "chi2 " in details and "look for" not in details
     doc = json.loads("\n".join(_compare(capsys, sessions["a3"], sessions["c7"], "--json")))
     assert doc["units"]["different"] and doc["headline"][0] == lines[0] and "chi2" in doc and doc["steps"]
 
