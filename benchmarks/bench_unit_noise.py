@@ -19,7 +19,7 @@ for each of the nine parameters. The target (after characterisation): within 0.8
 
     python benchmarks/bench_unit_noise.py [--units 8] [--sessions 100] [--same-axes]
 
-Measured 2026-11-25 on the shared 2-core machine (``--units 8 --sessions 200``, 13 min with other load),
+Measured 2026-11-25 on the shared 2-core machine (``--units 8 --sessions 200``, 7.6 min with other load),
 observed scatter / reported sigma, min-max over the 8 units (each unit 200 sessions: the ratio's own
 sampling error about 5 %):
 
