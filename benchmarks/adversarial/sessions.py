@@ -162,6 +162,11 @@ def manifest_mutations(ws) -> list[tuple[str, str, str | bytes]]:
             continue
         out.append((name, "refuse", fn(text)))
     for name, fn in HOSTILE_BYTES.items():
+        if name == "5 MiB file":  # a session manifest may be 16 MiB (a 10,000-step session's is 5-8 MB): 17 MiB
+            out.append(("17 MiB file (over the manifest's 16 MiB)", "refuse",
+                        text.encode() + b"# " + b"x" * (17 * 1024 * 1024) + b"\n"))
+            out.append(("5 MiB comment (under the manifest's 16 MiB)", "valid", fn(text)))
+            continue
         out.append((name, "refuse", fn(text)))
     return out
 
