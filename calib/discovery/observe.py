@@ -96,11 +96,14 @@ def observability(prob: Problem, name: str, alpha: float, model: list | None = N
     mdm = [float(np.sqrt(lam / outside2[i])) if keep[i] else None for i in range(n_par)]
     finite = vif[:n_par][np.isfinite(vif[:n_par])]
     return {"rank": int(keep[:n_par].sum()), "columns": n_par, "max_vif": float(finite.max()) if len(finite) else None,
-            "mdm": mdm, "unit": lib.unit, "alpha": a, "power": POWER, "keep": keep}
+            "mdm": mdm, "unit": lib.unit, "alpha": a, "power": POWER, "keep": keep, "dof": dof}
 
 
 def why_unobservable(info: dict) -> str:
     """The reason, in words, for a candidate whose columns the data cannot determine."""
+    if info["rank"] and info["dof"] <= 0:
+        return (f"its {info['rank']} parameters would absorb every residual degree of freedom (nothing left to "
+                "test it against: more steps per placement, pose or level are needed)")
     if info["max_vif"] is not None and info["max_vif"] > MAX_VIF:
         return (f"ill-conditioned: its columns lie almost wholly in the model's span (variance inflation "
                 f"{info['max_vif']:.3g} > {MAX_VIF:g})")
@@ -126,12 +129,13 @@ def triage(prob: Problem, names: list, alpha: float) -> tuple[list, list, dict, 
         why[n] = problem
     for n in list(observable):
         info[n] = observability(prob, n, alpha / max(len(observable), 1))
-        if info[n]["rank"] == 0:
+        if info[n]["rank"] == 0 or info[n]["dof"] <= 0:
             observable.remove(n)
             unobservable.append(n)
             why[n] = why_unobservable(info[n])
             continue
         prob.keep[n] = info[n].pop("keep")
+        info[n].pop("dof")
     for n in why:
         info.pop(n, None)
     return observable, unobservable, why, info

@@ -155,6 +155,8 @@ class Problem:
         """The nested test of adding ``name`` (``big`` = ``small`` + name; :data:`TESTS`, the search's own
         :func:`nested_test` by default), its p-value multiplied by the number of values its nonlinear
         parameter was searched over (the jump time: Bonferroni)."""
+        if big.dof <= 0:  # the bigger model is saturated: nothing left to test it against (never named)
+            return 0.0, 1.0
         f, p = TESTS[kind](small, big)
         return f, min(1.0, p * self.multiplicity.get(name, 1))
 

@@ -12,13 +12,16 @@
    every candidate gets its minimum detectable magnitude at the stated false-alarm rate and 80 % power.
 4. **Name** the missing effect from :data:`calib.discovery.effects.LIBRARY` by forward stepwise selection with
    nested-model tests (:func:`calib.discovery.problem.nested_test`), Bonferroni over the candidates
-   left (a clean session names a spurious effect with probability at most ``false_alarm``); a
-   backward pass drops what is no longer significant; effects the data cannot tell apart are reported as **aliases**.
+   left (a clean session names a spurious effect with probability at most ``false_alarm``); backward
+   elimination drops what is no longer significant; effects the data cannot tell apart are reported as
+   **aliases**, the simpler explanation used (every fitted parameter counted, the jump's time too; a jump
+   on a design boundary last): :mod:`calib.discovery.select`.
 5. **Lack of fit** (:mod:`calib.discovery.nuisance`): when the gap stays open, the best generic
    factor model of the residual is kept as nuisance structure, every named effect is re-tested with
    it and those it makes unnecessary are dropped; the factor is reported under ``unexplained``.
-6. **Refit** with every named effect (the M-dependent terms re-linearised at the new M); the verdict
-   is the generalised chi-square of the final model against its dof.
+6. **Refit** with every named effect (the M-dependent terms re-linearised at the new M); every named
+   effect is re-tested in the final model and dropped (``unsupported``) when not significant there;
+   the verdict is the generalised chi-square of the final model against its dof.
 
 Pure numpy/scipy; the session-side context (pose rotations, heating legs, step durations) is
 computed by the caller (``rig.analysis.discover``).
@@ -335,6 +338,7 @@ def _observability_json(prob: Problem, name: str, selected: list, alpha: float) 
     info = observability(prob, name, alpha, model)
     prob.keep[name] = keep
     info.pop("keep")
+    info.pop("dof")
     return info
 
 

@@ -158,6 +158,12 @@ def selection_lines(session: Session, d: Discovery) -> list[str]:
                          f"({', '.join(e.extra['t_jump_boundary'])}): an offset per "
                          f"{' / '.join(f.replace('_', ' ') for f in e.extra['aliased_with_factor'])} describes it as "
                          "well (aliased with the design, not a sudden change the data alone reveal)")
+    saturated = "absorb every residual" in d.unobservable_why.get("pose_error", "")
+    if saturated and not d.gap_closed:
+        lines.append("the poses may not be where they should be (hand placement): with one step per placement the "
+                     "placements' tilts would explain every residual, so the design cannot test it (record several "
+                     f"windows per face); a pose-free solve does not need them: rig solve {session.path} --method "
+                     "magnitude (with rests in enough orientations)")
     if any(e.name == "pose_error" for e in d.effects):
         lines.append(f"the poses are not where they should be (hand placement): solve with the pose-free method, "
                      f"rig solve {session.path} --method magnitude")

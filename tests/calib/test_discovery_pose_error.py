@@ -20,22 +20,22 @@ from test_discovery_matrix import FACES, MPU, SEM_G, run, tumble
 WINDOWS = 4
 
 
-def hand_placed(seed: int, tilt_deg=(3.0, 11.0)):
+def hand_placed(seed: int, tilt_deg=(3.0, 11.0), windows: int = WINDOWS):
     """Step means of six hand-placed faces, each turned by a random angle in ``tilt_deg`` about a random
     axis perpendicular to it; and the angles (deg)."""
     rng = np.random.default_rng(seed)
     m = AccelErrorModel.draw(rng)
     m.t_ref_c = 25.0
-    f_nominal = np.repeat(FACES, WINDOWS, axis=0)
+    f_nominal = np.repeat(FACES, windows, axis=0)
     f_true = np.empty_like(f_nominal)
     angles = rng.uniform(*tilt_deg, size=6)
     for b, face in enumerate(FACES):
         axis = rng.standard_normal(3)
         axis -= (axis @ face) * face
-        f_true[b * WINDOWS:(b + 1) * WINDOWS] = Rotation.from_rotvec(
+        f_true[b * windows:(b + 1) * windows] = Rotation.from_rotvec(
             np.radians(angles[b]) * axis / np.linalg.norm(axis)).apply(face)
     k = len(f_nominal)
-    t = 5.0 + np.arange(k) * 10.0 + np.repeat(np.arange(6) * 20.0, WINDOWS)
+    t = 5.0 + np.arange(k) * 10.0 + np.repeat(np.arange(6) * 20.0, windows)
     temp = 25.0 + 0.01 * rng.standard_normal(k)
     out = m.output_g(f_true, temp, t, np.zeros(k), np.zeros(k))
     steps = steps_from_output(f_nominal, out, temp_c=temp, t_s=t, sem_g=SEM_G, rng=rng, stability=MPU,
@@ -67,3 +67,14 @@ def test_poses_set_by_the_turntable_have_no_pose_error_candidate():
     d, _ = run(tumble(), 5)
     assert "pose_error" in d.unobservable
     assert "turntable" in d.unobservable_why["pose_error"]
+
+
+def test_one_step_per_hand_placed_face_cannot_test_a_pose_error_and_says_so():
+    """Six faces, one window each (the imucal recording's design): two tilts per placement would absorb all
+    nine residual degrees of freedom. The candidate is unobservable with that reason, never named into a
+    saturated model (which has no dof to judge it by)."""
+    steps, _ = hand_placed(0, windows=1)
+    d = discover(steps, StepContext())
+    assert "pose_error" not in [e.name for e in d.effects]
+    assert "absorb every residual degree of freedom" in d.unobservable_why["pose_error"]
+    assert not d.gap_closed and d.dof_after > 0
