@@ -5,14 +5,15 @@ calibration file, mirroring the keys of ``sigma`` (``bias_counts``, ``scale_coun
 
 Contributions:
 
-- **Type A, noise and wander**: the solve's ``sigma`` as it is (``sigma`` keeps that meaning).
-- **Type B, rig poses**: each pose's direction is off by the table's errors that differ from pose to pose
-  (:meth:`RigErrors.pose_u_rad`, per axis, independent between poses); propagated by re-solving with each
-  step's nominal specific force turned by a small angle about each sensor axis (the solve's own sensitivity,
-  whatever its method and model).
-- **Type B, rig frame**: a rotation common to every pose (the sensor's mounting in its fixture, the stage
-  zeros), propagated the same way with every step turned together.
-- **Type B, lost motion**: per pose, independent, unless every pose is approached from one side.
+- **Type A, noise and wander**: the solve's ``sigma`` (``sigma`` keeps its meaning in the file), without the
+  misfit scaling the solve gives it (:func:`birge_ratio`): on a turntable that misfit is the rig's geometry,
+  which the Type B terms below hold.
+- **Type B, the rig's geometry** (:mod:`calib.accel.rig_propagation`): every error of the turntable (the
+  sensor's mounting and the stage zeros; the non-orthogonalities; each stage's periodic and accumulated
+  angular errors and wobble; lost motion, per pose unless every pose is approached from one side) moves the
+  poses as it does on the table, correlated between poses, and the session is solved again: the solve's own
+  sensitivity, whatever its method and model, times the error's standard uncertainty (its class, or its
+  characterised value). Listed in four groups.
 - **Type B, gravity**: the stated local g's relative uncertainty scales M (scale factors and matrix; biases
   and angles do not depend on it).
 - **Type B, thermometer**: each step's temperature off by the thermometer's non-repeatability, propagated by
@@ -29,10 +30,10 @@ import numpy as np
 from calib.accel.inputs import StepMeans
 from calib.accel.result import MISALIGNMENT_NAMES, AccelCalibration
 from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, combined, expanded
+from calib.accel.rig_propagation import EPS_DEG, GROUPS, pose_shift, rig_parameters, stage_angles_deg
+from calib.numerics.gravity import G0_M_S2, Gravity
 
-#: step (rad) of the finite differences: small enough to be linear (the pose errors are ~1e-3 rad), large
-#: enough to stand far above the solve's rounding
-EPS_RAD = 1e-5
+#: step of the thermometer's finite differences, C
 EPS_C = 1e-3
 
 Resolve = Callable[[StepMeans], AccelCalibration]
@@ -48,6 +49,15 @@ def quantities(cal: AccelCalibration) -> dict[str, float]:
     if cal.misalignment is not None:
         q.update({f"misalignment.{n}": float(cal.misalignment[n]) for n in MISALIGNMENT_NAMES})
     return q
+
+
+def birge_ratio(cal: AccelCalibration) -> float:
+    """The factor the solve scaled its sigmas by for a misfit (sqrt(chi2/dof) when :meth:`AccelCalibration.misfit`
+    says it did, else 1). On a turntable the misfit is mostly the rig's geometry, which the budget's Type B
+    terms hold: the budget's Type A is ``sigma`` without it, so that nothing is counted twice."""
+    scaled, _ = cal.misfit()
+    chi2 = cal.fit.chi2_per_dof
+    return float(np.sqrt(chi2)) if scaled and chi2 is not None and np.isfinite(chi2) and chi2 > 1 else 1.0
 
 
 def flat_sigma(cal: AccelCalibration) -> dict[str, float]:
@@ -77,10 +87,11 @@ def nest(flat: dict[str, float], like: AccelCalibration) -> dict:
     return out
 
 
-def _turned(steps: StepMeans, rv_rad: np.ndarray) -> StepMeans:
-    """``steps`` with each step's nominal specific force turned by its small rotation vector (K, 3), rad."""
-    f = np.asarray(steps.f_nominal_g, float)
-    return _replace(steps, f_nominal_g=f + np.cross(rv_rad, f))
+def at_local_gravity(steps: StepMeans, gravity: Gravity) -> StepMeans:
+    """``steps`` with the nominal specific force of the site: ``f_nominal`` times g / g0 (the file's unit is g0;
+    a rig where gravity is g sees g / g0 at rest). Without it a solve's scale factors carry g / g0 - 1
+    (6.3e-4 at 52 deg latitude): the gravity contribution of the budget then does not cover them."""
+    return _replace(steps, f_nominal_g=np.asarray(steps.f_nominal_g, float) * (gravity.g_m_s2 / G0_M_S2))
 
 
 def _replace(steps: StepMeans, **changes) -> StepMeans:
@@ -99,20 +110,39 @@ def _rss(responses: list[dict[str, float]], u: float, base: dict[str, float]) ->
     return {n: float(u * np.sqrt(sum(r[n] ** 2 for r in responses))) for n in base}
 
 
-def pose_sensitivities(resolve: Resolve, steps: StepMeans, base: dict[str, float]) -> tuple[list, list]:
-    """The quantities' responses to each step turned alone about each sensor axis (3K of them) and to every
-    step turned together about each axis (3), per rad."""
-    k = len(steps)
-    alone, together = [], []
-    for axis in range(3):
-        e = np.zeros(3)
-        e[axis] = EPS_RAD
-        for i in range(k):
-            rv = np.zeros((k, 3))
-            rv[i] = e
-            alone.append(_response(resolve, base, _turned(steps, rv), EPS_RAD))
-        together.append(_response(resolve, base, _turned(steps, np.tile(e, (k, 1))), EPS_RAD))
-    return alone, together
+def rig_contributions(resolve: Resolve, steps: StepMeans, base: dict[str, float], rig: RigErrors) -> list:
+    """One contribution per geometry error of the rig (:mod:`calib.accel.rig_propagation`): the quantities'
+    response to the poses moved as that error moves them, times its standard uncertainty."""
+    angles = stage_angles_deg(steps.f_nominal_g)
+    f = np.asarray(steps.f_nominal_g, float)
+    out = []
+    for p in rig_parameters(rig, len(steps)):
+        shift = pose_shift(p, angles)
+        if p.u_deg == 0 or not np.any(np.abs(shift) > 1e-12):
+            continue
+        moved = _replace(steps, f_nominal_g=f - EPS_DEG * shift)  # the data saw f + shift; the solve assumes f
+        r = _response(resolve, base, moved, EPS_DEG)
+        out.append(Contribution(p.name, "B", p.group, {n: abs(v) * p.u_deg for n, v in r.items()},
+                                GROUPS[p.group]))
+    return out
+
+
+def grouped(parts: list[Contribution], rig: RigErrors) -> list[Contribution]:
+    """The rig's per-parameter contributions summed (RSS) into their groups, in :data:`GROUPS` order; the
+    others as they are."""
+    out, groups = [], {}
+    for c in parts:
+        if c.source in GROUPS:
+            groups.setdefault(c.source, []).append(c)
+        else:
+            out.append(c)
+    for g in GROUPS:
+        members = groups.get(g, [])
+        names = ", ".join(c.name for c in members[:4]) + (", ..." if len(members) > 4 else "")
+        u = combined(members) if members else {n: 0.0 for n in out[0].u}
+        out.append(Contribution(g, "B", f"{rig.source}: {len(members)} parameters ({names})", u, GROUPS[g]))
+    order = ["noise and wander", *GROUPS, "gravity", "thermometer"]
+    return sorted(out, key=lambda c: order.index(c.name))
 
 
 def thermometer_sensitivities(resolve: Resolve, steps: StepMeans, base: dict[str, float]) -> list:
@@ -126,21 +156,21 @@ def thermometer_sensitivities(resolve: Resolve, steps: StepMeans, base: dict[str
 
 
 def contributions(cal: AccelCalibration, steps: StepMeans, resolve: Resolve, rig: RigErrors) -> list[Contribution]:
-    """The budget of ``cal`` (solved from ``steps``; ``resolve`` solves perturbed steps the same way)."""
+    """The budget of ``cal`` (solved from ``steps``; ``resolve`` solves perturbed steps the same way), one
+    contribution per rig parameter (:func:`grouped` sums them as the file lists them)."""
     base = quantities(cal)
     zero = {n: 0.0 for n in base}
-    out = [Contribution("noise and wander", "A", "the solve's sigma (step scatter, bias wander)", flat_sigma(cal))]
+    birge = birge_ratio(cal)
+    type_a = {n: v / birge for n, v in flat_sigma(cal).items()}
+    out = [Contribution("noise and wander", "A", "the solve's sigma (step scatter, bias wander)" + (
+        f" without its misfit scaling (Birge ratio {birge:.2f}: the rig's geometry below)" if birge > 1 else ""),
+        type_a)]
     if cal.fit.method != "magnitude" and bool(np.all(steps.pose_known)):
-        alone, together = pose_sensitivities(resolve, steps, base)
-        out.append(Contribution("rig poses", "B", f"{rig.source}: {rig.pose_u_rad:.3g} rad per pose and axis",
-                                _rss(alone, rig.pose_u_rad, base)))
-        out.append(Contribution("rig frame", "B", f"{rig.source}: {rig.frame_u_rad:.3g} rad per axis, every pose",
-                                _rss(together, rig.frame_u_rad, base)))
-        out.append(Contribution("lost motion", "B", f"{rig.lost_motion_source}: {rig.lost_motion_u_rad:.3g} rad per "
-                                "pose and axis", _rss(alone, rig.lost_motion_u_rad, base)))
+        out += rig_contributions(resolve, steps, base, rig)
     g_rel = rig.gravity.relative_u
     u_g = {n: (abs(v) * g_rel if n.startswith(("scale", "matrix")) else 0.0) for n, v in base.items()}
-    out.append(Contribution("gravity", "B", f"{rig.gravity.source}: u(g)/g = {g_rel:.3g}", u_g))
+    out.append(Contribution("gravity", "B", f"{rig.gravity.source}: u(g)/g = {g_rel:.3g}", u_g,
+                            "normal" if rig.gravity.source == "measured" else "rectangular"))
     if cal.temperature is not None and steps.temp_c is not None:
         out.append(Contribution("thermometer", "B", f"{rig.thermometer_u_c:g} C per step (non-repeatability)",
                                 _rss(thermometer_sensitivities(resolve, steps, base), rig.thermometer_u_c, base)))
@@ -153,7 +183,8 @@ def uncertainty_section(cal: AccelCalibration, steps: StepMeans, resolve: Resolv
                         k: float = DEFAULT_K) -> dict:
     """``accelerometer.uncertainty``: ``U = k u_c`` in ``sigma``'s keys, ``k``, the combined standard
     uncertainty and the ``budget`` (each contribution's standard uncertainties, same keys)."""
-    parts = contributions(cal, steps, resolve, rig)
+    parts = grouped(contributions(cal, steps, resolve, rig), rig)
     return {"k": float(k), **nest(expanded(parts, k), cal),
             "combined_standard": nest(combined(parts), cal),
-            "budget": [{"name": c.name, "type": c.type, "source": c.source, **nest(c.u, cal)} for c in parts]}
+            "budget": [{"name": c.name, "type": c.type, "source": c.source, "distribution": c.distribution,
+                        **nest(c.u, cal)} for c in parts]}

@@ -13,10 +13,11 @@ import hashlib
 from pathlib import Path
 
 import calib
-from calib.accel.budget import uncertainty_section
+from calib.accel.budget import at_local_gravity, uncertainty_section
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration
 from calib.numerics.budget import DEFAULT_K, RigErrors, TableClass
+from calib.numerics.gravity import G0_M_S2
 from rig.config.rigfile import RigFile, load_rig_file
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
@@ -59,6 +60,12 @@ def resolver(accel: AccelCalibration, model: str, method: str):
 
 def with_budget(accel: AccelCalibration, steps: StepMeans, model: str, method: str, rig: RigErrors,
                 k: float = DEFAULT_K) -> AccelCalibration:
-    """``accel`` with its ``uncertainty`` (U = k u_c, k, the budget); ``sigma`` unchanged."""
-    section = uncertainty_section(accel, steps, resolver(accel, model, method), rig, k)
+    """``accel`` with its ``uncertainty`` (U = k u_c, k, the budget); ``sigma`` unchanged. Where the rig file
+    states a local g other than g0, the session is first solved again at that g (``at_local_gravity``: the
+    scale factors in g0 of the file), which is what the budget's gravity term assumes."""
+    resolve = resolver(accel, model, method)
+    if rig.gravity.g_m_s2 != G0_M_S2:
+        steps = at_local_gravity(steps, rig.gravity)
+        accel = resolve(steps)
+    section = uncertainty_section(accel, steps, resolve, rig, k)
     return accel.model_copy(update={"uncertainty": section})
