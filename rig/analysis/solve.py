@@ -9,6 +9,7 @@ from datetime import datetime, timezone
 import numpy as np
 
 import calib
+from calib.accel.placement import check_placement
 from calib.errors import CalibError, ObservabilityError
 from calib.gyro import solve_gyro
 from calib.gyro.static_bias import StaticGyroBias, static_gyro_bias
@@ -31,18 +32,7 @@ def calibrate_session(session_dir, *, model: str | None = None, method: str | No
         raise AbsentSensor(f"{session.path}: {ABSENT_ACCEL}: nothing calibrates an accelerometer (rig solve "
                            "solves the sensors it has)")
     spec = session.solve_spec or {}
-    model = model or spec.get("model") or "triangular"
-    method = method or spec.get("method") or "pinv"
-    option = "--thermal" if thermal is not None else "the procedure's solve: thermal:"
-    thermal = thermal if thermal is not None else spec.get("thermal", "auto")
-    if method == "magnitude":
-        steps = step_means(session, session.static_step_indices(unknown_pose=True))
-    else:
-        steps = step_means(session)
-    if method in ("pinv", "combinations"):
-        check_temperature_levels(steps, thermal, f"{session.path}: {option} {thermal}")
-    accel = calib.solve(steps, model=model, method=method, thermal=thermal)
-    check_plausible(accel, steps.lsb_per_g)
+    accel, steps, model, method = solve_accelerometer(session, model=model, method=method, thermal=thermal)
     gyro, mag = solve_gyro_and_mag(session, spec, accel)
     return calib.CalibrationFile(
         created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
@@ -55,6 +45,55 @@ def calibrate_session(session_dir, *, model: str | None = None, method: str | No
         coverage=session_coverage(session),
         target=calibration_record(session, steps, model, method),
     )
+
+
+def solve_accelerometer(session: Session, *, model: str | None = None, method: str | None = None, thermal=None):
+    """The accelerometer of a loaded session with the procedure's ``solve:`` settings unless overridden:
+    (calibration, the step means it used, model, method)."""
+    spec = session.solve_spec or {}
+    model = model or spec.get("model") or "triangular"
+    method = method or spec.get("method") or "pinv"
+    option = "--thermal" if thermal is not None else "the procedure's solve: thermal:"
+    thermal = thermal if thermal is not None else spec.get("thermal", "auto")
+    if method == "magnitude":
+        steps = step_means(session, session.static_step_indices(unknown_pose=True))
+    else:
+        steps = step_means(session)
+    if method in ("pinv", "combinations"):
+        check_temperature_levels(steps, thermal, f"{session.path}: {option} {thermal}")
+    accel = calib.solve(steps, model=model, method=method, thermal=thermal)
+    check_plausible(accel, steps.lsb_per_g)
+    return accel, steps, model, method
+
+
+#: the methods that trust the nominal poses and have residuals to judge them by
+POSE_METHODS = ("pinv", "combinations")
+
+
+def placement(session: Session, *, model: str | None = None, method: str | None = None, thermal=None):
+    """The recorded directions against the nominal poses (:class:`calib.accel.placement.Placement`) under the
+    method the options resolve to, for a session whose poses were placed without a turntable (imports, faces
+    placed by hand); None for a pose-free method, a turntable's poses or a session without an accelerometer."""
+    if accelerometer_absent(session) or session.info.rig.turntable is not None:
+        return None  # no accelerometer; or the poses are a turntable's (a misfit there is an effect: rig discover)
+    resolved = method or (session.solve_spec or {}).get("method") or "pinv"
+    if resolved not in POSE_METHODS:
+        return None
+    accel, steps, _, _ = solve_accelerometer(session, model=model, method=method, thermal=thermal)
+    return check_placement(accel, steps)
+
+
+def refuse_misplaced_poses(session: Session, **options) -> None:
+    """Raise :class:`PosesMisplaced` (one line: the misplacement per step, the command to run) when the poses
+    are not where the session says beyond the noise (a pose-trusting method would give false sigmas)."""
+    found = placement(session, **options)
+    if found is not None and found.misplaced:
+        n_static = len(session.static_step_indices(unknown_pose=True))
+        raise PosesMisplaced(found.message(str(session.path), n_static))
+
+
+class PosesMisplaced(CalibError):
+    """The nominal poses disagree with the recorded directions beyond the noise."""
 
 
 #: a thermal model of order S needs steps at S + 1 or more temperatures at least this far apart (C)

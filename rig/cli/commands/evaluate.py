@@ -1,14 +1,19 @@
-"""``rig evaluate CALIB SESSION``: roll/pitch errors in the seed paper's layout, |f| - 1."""
+"""``rig evaluate CALIB SESSION [--method poses|magnitude]``: roll/pitch errors in the seed paper's layout, |f| - 1;
+or, pose-free, |f| - 1 g in every static step (poses not where the session says, or unknown)."""
 
 from __future__ import annotations
 
 import json
 import math
+import sys
+
+import numpy as np
 
 import calib
+from calib.accel.placement import check_placement
 from calib.file import calibration as calfile
 from rig.cli.common import EXIT_OK, UsageError, json_default, report_warnings
-from rig.session import load_session
+from rig.session import load_session, step_means
 
 
 def add_parser(sub) -> None:
@@ -16,6 +21,9 @@ def add_parser(sub) -> None:
     e.add_argument("calibration")
     e.add_argument("session")
     e.add_argument("--json", action="store_true")
+    e.add_argument("--method", choices=["poses", "magnitude"], default="poses",
+                   help="poses: errors against the nominal poses (default); magnitude: |f| - 1 g in every static "
+                        "step, no poses needed (hand-placed or unknown poses)")
 
 
 def check_same_sensor(cal, session, path) -> None:
@@ -35,9 +43,41 @@ def run(args) -> int:
     session = load_session(args.session)
     report_warnings("evaluate", session)
     check_same_sensor(cal, session, args.calibration)
-    ev = calib.evaluate(cal.accelerometer, session.step_means())
+    if args.method == "magnitude":
+        return evaluate_magnitude(cal.accelerometer, session, args.json)
+    steps = session.step_means()
+    ev = calib.evaluate(cal.accelerometer, steps)
+    found = check_placement(cal.accelerometer, steps)
     if args.json:
-        print(json.dumps(ev.to_dict(), indent=2, default=json_default))
+        print(json.dumps(ev.to_dict(), indent=2, default=json_default))  # the contract as it was; the note on stderr
     else:
         print(ev.format_table())
+    if found.beyond.any() and session.info.rig.turntable is None:  # poses placed without a turntable
+        print(f"rig evaluate: note: the angle errors of {found.per_step(6)} are beyond the noise "
+              f"({float(np.median(found.noise_deg)):.3f} deg): the poses may not be where the session says, and then "
+              f"these errors measure the placement, not the calibration: rig evaluate {args.calibration} "
+              f"{args.session} --method magnitude", file=sys.stderr)
+    return EXIT_OK
+
+
+def evaluate_magnitude(accel, session, as_json: bool) -> int:
+    """|f| - 1 g of the calibrated mean of every static step (known or unknown pose), with its 1-sigma."""
+    steps = step_means(session, session.static_step_indices(unknown_pose=True))
+    f = accel.apply(steps.mean_counts, temp_c=steps.temp_c if accel.temperature is not None else None,
+                    t_s=steps.t_s)
+    norm = np.linalg.norm(f, axis=1)
+    unit = f / norm[:, None]
+    sem_g = steps.sem_counts @ np.abs(np.linalg.inv(np.asarray(accel.matrix_counts_per_g, float))).T
+    sigma = np.sqrt(np.sum((unit * sem_g) ** 2, axis=1))
+    err = norm - 1.0
+    rms = float(np.sqrt(np.mean(err**2)))
+    if as_json:
+        print(json.dumps({"method": "magnitude", "norm_error_rms_g": rms, "steps": [
+            {"name": str(n), "norm_error_g": float(e), "sigma_g": float(s)}
+            for n, e, s in zip(steps.names, err, sigma)]}, indent=2, default=json_default))
+        return EXIT_OK
+    print(f"{'step':<24} {'|f| - 1 (mg)':>13} {'sigma (mg)':>11}")
+    for n, e, s in zip(steps.names, err, sigma):
+        print(f"{str(n)[:24]:<24} {e * 1e3:>13.3f} {s * 1e3:>11.3f}")
+    print(f"{len(err)} static steps, |f| - 1 rms {rms * 1e3:.3f} mg (pose-free: the poses are not used)")
     return EXIT_OK

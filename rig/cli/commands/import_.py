@@ -5,7 +5,7 @@ from __future__ import annotations
 import calib
 from calib.errors import CalibError
 from rig.analysis.discover import discover_session
-from rig.analysis.solve import accelerometer_absent, check_plausible, solve_present_sensors
+from rig.analysis.solve import accelerometer_absent, check_plausible, placement, solve_present_sensors
 from rig.cli import outputs
 from rig.cli.common import EXIT_OK, UsageError
 from rig.errors import RigInputError, SessionFormatError
@@ -76,13 +76,22 @@ def next_steps(session, path, known: int) -> list[tuple[str, bool]]:
     if session is not None and accelerometer_absent(session):
         res = solve_present_sensors(session)
         return [(f"rig solve {path}", res.magnetometer is not None or res.gyro_static is not None)]
-    if known >= 6:
+    if known >= 6 and (session is None or not _misplaced(session)):
         solve = (f"rig solve {path}", True)
     else:
         steps = lambda: step_means(session, session.static_step_indices(unknown_pose=True))
         solve = (f"rig solve {path} --method magnitude", session is None or
                  _works(lambda: check_plausible(calib.solve(steps(), method="magnitude"), session.lsb_per_g)))
     return [solve, (f"rig discover {path}", session is None or _works(lambda: discover_session(path)))]
+
+
+def _misplaced(session) -> bool:
+    """Whether the known poses disagree with the data beyond the noise (rig solve would refuse them)."""
+    try:
+        found = placement(session)
+    except (CalibError, SessionFormatError, RigInputError):
+        return False  # rig solve says why
+    return found is not None and found.misplaced
 
 
 def _works(attempt) -> bool:

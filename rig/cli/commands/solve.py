@@ -9,7 +9,8 @@ from pathlib import Path
 from calib.errors import CalibError
 from calib.accel.redundancy import pair_biases
 from calib.mag import MagCalibration
-from rig.analysis.solve import ABSENT_ACCEL, accelerometer_absent, magnetometer_units, solve_present_sensors, static_gyro
+from rig.analysis.solve import (ABSENT_ACCEL, accelerometer_absent, magnetometer_units, refuse_misplaced_poses,
+                                solve_present_sensors, static_gyro)
 from rig.cli import outputs
 from rig.cli.common import EXIT_OK, UsageError, format_calibration, json_default, parse_thermal, present, report_warnings
 from rig.session import load_session
@@ -26,6 +27,9 @@ def add_parser(sub) -> None:
                    help="magnitude: |f| = 1 g in every static step, poses not needed (imported recordings)")
     s.add_argument("--thermal", default=None, help="auto | off | ORDER")
     s.add_argument("--json", action="store_true")
+    s.add_argument("--trust-poses", action="store_true",
+                   help="solve on the nominal poses even when the recorded directions disagree with them beyond the "
+                        "noise (sessions without a turntable); the sigmas then carry the misfit, not the pose error")
     s.add_argument("--force", action="store_true",
                    help="replace SESSION/calibration.yaml (otherwise a re-solve is written beside it)")
 
@@ -55,6 +59,8 @@ def run(args) -> int:
               file=sys.stderr)
     if accelerometer_absent(session):
         return solve_without_accelerometer(session, args.json)
+    if not args.trust_poses:
+        refuse_misplaced_poses(session, model=args.model, method=args.method, thermal=thermal)
     with outputs.writing(out):  # an error writing the file names the path given
         conclusion = conclude(session, out=out.path, model=args.model, method=args.method, thermal=thermal,
                               report=False)

@@ -52,7 +52,7 @@ SOLVES = [("twelve_position_flip", "twelve_position", ["--method", "flip"]),
           ("twelve_position_full", "twelve_position", ["--model", "full"]),
           ("thermal_off", "thermal", ["--thermal", "off"])]
 #: imported recordings: (golden name, source, file under shared/datasets, rig solve options)
-IMPORTS = [("import_imucal", "imucal", "imucal/annotated_session.csv", [], True),
+IMPORTS = [("import_imucal", "imucal", "imucal/annotated_session.csv", ["--trust-poses"], True),
            ("import_imu_tk", "imu_tk", "imu_tk-xsens/xsens_acc.txt", ["--method", "magnitude"], True),
            ("import_tofupilot", "tofupilot", "tofupilot-thermal/imu_raw_data.csv", None, True)]
 VOLATILE = {"created", "session", "calibration", "session_dir", "path"}
