@@ -151,7 +151,7 @@ def test_axis_config_is_the_one_immutable_axis_type():
     assert AxisConfig(name="a2").soft_limits_deg == (-400.0, 400.0)  # one set of defaults
     assert [f.name for f in dataclasses.fields(AxisConfig)] == [
         "name", "port", "serial", "sign", "home_offset_deg", "speed_deg_s", "accel_deg_s2", "soft_limits_deg",
-        "cable_wrap_deg", "slip_ring"]
+        "cable_wrap_deg", "slip_ring", "approach", "overshoot_deg"]
     with pytest.raises(Exception):
         AxisConfig(name="a1", speed_deg_s=60)  # validated on construction too
     with pytest.raises(RigInputError, match=r"turntable.axes.a1.name: unknown key"):
