@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import Any, ClassVar, Optional
 
 import numpy as np
-from pydantic import ConfigDict, Field, field_validator, model_validator
+from pydantic import ConfigDict, Field, field_validator, model_serializer, model_validator
 from typing_extensions import NotRequired, TypedDict
 
 from calib.discovery.effects import LIBRARY, TIME_EFFECTS, effect_counts, validate_effect
@@ -130,10 +130,12 @@ class AccelCalibration(CalibrationSection):
                                        "the budget of Type A and B contributions (docs/uncertainty.md); absent: "
                                        "none was made", default=None)
 
-    def to_dict(self) -> dict:
-        """As the file holds it; ``uncertainty`` only when a budget was made (files without one are unchanged)."""
-        d = super().to_dict()
-        if d.get("uncertainty") is None:
+    @model_serializer(mode="wrap")
+    def _without_absent_uncertainty(self, handler):
+        """Every dump (the file, JSON outputs): ``uncertainty`` only when a budget was made, so files and outputs
+        without one are as they were."""
+        d = handler(self)
+        if isinstance(d, dict) and d.get("uncertainty") is None:
             d.pop("uncertainty", None)
         return d
 
