@@ -56,7 +56,8 @@ class StaticDetector:
     """
 
     def __init__(self, dt: float, t0: float, *, window_s: float = 2.0, init_s: float = 30.0,
-                 threshold_factor: float = 6.0, min_s: float = 3.0, trim_s: float = 0.5) -> None:
+                 threshold_factor: float = 6.0, min_s: float = 3.0, trim_s: float = 0.5,
+                 reference: float | None = None) -> None:
         self.n = max(3, int(round(window_s / dt)))
         self.half = self.n // 2
         self.trim = int(round(trim_s / dt))
@@ -64,8 +65,11 @@ class StaticDetector:
         self.threshold_factor = threshold_factor
         self.t_init_end = t0 + init_s
         self.init_n: int | None = None  # samples in the initial period, once a later one is seen
-        self.ref: float | None = None
+        self.ref: float | None = reference  # given (an adaptive noise floor): no initial period is assumed static
+        if reference is not None:
+            self.init_n = 0
         self.intervals: list[tuple[int, int]] = []
+        self.rejected_short = 0  # static runs shorter than min_s (after the trim)
         self._fed = 0
         self._c1 = np.zeros((1, 3))  # cumulative sums of x and x^2 from index _c_base (C[k]: sum of x[:k])
         self._c2 = np.zeros((1, 3))
@@ -166,4 +170,61 @@ class StaticDetector:
         s2, e2 = self._run + self.trim, end - self.trim
         if e2 > s2 and self._t[e2 - 1 - self._t_base] - self._t_start >= self.min_s:
             self.intervals.append((int(s2), int(e2)))
+        else:
+            self.rejected_short += 1
         self._run = self._t_start = None
+
+
+# -- hand-tumbled recordings: an adaptive threshold (the Tedaldi approach) ------------------------------
+
+#: log10 bins of :class:`VarianceFloor`'s histogram (0.01 decade each)
+_FLOOR_BINS = np.linspace(-12.0, 12.0, 2401)
+
+
+class VarianceFloor:
+    """The noise floor of a recording: a low percentile of the summed variances of consecutive blocks of
+    ``n`` samples (blocks aligned on the whole series, so the result does not depend on how it is fed).
+
+    A hand-tumbled recording has no initial rest to take the noise from; its rests are where the
+    variance is lowest, so the ``percentile`` (default 10) of the block variances is the noise of a rest
+    as long as a tenth of the recording rests. Fed in chunks (:meth:`feed`), then :meth:`value`.
+    """
+
+    def __init__(self, n: int, percentile: float = 10.0) -> None:
+        self.n, self.percentile = max(2, int(n)), float(percentile)
+        self._rest = np.empty((0, 3))
+        self._hist = np.zeros(len(_FLOOR_BINS) - 1, np.int64)
+
+    def feed(self, values: np.ndarray) -> None:
+        x = np.concatenate([self._rest, np.asarray(values, float).reshape(-1, 3)])
+        k = len(x) // self.n
+        if k:
+            blocks = x[:k * self.n].reshape(k, self.n, 3)
+            var = blocks.var(axis=1).sum(axis=1)
+            self._hist += np.histogram(np.log10(np.maximum(var, 1e-12)), _FLOOR_BINS)[0]
+        self._rest = x[k * self.n:]
+
+    def value(self) -> float:
+        """The percentile's summed variance (units of the values squared); 0 for too few samples."""
+        total = int(self._hist.sum())
+        if not total:
+            return 0.0
+        i = int(np.searchsorted(np.cumsum(self._hist), self.percentile / 100.0 * total))
+        return float(10 ** (0.5 * (_FLOOR_BINS[i] + _FLOOR_BINS[i + 1])))
+
+
+def interval_motion(values: np.ndarray, block_n: int) -> float:
+    """How much a rest moves inside: the scatter of the means of consecutive blocks of ``block_n`` samples
+    over what white noise of the samples' own scatter gives them (rms over the axes of
+    ``std(block means) / (std(samples) / sqrt(block_n))``; about 1 at rest, large when the hand drifts).
+    NaN with fewer than 3 blocks."""
+    x = np.asarray(values, float)
+    k = len(x) // max(2, block_n)
+    if k < 3:
+        return float("nan")
+    means = x[:k * block_n].reshape(k, block_n, 3).mean(axis=1)
+    # the samples' scatter about their own block means (a slow drift does not inflate it)
+    resid = x[:k * block_n].reshape(k, block_n, 3) - means[:, None, :]
+    white = np.sqrt(np.maximum((resid**2).sum(axis=(0, 1)) / (k * (block_n - 1)), 1e-30)) / np.sqrt(block_n)
+    ratio = means.std(axis=0, ddof=1) / white
+    return float(np.sqrt(np.mean(ratio**2)))

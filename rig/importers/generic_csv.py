@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from calib.numerics.static_detect import StaticDetector
 from rig.importers.columns import (COUNTS_PER_G_EQUIVALENT, PREAMBLE_RATE, ColumnPlan, apply_column_map,
                                    parse_column_map, plan_columns, rate_option)
+from rig.importers.quasi_static import DEFAULT_FACTOR, DEFAULT_MIN_S, detect_rests
 from rig.importers.common import (G_MS2, ImportedStep, Increasing, Recording, Runs, Spool, Spools, Table, diffs,
                                   exact_median, open_text, read_line)
 from rig.planning.kinematics import f_nominal
@@ -60,7 +60,8 @@ def _head(path: Path, fh) -> tuple[dict[str, str], float | None, str, int]:
 
 
 def read_csv(path: Path, spools: Spools, g_ms2: float = G_MS2, rate_hz: float | None = None,
-             column_map: str | None = None, **_) -> Recording:
+             column_map: str | None = None, static_factor: float = DEFAULT_FACTOR, static_min_s: float = DEFAULT_MIN_S,
+             **_) -> Recording:
     """Generic CSV: comment lines (and a rate preamble), then a header with any of the sensors' columns, a
     time column or a rate, optional ``temp_c`` and ``label`` (:mod:`rig.importers.columns`)."""
     with open_text(path) as fh:
@@ -84,7 +85,10 @@ def read_csv(path: Path, spools: Spools, g_ms2: float = G_MS2, rate_hz: float | 
     if plan.has_label:  # a label column gives the steps, even empty labels ("segment N")
         rec.steps += labelled_steps(runs, poses="acc" in plan.sensors)
     elif n > 1:
-        rec.steps += detected_steps(spool, dt, next(k for k in ("acc", "mag", "gyro") if k in plan.sensors))
+        key = next(k for k in ("acc", "mag", "gyro") if k in plan.sensors)
+        steps, report = detect_rests(spool, dt, key, static_factor, static_min_s)
+        rec.steps += steps
+        rec.notes.append(report.note(plan.sensors[key].spec.sensor))
     return rec
 
 
@@ -127,17 +131,6 @@ def _units(plan: ColumnPlan) -> str:
         return plan.sensors["acc"].units
     names = {"acc": "accelerometer", "gyro": "gyroscope", "mag": "magnetometer"}
     return "; ".join(f"{names[k]} {plan.sensors[k].units if k in plan.sensors else 'none'}" for k in names)
-
-
-def detected_steps(spool, dt: float, key: str) -> list[ImportedStep]:
-    """Static steps found by :class:`~calib.numerics.static_detect.StaticDetector` on sensor ``key``."""
-    n = spool.n_rows
-    t0, t_end = float(spool.read("t", 0, 1)[0]), float(spool.read("t", n - 1, n)[0])
-    detector = StaticDetector(dt, t0, init_s=min(30.0, 0.2 * (t_end - t0)))
-    for t, x in zip(spool.chunks("t"), spool.chunks(key)):
-        detector.feed(t, np.rint(x).astype(np.int64))
-    return [ImportedStep(f"static {k + 1}", "static", [(a, b)], pose_group=1000 + k)
-            for k, (a, b) in enumerate(detector.finish())]
 
 
 def labelled_steps(runs: list[list], poses: bool = True) -> list[ImportedStep]:

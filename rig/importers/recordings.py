@@ -35,6 +35,7 @@ from rig.importers.common import (COUNTS_PER_G_EQUIVALENT, G_MS2, MAX_STEPS, Imp
                                   StepSummary, check_recording, summarize)
 from rig.importers.generic_csv import read_csv
 from rig.importers.imu_tk import read_imu_tk
+from rig.importers.quasi_static import DEFAULT_FACTOR, DEFAULT_MIN_S, check_settings
 from rig.importers.imucal import IMUCAL_POSES, IMUCAL_ROTATIONS, read_imucal
 from rig.importers.tofupilot import read_tofupilot
 from rig.session import (ImportInfo, MagnetometerInfo, ProcedureInfo, RigInfo, SensorInfo, SessionManifest, SessionWriter, StepRecord,
@@ -52,13 +53,16 @@ __all__ = ["SOURCES", "READERS", "G_MS2", "COUNTS_PER_G_EQUIVALENT", "ImportedSt
 
 def import_recording(source: str, src, sessions_root, session_id: str | None = None, *, g_ms2: float = G_MS2,
                      window_s: float = 120.0, notify: Callable[[str], None] | None = None,
-                     rate_hz: float | None = None, column_map: str | None = None) -> Path:
+                     rate_hz: float | None = None, column_map: str | None = None,
+                     static_factor: float = DEFAULT_FACTOR, static_min_s: float = DEFAULT_MIN_S) -> Path:
     """Import ``src`` (a file of kind ``source``) as a complete session under ``sessions_root``.
 
     Returns the session directory. ``notify`` is told (one line each) of the partial directories of
     killed imports that were removed. ``rate_hz`` (Hz) and ``column_map`` (``ours=theirs,...``): the
-    generic CSV's sample rate when it has no time column, and its other column names.
+    generic CSV's sample rate when it has no time column, and its other column names; ``static_factor`` and
+    ``static_min_s`` (s): its quasi-static detector's settings (:mod:`rig.importers.quasi_static`).
     """
+    check_settings(static_factor, static_min_s)
     path = _checked_source(source, src, g_ms2)
     sid = session_id or f"import-{source}-{re.sub(r'[^A-Za-z0-9_-]+', '-', path.stem)}"
     validate_session_id(sid)
@@ -74,7 +78,7 @@ def import_recording(source: str, src, sessions_root, session_id: str | None = N
     done = False
     try:
         rec = READERS[source](path, work.spools, g_ms2=g_ms2, window_s=window_s, rate_hz=rate_hz,
-                              column_map=column_map)
+                              column_map=column_map, static_factor=static_factor, static_min_s=static_min_s)
         if not rec.steps:
             raise RigInputError(str(path), None, None, "no steps found in the recording")
         if len(rec.steps) > MAX_STEPS:

@@ -30,6 +30,10 @@ def add_parser(sub) -> None:
                     help="csv without a t_s column: the sample rate, Hz (or a '# rate_hz: N' or 'Fs,N' line in the file)")
     im.add_argument("--columns", default=None, metavar="OURS=THEIRS,...",
                     help="csv: other column names, e.g. ax=AccX,ay=AccY,az=AccZ,t_s=time (docs/import.md)")
+    im.add_argument("--static-factor", type=float, default=6.0,
+                    help="csv without labels: quasi-static threshold, times the noise floor (4..10, default 6)")
+    im.add_argument("--static-min-s", type=float, default=1.0,
+                    help="csv without labels: shortest rest kept, s (0.5..1, default 1)")
 
 
 def run(args) -> int:
@@ -42,7 +46,8 @@ def run(args) -> int:
     try:
         path = import_recording(args.source, args.src, args.out, args.id, g_ms2=args.g, window_s=args.window_s,
                                 notify=lambda message: print(f"note: {message}"), rate_hz=args.rate,
-                                column_map=args.columns)
+                                column_map=args.columns, static_factor=args.static_factor,
+                                static_min_s=args.static_min_s)
     except FileExistsError as exc:
         raise UsageError(f"{exc.filename}: a session with this id exists already; give another with --id ID "
                          "(or another sessions directory with -o)") from None
