@@ -23,6 +23,8 @@ from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
 
 _CLASS_KEYS = tuple(f.name for f in dataclasses.fields(TableClass))
+#: the classes of a table without errors (the simulated table with sim.geometry off)
+PERFECT_TABLE = TableClass(**{k: (TableClass.period_deg if k == "period_deg" else 0.0) for k in _CLASS_KEYS})
 
 
 def session_rig_file(session) -> RigFile | None:
@@ -42,11 +44,15 @@ def session_rig_file(session) -> RigFile | None:
 
 def rig_errors(rig_file: RigFile | None) -> RigErrors:
     """The rig's Type B inputs: its stated gravity, whether every axis approaches its poses from one side, and
-    the turntable's classes (a simulated rig's ``sim.geometry`` classes; else the datasheet classes)."""
+    the turntable's classes (a simulated rig's ``sim.geometry`` classes, none when they are off; a hardware rig's
+    the datasheet classes). Needs a wired program (``rig.composition.wire``: the command line is) to read a
+    simulated rig file; unread, the session's rig is taken at its datasheet classes."""
     if rig_file is None:
         return RigErrors.from_classes()
     geometry = (rig_file.sim or {}).get("geometry") or {}
     table = TableClass(**{k: float(v) for k, v in geometry.items() if k in _CLASS_KEYS})
+    if rig_file.is_simulated and not geometry.get("enabled"):
+        table = PERFECT_TABLE  # a simulated table without its errors (sim.geometry off) lands where commanded
     one_direction = all(rig_file.axes[n].approach != "none" for n in STAGE_AXES)
     return RigErrors.from_classes(table, rig_file.gravity, one_direction=one_direction)
 

@@ -12,6 +12,7 @@ from calib.numerics.gravity import from_site
 from rig.analysis.solve import solve_accelerometer
 from rig.analysis.uncertainty import rig_errors, session_rig_file, with_budget
 from rig.cli import main
+from rig.config.rigfile import parse_rig_file
 from rig.session import load_session
 
 from conftest import PROCEDURES
@@ -64,3 +65,10 @@ def test_the_hidden_sensor_lies_within_u_where_sigma_misses_it(session):
     assert np.all(np.abs(np.diag(np.asarray(cal.matrix_counts_per_g)) - np.diag(m)) <= u["scale_counts_per_g"])
     assert np.all(np.abs(np.asarray(cal.bias_counts) - np.asarray(truth["bias_g"]) * cal.lsb_per_g)
                   <= u["bias_counts"])
+
+
+def test_a_simulated_table_without_its_errors_adds_none_to_the_budget(tmp_path):
+    rig = parse_rig_file(RIG.replace("geometry: {enabled: true, mounting_deg: 0.2", "geometry: {enabled: false, "
+                                     "mounting_deg: 0.2"), str(tmp_path / "r.yaml"))
+    table = rig_errors(rig).table
+    assert table.mounting_deg == 0 and table.lost_motion_deg == 0 and table.non_orthogonality_deg == 0
