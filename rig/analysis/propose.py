@@ -26,6 +26,9 @@ TEMPERATURE_STEP = {"tolerance_c": 0.3, "hold_s": 60, "timeout_s": 3600, "mode":
 
 def proposals(session: Session, d: Discovery, max_blocks: int = 4) -> list[Proposal]:
     """The proposals for every alias of the named effects (empty: nothing to separate)."""
+    named = {e.name for e in d.effects}
+    if not any(g[0] in named for g in d.aliases):
+        return []
     if d.baseline != "seed":
         raise CalibError("--propose: the session's poses are unknown (no poses to propose)")
     if session.info.procedure is None or not session.info.procedure.text:

@@ -32,6 +32,7 @@ from calib.discovery.search import Discovery, discover
 from calib.numerics.uncertainty import pooled_vif
 from drivers.sensors.regs.mpu9150 import DLPF_BW_HZ
 from rig.analysis.discover import step_context
+from rig.analysis.twin_sensors import other_sensors
 from rig.config.rigfile import AxisConfig, load_rig_file, parse_rig_file
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
@@ -350,8 +351,10 @@ def build_twin(session: Session, cal: AccelCalibration, *, label: str = "discove
     initial_c, tau_s, chamber_rms, chamber_notes = fit_chamber(session, idx)
     axes, home, env, rig_notes = rig_settings(session)
     sensor = session.info.rig.sensor
+    gyro, mag, sensor_notes = other_sensors(session)
     sim = {"time_scale": 0, "chamber": {"initial_c": round(initial_c, 4), "tau_s": round(tau_s, 3)}, **env,
            "table_tilt_deg": tilt, "noise": model, "errors": errors}
+    sim.update({k: v for k, v in (("gyro_errors", gyro), ("mag_errors", mag)) if v})
     doc = {"format": "rig-file/1", "name": f"twin-{session.id}"[:200],
            "description": f"digital twin of session {session.id}: the sensor's {label} model "
                           f"({', '.join(e['name'] for e in cal.effects) or 'no effects beyond the seed model'}"
@@ -359,8 +362,7 @@ def build_twin(session: Session, cal: AccelCalibration, *, label: str = "discove
            "kind": "sim", "home": home, "turntable": {"axes": axes},
            "sensor": {"model": str(sensor.model)} | ({"address": int(sensor.address)} if sensor.address else {}),
            "sim": sim}
-    notes = notes + noise_notes + chamber_notes + rig_notes
-    notes.append("only the accelerometer is twinned: the gyroscope and magnetometer are drawn from the run's seed")
+    notes = notes + noise_notes + chamber_notes + rig_notes + sensor_notes
     header = [f"# Digital twin of session {session.id} (rig discover --twin; docs/twin.md).",
               f"# Re-simulate: rig run PROCEDURE --rig THIS_FILE --seed {_run_seed(session)} (a seed other than "
               "the session's: independent noise)", *(f"# note: {n}" for n in notes)]
