@@ -37,8 +37,8 @@ BLOCK_CHARS = 4 << 20
 MAX_LINE_CHARS = 16 << 20
 #: rows per chunk when the spool is read back (detection, statistics, writing the session)
 CHUNK_ROWS = 65536
-#: at most this many steps: more would not make a session (its manifest is rewritten at every step)
-MAX_STEPS = 5000
+#: at most this many steps: the cap of a session (rig.config: 10,000 steps, listed or expanded)
+MAX_STEPS = 10000
 
 
 @dataclass

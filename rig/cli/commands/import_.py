@@ -15,6 +15,8 @@ from rig.session import SessionManifest, load_session, step_means
 #: the follow-up commands are tried on the imported session up to this many samples (loading it whole);
 #: a larger import names them untried (each says why, if it cannot)
 TRY_MAX_SAMPLES = 500_000
+#: ... and up to this many steps (rig discover refits at every step boundary: minutes on thousands of steps)
+TRY_MAX_STEPS = 100
 
 
 def add_parser(sub) -> None:
@@ -64,9 +66,9 @@ def run(args) -> int:
                                   f", {imp.lsb_per_g:g} counts/g"))
     for note in imp.notes:
         print(f"  note: {note}")
-    if n_samples > TRY_MAX_SAMPLES:
+    if n_samples > TRY_MAX_SAMPLES or len(steps) > TRY_MAX_STEPS:
         hints = [h for h, _ in next_steps(None, path, known)]
-        print(f"  next (not tried on {n_samples} samples): {'; '.join(hints)}")
+        print(f"  next (not tried on {n_samples} samples in {len(steps)} steps): {'; '.join(hints)}")
         return EXIT_OK
     s = load_session(path)
     hints = [h for h, works in next_steps(s, path, known) if works]
