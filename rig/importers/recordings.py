@@ -54,13 +54,15 @@ __all__ = ["SOURCES", "READERS", "G_MS2", "COUNTS_PER_G_EQUIVALENT", "ImportedSt
 def import_recording(source: str, src, sessions_root, session_id: str | None = None, *, g_ms2: float = G_MS2,
                      window_s: float = 120.0, notify: Callable[[str], None] | None = None,
                      rate_hz: float | None = None, column_map: str | None = None,
-                     static_factor: float = DEFAULT_FACTOR, static_min_s: float = DEFAULT_MIN_S) -> Path:
+                     static_factor: float = DEFAULT_FACTOR, static_min_s: float = DEFAULT_MIN_S,
+                     progress: Callable[[int, int], None] | None = None) -> Path:
     """Import ``src`` (a file of kind ``source``) as a complete session under ``sessions_root``.
 
     Returns the session directory. ``notify`` is told (one line each) of the partial directories of
     killed imports that were removed. ``rate_hz`` (Hz) and ``column_map`` (``ours=theirs,...``): the
     generic CSV's sample rate when it has no time column, and its other column names; ``static_factor`` and
     ``static_min_s`` (s): its quasi-static detector's settings (:mod:`rig.importers.quasi_static`).
+    ``progress`` is told (steps written, steps) after each step.
     """
     check_settings(static_factor, static_min_s)
     path = _checked_source(source, src, g_ms2)
@@ -86,7 +88,7 @@ def import_recording(source: str, src, sessions_root, session_id: str | None = N
                                                        f"{MAX_STEPS}")
         summaries = summarize(rec)
         check_recording(path, rec, summaries)
-        session = write_session(rec, summaries, import_manifest(rec, path, sid, g_ms2), work.dir)
+        session = write_session(rec, summaries, import_manifest(rec, path, sid, g_ms2), work.dir, progress)
         work.spools.close()
         _move_into_place(session, final)
         done = True
@@ -218,8 +220,10 @@ def import_manifest(rec: Recording, path: Path, sid: str, g_ms2: float) -> Sessi
         steps=steps)
 
 
-def write_session(rec: Recording, summaries: list[StepSummary], manifest: SessionManifest, root: Path) -> Path:
-    """Write the recording's samples step by step, chunk by chunk, under ``root``; the session ends complete."""
+def write_session(rec: Recording, summaries: list[StepSummary], manifest: SessionManifest, root: Path,
+                  progress: Callable[[int, int], None] | None = None) -> Path:
+    """Write the recording's samples step by step, chunk by chunk, under ``root``; the session ends complete
+    (``progress``: told (steps written, steps) after each step)."""
     cols = ("t_s", "step", "ax", "ay", "az", "temp_c") + (("wx", "wy", "wz") if rec.has_gyro else ()) \
         + (("mx", "my", "mz") if rec.has_mag else ())
     w = SessionWriter.create(root, manifest.id, manifest, columns=cols)
@@ -228,6 +232,8 @@ def write_session(rec: Recording, summaries: list[StepSummary], manifest: Sessio
             for c in rec.step_chunks(st):
                 w.append_samples(i, c["t"], c["counts"], temp_c=c["temp"], gyro_counts=c["gyro"], mag_counts=c["mag"])
             w.complete_step(i, {"n_samples": s.n, "t_start_s": s.t_start, "t_end_s": s.t_end, "temp_c": s.temp_mean})
+            if progress is not None:
+                progress(i + 1, len(rec.steps))
         w.set_status("complete")
     except BaseException:
         w.set_status("aborted")

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import sys
+import time
+
 import calib
 from calib.errors import CalibError
 from rig.analysis.discover import discover_session
@@ -49,7 +52,7 @@ def run(args) -> int:
         path = import_recording(args.source, args.src, args.out, args.id, g_ms2=args.g, window_s=args.window_s,
                                 notify=lambda message: print(f"note: {message}"), rate_hz=args.rate,
                                 column_map=args.columns, static_factor=args.static_factor,
-                                static_min_s=args.static_min_s)
+                                static_min_s=args.static_min_s, progress=Progress())
     except FileExistsError as exc:
         raise UsageError(f"{exc.filename}: a session with this id exists already; give another with --id ID "
                          "(or another sessions directory with -o)") from None
@@ -75,6 +78,25 @@ def run(args) -> int:
     print(f"  next: {'; '.join(hints)}" if hints else
           "  next: nothing can be solved from this recording alone (too few distinct poses)")
     return EXIT_OK
+
+
+class Progress:
+    """``rig import: N of M steps written (T s)`` on stderr, at most every :data:`PROGRESS_S` seconds, for an
+    import of more than :data:`PROGRESS_STEPS` steps (the last step always)."""
+
+    def __init__(self) -> None:
+        self.start = self.last = time.monotonic()
+
+    def __call__(self, done: int, total: int) -> None:
+        now = time.monotonic()
+        if total > PROGRESS_STEPS and (now - self.last >= PROGRESS_S or done == total):
+            self.last = now
+            print(f"rig import: {done} of {total} steps written ({now - self.start:.0f} s)", file=sys.stderr, flush=True)
+
+
+#: progress is shown for imports of more than this many steps, every this many seconds
+PROGRESS_STEPS = 1000
+PROGRESS_S = 5.0
 
 
 def next_steps(session, path, known: int) -> list[tuple[str, bool]]:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import pytest
 
 from rig.cli import main
+from rig.cli.commands import import_ as command
 
 HEAD = "# units: g\nt_s,ax,ay,az,label\n"
 
@@ -33,3 +34,10 @@ def test_the_follow_up_commands_are_not_tried_on_more_than_100_steps(tmp_path, c
     _steps(tmp_path / "r.csv", 150, 10)
     assert main(["import", "--from", "csv", str(tmp_path / "r.csv"), "-o", str(tmp_path / "s"), "--id", "r"]) == 0
     assert "next (not tried on 1500 samples in 150 steps)" in capsys.readouterr().out
+
+
+def test_a_long_import_shows_its_progress(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(command, "PROGRESS_STEPS", 100)
+    _steps(tmp_path / "r.csv", 150, 10)
+    assert main(["import", "--from", "csv", str(tmp_path / "r.csv"), "-o", str(tmp_path / "s"), "--id", "r"]) == 0
+    assert "rig import: 150 of 150 steps written" in capsys.readouterr().err
