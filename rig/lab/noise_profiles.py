@@ -148,9 +148,15 @@ def load_profile(path) -> NoiseProfile:
 
 
 def latest_profile(key: str, history=None) -> NoiseProfile | None:
-    """The newest profile stored for sensor ``key`` (by ``measured_at``), or None."""
+    """The newest valid profile stored for sensor ``key`` (by ``measured_at``), or None. A file that is not a
+    profile (damaged, edited, half-written by another tool) is passed over: it never hides the valid ones."""
     folder = profiles_dir(history) / _safe(key)
-    found = [load_profile(p) for p in sorted(folder.glob("*.json"))] if folder.is_dir() else []
+    found = []
+    for path in sorted(folder.glob("*.json")) if folder.is_dir() else ():
+        try:
+            found.append(load_profile(path))
+        except RigInputError:
+            continue
     found = [p for p in found if p.sensor.key == key]
     return max(found, key=lambda p: p.measured_at) if found else None
 

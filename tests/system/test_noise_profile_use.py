@@ -66,3 +66,13 @@ def test_characterize_writes_and_records_a_valid_profile(tmp_path, capsys):
     assert stored == load_profile(tmp_path / "p.json") and stored.sensor.key == KEY
     assert Path(doc["recorded"]).parent.parent == profiles_dir(db)
     assert stored.accel.x.B is None and stored.gyro is not None and 20 < stored.temperature_c < 35
+
+
+def test_a_damaged_profile_never_hides_a_valid_one_and_alone_leaves_the_family_figures(tmp_path, monkeypatch):
+    good = record_profile(_profile(4 * 40e-6 / math.sqrt(2), 4 * 4e-6), tmp_path / "history.sqlite")
+    (good.parent / "20261102T100000.json").write_text('{"sensor": {"key": "' + KEY + '"}, "accel": 3')  # cut short
+    cal = _six_position(tmp_path, "a", monkeypatch)
+    assert cal["noise"]["source"] == "unit profile" and cal["noise"]["measured_at"].startswith("2026-11-01")
+    good.unlink()  # only the damaged file is left: the family's figures, and the file says nothing of a profile
+    cal = _six_position(tmp_path, "b", monkeypatch)
+    assert "noise" not in cal or cal["noise"] is None
