@@ -47,9 +47,24 @@ def calibrate_session(session_dir, *, model: str | None = None, method: str | No
     )
 
 
+#: the last accelerometer solve: (session, options, result); ``rig solve`` checks the placement and then
+#: concludes with the same options, and the second asks for the same solve (a 10,000-step session: seconds)
+_LAST: list = [None, None, None]
+
+
 def solve_accelerometer(session: Session, *, model: str | None = None, method: str | None = None, thermal=None):
     """The accelerometer of a loaded session with the procedure's ``solve:`` settings unless overridden:
-    (calibration, the step means it used, model, method)."""
+    (calibration, the step means it used, model, method). The same session object with the same options
+    gets the result of the last call again (a session is not changed once loaded)."""
+    key = (model, method, repr(thermal))
+    if _LAST[0] is session and _LAST[1] == key:
+        return _LAST[2]
+    result = _solve_accelerometer(session, model=model, method=method, thermal=thermal)
+    _LAST[:] = [session, key, result]
+    return result
+
+
+def _solve_accelerometer(session: Session, *, model: str | None, method: str | None, thermal):
     spec = session.solve_spec or {}
     model = model or spec.get("model") or "triangular"
     method = method or spec.get("method") or "pinv"
