@@ -1,5 +1,9 @@
 """Real recordings (../shared/datasets): every comparison of issue #8 in one table each.
 
+Issue 32: the placement check on imucal's six parts (the default triangular pinv fit) reads x_a 1.41 deg,
+x_p 1.26, y_p 0.66, y_a 0.58, z_a 0.51, z_p 0.50 deg against a noise of 0.009 deg: misplaced (hand-placed
+faces), so ``rig solve`` refuses it without ``--trust-poses``.
+
 Usage::  .venv/bin/python benchmarks/bench_real_data.py
 """
 
@@ -18,6 +22,7 @@ sys.path.insert(0, str(REPO))
 DATA = REPO.parent / "shared" / "datasets"
 
 from calib import solve  # noqa: E402
+from calib.accel.placement import check_placement  # noqa: E402
 from calib.accel.redundancy import pair_biases  # noqa: E402
 from rig.analysis.discover import discover_session, format_report, write_plot  # noqa: E402
 from rig.importers.recordings import import_recording  # noqa: E402
@@ -63,6 +68,9 @@ def main() -> None:
     r = pair_biases(steps)
     print("\n### six-pose redundancy check (imucal): bias from each +/- pose pair")
     print(r.format_table(steps.lsb_per_g))
+    found = check_placement(tri, steps)
+    print("\n### placement check (imucal, the default triangular pinv fit; rig solve refuses when misplaced)")
+    print(f"misplaced: {found.misplaced}; {found.per_step()} (noise {float(np.median(found.noise_deg)):.3f} deg)")
 
     # Xsens: magnitude method vs datasheet
     s = load_session(paths["imu_tk"])
