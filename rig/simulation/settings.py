@@ -43,7 +43,7 @@ EFFECT_FIELDS: dict[str, str] = {name: e.sim_field for name, e in LIBRARY.items(
 #: parameters of an effect that are not magnitudes (error-model field), e.g. when the bias jump happens
 EFFECT_PARAMS: dict[str, str] = {"bias_jump_t_s": "bias_jump_t_s"}
 #: the library's effects without an error-model field, which the simulated world injects (:mod:`rig.simulation.simrig`)
-WORLD_EFFECTS = ("table_tilt", "full_misalignment")
+WORLD_EFFECTS = ("table_tilt", "full_misalignment", "pose_error")
 MAX_MAGNITUDE = 1e6  # no error-model term or effect is anywhere near this
 
 
@@ -135,6 +135,7 @@ EFFECT_TYPES: dict[str, Any] = {
     **{name: shaped(_ACCEL_SHAPES[f], "broadcast") for name, f in EFFECT_FIELDS.items()},
     "table_tilt": shaped((2,), "scalar"),  # [tilt_x_deg, tilt_y_deg], or one number: about x
     "full_misalignment": shaped((1,), "scalar"),  # deg, a rotation about the sensor's x axis
+    "pose_error": shaped((1,), "scalar"),  # deg: each pose placed off its nominal one, repeatably (rig.simulation.world)
     **{name: shaped(_ACCEL_SHAPES[f], "exact") for name, f in EFFECT_PARAMS.items()},
 }
 AccelOverrides = _overrides("AccelOverrides", _error_fields(AccelErrorModel, "scalar"),

@@ -91,6 +91,7 @@ class SimulatedRig:
             magnetic_field=settings.magnetic_field,
             ringing=settings.ringing,
             geometry=self.geometry,
+            pose_error_deg=float(np.ravel(self.settings.effects.get("pose_error", 0.0))[0]),
         )
         self.bus = SimulatedI2CBus(1)
         self.sensor_address = sensor_address

@@ -180,6 +180,7 @@ class WorldModel:
     magnetic_field: FieldConfig = dataclasses.field(default_factory=FieldConfig)
     ringing: RingingConfig = dataclasses.field(default_factory=RingingConfig)
     geometry: TableGeometry | None = None  # the turntable's own errors (None: a perfect table)
+    pose_error_deg: float = 0.0  # each pose placed off its nominal one by up to this (the pose_error effect)
     _last_moving_t: float = -np.inf
 
     def angles_deg_at(self, t_s: np.ndarray) -> np.ndarray:
@@ -208,16 +209,30 @@ class WorldModel:
         tx, ty = np.radians(self.table_tilt_deg)
         return rot_x(np.array([tx]))[0] @ rot_y(np.array([ty]))[0]
 
+    def placement(self, angles_deg: np.ndarray) -> np.ndarray:
+        """The ``pose_error`` effect: (N, 3, 3) world rotations that put each pose off its nominal one, as a hand
+        placement would, by angles about world x and y of at most :attr:`pose_error_deg`. A smooth function of the
+        stage angles: the same pose is placed the same way every time it is visited, poses 90 deg apart differ."""
+        a = np.radians(np.asarray(angles_deg, float))
+        ex = np.radians(self.pose_error_deg) * np.sin(a @ np.array([1.3, 2.1, 0.7]) + 0.4)
+        ey = np.radians(self.pose_error_deg) * np.sin(a @ np.array([0.9, -1.7, 2.3]) + 1.9)
+        return rot_x(ex) @ rot_y(ey)
+
     def _attitude(self, t: np.ndarray, rates: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Sensor -> world rotations (N, 3, 3), specific force (N, 3) in g0 and body rate (N, 3) rad/s."""
         if self.geometry is not None:
             angles, directions = self.angles_deg_at(t), self.directions_at(t)
             r = self.geometry.sensor_to_world(self.tilt_matrix(), angles, directions)
+            if self.pose_error_deg:
+                r = self.placement(angles) @ r
             f = self.geometry.gravity_g0() * (np.transpose(r, (0, 2, 1)) @ np.array([0.0, 0.0, 1.0]))
             return r, f, self.geometry.body_rate(angles, directions, rates)
-        ang = np.radians(self.angles_deg_at(t))
+        deg = self.angles_deg_at(t)
+        ang = np.radians(deg)
         rz, rx, ry = rot_z(ang[:, 0]), rot_x(ang[:, 1]), rot_y(ang[:, 2])
         r = self.tilt_matrix() @ rz @ rx @ ry  # (N,3,3) sensor -> world
+        if self.pose_error_deg:
+            r = self.placement(deg) @ r
         f = np.transpose(r, (0, 2, 1)) @ np.array([0.0, 0.0, 1.0])
         # body angular rate: w = Ry^T Rx^T (a1' e_z) + Ry^T (a2' e_x) + a3' e_y
         ryt = np.transpose(ry, (0, 2, 1))

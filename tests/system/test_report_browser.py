@@ -18,6 +18,7 @@ import yaml
 
 from calib.file import calibration as calfile
 from calib.file.parameters import sensor_parameters
+from rig.lab.units import shown
 from rig.lab.report import write_report
 
 from html_page import Page
@@ -75,6 +76,7 @@ def test_chromium_renders_the_verdict_and_the_parameter_table(chromium, session,
     rows = {r[0]: r for r in dom.rows["parameter-table"] if len(r) >= 4}
     cal = calfile.read(s / "calibration.yaml")
     for name, value, sigma, unit in sensor_parameters(cal):
+        value, sigma, unit = shown(value, sigma, unit)  # as a person reads it (angles in mrad, rig.lab.units)
         assert rows[name][3] == unit and abs(float(rows[name][1]) - value) <= 0.05 * sigma, name
     assert dom.images >= 1 and dom.rows["roll-pitch-table"][0][0] == "step"
     shot = tmp_path / "report.png"
