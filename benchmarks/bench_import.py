@@ -21,6 +21,10 @@ Measured (2 cores, Python 3.11, numpy 2.4, pandas 3.0; ``rig import`` of a tiny 
     200 MB    6.5 M          200.7 s    5287 MB           87.0 s     204 MB   0.41     26
     1 GB      32 M      not run (about 27 GB)            264.4 s     206 MB   0.24     26
 
+Issue 32 (the generic CSV's quasi-static detector with its adaptive threshold: one more pass over the spool
+for the noise floor, one per rest for its motion): 20 MB in 4.3 s, peak 191 MB, the same 26 steps (a quieter
+machine than the table's; 2026-11-25).
+
 The machine was shared (load 6 to 9 on 2 cores): times vary by a factor of two from run to run; the
 memory does not. Before, 1 GB was not run: 26 times the file, more than the machine's 24 GB.
 
