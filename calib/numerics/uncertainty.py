@@ -60,6 +60,29 @@ def geyer_vif(gamma: np.ndarray) -> float:
     return float(max((2.0 * np.sum(pairs) - gamma[0]) / gamma[0], MIN_VIF))
 
 
+def pooled_autocovariances(blocks: list, max_lag: int) -> np.ndarray:
+    """:func:`pooled_autocovariance` of every axis at once: blocks (n_i, A) -> (max_lag + 1, A). Blocks of one
+    length are transformed together (one FFT call per length, not one per block and axis)."""
+    n_axes = blocks[0].shape[1]
+    num = np.zeros((max_lag + 1, n_axes))
+    den = np.zeros(max_lag + 1)
+    by_length: dict[int, list] = {}
+    for b in blocks:
+        if len(b) >= 2:
+            by_length.setdefault(len(b), []).append(b)
+    for n, group in by_length.items():
+        x = np.stack(group)  # (k, n, A)
+        x = x - x.mean(axis=1, keepdims=True)
+        size = 1 << int(np.ceil(np.log2(2 * n)))
+        f = np.fft.rfft(x, size, axis=1)
+        m = min(n, max_lag + 1)
+        acov = np.fft.irfft(f * np.conj(f), size, axis=1)[:, :m]
+        num[:m] += acov.sum(axis=0)
+        den[:m] += len(group) * (n - np.arange(m))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den[:, None] > 0, num / np.maximum(den, 1)[:, None], 0.0)
+
+
 def pooled_vif(blocks: list, max_lag: int | None = None) -> np.ndarray:
     """Per-axis variance inflation factor of a mean, pooled over sample blocks (each (n_i, A))."""
     blocks = [np.asarray(b, float).reshape(len(b), -1) for b in blocks if len(b) >= 2]
@@ -67,8 +90,8 @@ def pooled_vif(blocks: list, max_lag: int | None = None) -> np.ndarray:
         return np.ones(1)
     n_min = min(len(b) for b in blocks)
     lag = max(1, n_min // 2 if max_lag is None else min(int(max_lag), n_min - 1))
-    return np.array([geyer_vif(pooled_autocovariance([b[:, j] for b in blocks], lag))
-                     for j in range(blocks[0].shape[1])])
+    gamma = pooled_autocovariances(blocks, lag)
+    return np.array([geyer_vif(gamma[:, j]) for j in range(gamma.shape[1])])
 
 
 def step_standard_errors(blocks: list, floor: float = 0.0) -> tuple[np.ndarray, np.ndarray]:

@@ -77,7 +77,7 @@ def _solve_accelerometer(session: Session, *, model: str | None, method: str | N
     if method in ("pinv", "combinations"):
         check_temperature_levels(steps, thermal, f"{session.path}: {option} {thermal}")
     accel = calib.solve(steps, model=model, method=method, thermal=thermal)
-    check_plausible(accel, steps.lsb_per_g)
+    check_plausible(accel, steps.lsb_per_g, where=session.path)
     return accel, steps, model, method
 
 
@@ -142,7 +142,7 @@ def check_temperature_levels(steps, thermal, what: str) -> None:
 SCALE_FACTOR_LIMIT = 1.5
 
 
-def check_plausible(accel, lsb_per_g: float) -> None:
+def check_plausible(accel, lsb_per_g: float, where=None) -> None:
     """Refuse a calibration whose scale factors are far from the declared sensor's nominal sensitivity:
     the data are not this accelerometer's (a gyroscope file imported as accelerometer data, another
     range), and the numbers would be wrong however well they fit."""
@@ -150,7 +150,8 @@ def check_plausible(accel, lsb_per_g: float) -> None:
     bad = ~((ratio > 1 / SCALE_FACTOR_LIMIT) & (ratio < SCALE_FACTOR_LIMIT))
     if bad.any():
         j = int(np.argmax(bad))
-        raise CalibError(f"the fitted {'xyz'[j]} scale of {accel.scale_counts_per_g[j]:.4g} counts/g is "
+        prefix = f"{where}: " if where is not None else ""  # the session the numbers came from
+        raise CalibError(f"{prefix}the fitted {'xyz'[j]} scale of {accel.scale_counts_per_g[j]:.4g} counts/g is "
                          f"{ratio[j]:.3g} times the sensor's nominal {lsb_per_g:g} counts/g: these are not this "
                          "accelerometer's data at this range (wrong file, wrong column, or another sensor)")
 

@@ -19,6 +19,8 @@ MIN_ROWS = 100
 #: characters that send a block to the exact reading: comments, line breaks of str.splitlines other than \n,
 #: the separators str.split() takes for whitespace
 _NOT_FAST = re.compile("[#\x0b\x0c\x1c-\x1f\r]")
+#: the fast path reads fields at most this far apart (bytes); a longer one is read line by line
+_MAX_FAST_FIELD = 256
 _SPACE = np.zeros(256, bool)
 _SPACE[[9, 10, 32]] = True
 
@@ -37,6 +39,8 @@ def _fast(block: str, line: int) -> tuple[np.ndarray, np.ndarray] | None:
     fields = np.searchsorted(token_starts, ends) - np.searchsorted(token_starts, starts)
     if np.any((fields != 0) & (fields != 4)):
         return None
+    if len(token_starts) and np.diff(token_starts, append=len(a)).max() > _MAX_FAST_FIELD:
+        return None  # a field (or a gap) of kilobytes: numpy would hold every field at that width (gigabytes)
     try:
         values = np.array(raw.split()).astype(np.float64).reshape(-1, 4)  # numpy's float() of each field
     except ValueError:

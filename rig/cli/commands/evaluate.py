@@ -38,11 +38,31 @@ def check_same_sensor(cal, session, path) -> None:
                          f"{float(recorded.accel_lsb_per_g):g} counts/g (another range): calibrate at that range")
 
 
+#: beyond this |f| - 1 g at rest the calibration is not of this session's data (another sensor, range or file), g
+MAX_NORM_ERROR_G = 0.1
+
+
+def check_calibration_fits(accel, session, calibration_path) -> None:
+    """A calibration evaluates only data it describes: with it, the sensor at rest reads 1 g. Counts scaled by
+    another range or another sensor's read far from that in every static step, whatever the poses say (the
+    angle errors alone would look like a placement)."""
+    steps = step_means(session, session.static_step_indices(unknown_pose=True))
+    if not len(steps.names):
+        return
+    f = accel.apply(steps.mean_counts, temp_c=steps.temp_c if accel.temperature is not None else None, t_s=steps.t_s)
+    norm = np.linalg.norm(f, axis=1)
+    if np.median(np.abs(norm - 1.0)) > MAX_NORM_ERROR_G:
+        raise UsageError(f"{session.path}: with {calibration_path} the sensor at rest reads {np.median(norm):.3g} g "
+                         f"(median of {len(norm)} static steps; 1 g expected): the calibration does not describe these "
+                         "counts (another sensor, range or scale, or edited data)")
+
+
 def run(args) -> int:
     cal = calfile.read(args.calibration)
     session = load_session(args.session)
     report_warnings("evaluate", session)
     check_same_sensor(cal, session, args.calibration)
+    check_calibration_fits(cal.accelerometer, session, args.calibration)
     if args.method == "magnitude":
         return evaluate_magnitude(cal.accelerometer, session, args.json)
     steps = session.step_means()

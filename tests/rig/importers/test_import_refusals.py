@@ -37,3 +37,15 @@ def test_a_gyroscope_file_imported_as_accelerometer_data_is_not_solved(tmp_path,
     assert "rig solve" not in out  # the import suggests no solve that would not work
     assert main(["solve", str(tmp_path / "g"), "--method", "magnitude"]) == 2
     assert "not this accelerometer's data" in capsys.readouterr().err
+
+
+def test_an_imu_tk_field_of_megabytes_is_one_line_not_a_memory_error(tmp_path, capsys):
+    """The campaign's `import: imu_tk: 3 MB field`: the fast reader held every field at the widest one's width
+    (35 GiB for 12,000 rows) and died of a MemoryError; such a block is read line by line and refused there."""
+    rows = [f"{i * 0.01:.3f} {33000 + i % 7} 33000 37000" for i in range(12000)]
+    rows[30] = "0.300 " + "7" * (3 * 1024 * 1024) + " 33000 37000"
+    src = tmp_path / "big_field.txt"
+    src.write_text("\n".join(rows) + "\n")
+    assert main(["import", "--from", "imu_tk", str(src), "-o", str(tmp_path / "out")]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == f"rig import: {src}:31: expected finite numbers (t x y z)"
