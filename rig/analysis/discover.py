@@ -20,6 +20,7 @@ from calib.discovery.effects import LIBRARY, heating_state
 from calib.errors import CalibError
 from rig.analysis import plots
 from rig.analysis.solve import SOFTWARE, sensor_section
+from rig.errors import RigInputError
 from rig.planning.kinematics import sensor_to_world
 from rig.session import Session, load_session, step_means
 
@@ -99,9 +100,57 @@ BASELINE_LABELS = {"seed": "baseline (bias, scale, triangular misalignment)",
                                 "only each step's residual along its gravity direction counts)"}
 
 
+#: the effects a calibration's thermal model of order 1, 2, 3 holds already
+THERMAL_EFFECTS = ("bias_tempco", "bias_tempco_quadratic", "bias_tempco_cubic")
+
+
+def already_modelled(session: Session) -> set[str]:
+    """The library effects the session's own calibration (``SESSION/calibration.yaml``, as the procedure solved it)
+    models already: its thermal model's orders. Empty without a calibration (or one that does not load)."""
+    try:
+        temperature = calfile.read(session.path / "calibration.yaml").accelerometer.temperature
+    except (OSError, RigInputError, CalibError):
+        return set()
+    return set(THERMAL_EFFECTS[:int(temperature.order)]) if temperature is not None else set()
+
+
+def headline_lines(session: Session, d: Discovery) -> list[str]:
+    """The verdict first, in words a technician can act on (issue 33 item 3); the statistics follow."""
+    known = already_modelled(session)
+    new = [e for e in d.effects if e.name not in known]
+    have = [e.name for e in d.effects if e.name in known]
+    lines = []
+    if not new and d.gap_closed:
+        beyond = (f" beyond {', '.join(have)}, which this session's calibration already models (its thermal model)"
+                  if have else "")
+        lines.append(f"Nothing is missing{beyond}: the model explains this session to its noise level. Nothing to "
+                     "act on.")
+    elif new:
+        names = ", ".join(e.name + (f" at {e.extra['t_jump_s']:.0f} s" if e.extra.get("t_jump_s") is not None else "")
+                          for e in new)
+        rest = ("with it the model explains the data to the noise level" if d.gap_closed else
+                "something else remains beyond it (the verdict below)")
+        lines.append(f"Missing from the model: {names}; {rest}.")
+        if any(e.name == "pose_error" for e in new):
+            lines.append(f"The poses are not where the session says: solve without them: rig solve {session.path} "
+                         "--method magnitude")
+        else:
+            lines.append(f"Add it: rig discover {session.path} -o CALIB.yaml writes the calibration with it "
+                         "(docs/discrepancy.md).")
+    else:
+        lines.append("Something remains that no effect in the library describes: the per-step table below shows "
+                     "where; look for what changed in the rig or the session.")
+    if d.aliases:
+        lines.append(f"Cannot tell apart: {'; '.join(' / '.join(g) for g in d.aliases)}: rig discover {session.path} "
+                     "--propose OUT.yaml writes the experiment that does.")
+    return lines
+
+
 def format_report(session: Session, d: Discovery) -> str:
-    """The plain-text report: localisation, effects named, gap before and after, per-step table."""
-    lines = [f"session {session.id}: {len(d.steps)} static steps, noise level {d.noise_rms_g * 1e6:.1f} ug rms "
+    """The plain-text report: the verdict in words first, then localisation, effects named, gap before and
+    after, per-step table."""
+    lines = headline_lines(session, d) + [""]
+    lines += [f"session {session.id}: {len(d.steps)} static steps, noise level {d.noise_rms_g * 1e6:.1f} ug rms "
              f"(from each step's own scatter)" + (f", bias wander {d.wander_rms_g * 1e6:.1f} ug rms between steps "
                                                   "(the sensor's stated bias stability)" if d.wander_rms_g else "")]
     label = BASELINE_LABELS[d.baseline]

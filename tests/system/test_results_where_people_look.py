@@ -53,3 +53,33 @@ def test_an_exactly_determined_fit_says_so(simulated_lab, tmp_path, monkeypatch,
     assert main(["solve", str(simulated_lab["six"]), "-o", str(tmp_path / "pinv.yaml")]) == 0
     out = capsys.readouterr().out
     assert "exactly determined" not in out and re.search(r"chi2/dof \d+\.\d\d", out)
+
+
+def test_discover_says_first_that_nothing_is_missing_beyond_what_the_calibration_models(ramp_run, capsys):
+    """Issue 33 item 3: on a thermal session `rig discover` opened with the baseline's chi2/dof and 'N of M
+    step-axis means disagree' and never said that the session's own calibration (thermal: 1) already models
+    the bias tempco it found."""
+    _, session = ramp_run
+    assert main(["discover", str(session)]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.startswith("Nothing is missing beyond bias_tempco, which this session's calibration already "
+                            "models") and first.endswith("Nothing to act on.")
+
+
+def test_discover_names_what_is_missing_first_with_the_command_that_adds_it(ramp_run, tmp_path, capsys):
+    import shutil
+
+    _, session = ramp_run
+    d = tmp_path / session.name
+    shutil.copytree(session, d)
+    (d / "calibration.yaml").unlink()  # no calibration with a thermal model beside it: the tempco is missing
+    assert main(["discover", str(d)]) == 0
+    first, second = capsys.readouterr().out.splitlines()[:2]
+    assert first.startswith("Missing from the model: bias_tempco")
+    assert second == f"Add it: rig discover {d} -o CALIB.yaml writes the calibration with it (docs/discrepancy.md)."
+
+
+def test_discover_on_a_clean_session_says_there_is_nothing_to_act_on(simulated_lab, capsys):
+    assert main(["discover", str(simulated_lab["six"])]) == 0
+    assert capsys.readouterr().out.splitlines()[0] == ("Nothing is missing: the model explains this session to its "
+                                                       "noise level. Nothing to act on.")
