@@ -20,6 +20,23 @@ of this process; the CPU time is the steadier figure on a machine shared with ot
   ``b = (u+ + u-) / 2`` and ``M = [(u+x - u-x), (u+y - u-y), (u+z - u-z)] / 2``;
 - ``--method combinations`` in process on the 26-direction session (78 steps).
 
+Measured 2026-11-25 (2 cores, Python 3.11, median of 50; one core busy with another run, so CPU time is the
+fair figure):
+
+    rig solve in process (session dir -> calibration)    10.72 ms wall /  9.50 ms CPU
+      load: load_session (manifest, samples, checks, the seal checked on the same read)   6.30 ms CPU
+      adapter: step_means                                                                  1.30 ms CPU
+      core: calib.solve (pinv, wander GLS, sigmas)                                         1.00 ms CPU
+    imucal Ferraris (pandas read_csv + calibration)     10.83 ms wall /  9.78 ms CPU  (core 0.30 ms)
+    closed-form six-position                             3.00 ms wall /  2.60 ms CPU
+    --method combinations, 26 directions                208 ms wall (core 127 ms): under the 0.5 s target
+
+Earlier the same day (the seal's second read, one FFT per block and axis, the field-count scan): 11.8 ms
+against imucal's 10.1 (load 8.2, adapter 1.9). What moved: the seal checked on the parse's read
+(rig.session.seal.SamplesCheck), the whole-file hash skipped where the chained links cover the file, one FFT
+call per block length for every axis (calib.numerics.uncertainty.pooled_autocovariances), numpy's reader
+refusing a row of another width itself (rig.session.reader._parse_whole).
+
 Copied into another checkout (``benchmarks/``), it times that checkout's code: without
 :func:`calibrate_session` it times ``solve_session`` with the file's write skipped.
 """
