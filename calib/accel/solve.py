@@ -162,7 +162,10 @@ def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> A
     lm, x, order = _model_with_thermal(steps, model, thermal, t0_c)
     designs = {a: lm.design(a, x) for a in SENSOR_AXES}
     check_model({a: (designs[a], lm.names(a), lm.terms[a]) for a in SENSOR_AXES})
-    wander = steps.bias_stability is not None
+    # the wander's covariance is dense (K, K) per axis: beyond MAX_WANDER_STEPS steps (a 10,000-step session: 0.8 GB a
+    # matrix, 24 GB with the solve's copies) the steps are weighed by their own errors and the bias sigma gets the
+    # chip's bias-stability term instead (docs/methods.md, "Step uncertainty")
+    wander = steps.bias_stability is not None and len(steps) <= MAX_WANDER_STEPS
     w_axes = axis_wander_counts2(steps) if wander else None  # (3, K, K): the same for the three axes unless a unit's
     fits = {}                                                 # own figures differ per axis (docs/noise.md)
     for j, a in enumerate(SENSOR_AXES):
@@ -173,6 +176,10 @@ def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> A
     if wander:  # the wander is in the fit's covariance already: not added to the bias sigma again
         steps = dataclasses.replace(steps, bias_stability=None)
     return assemble(steps, model, fits, order, x.t0_c, method, effects=ramp_effects(fits, steps.lsb_per_g, x.t0_c))
+
+
+#: the most steps whose bias wander is weighed as a dense (K, K) covariance (32 MB a matrix)
+MAX_WANDER_STEPS = 2000
 
 
 def wander_covariance(steps: StepMeans, sem_counts: np.ndarray, w_counts2: np.ndarray | None = None) -> np.ndarray:
