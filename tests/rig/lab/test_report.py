@@ -204,7 +204,8 @@ def test_an_imported_real_recording(datasets, tmp_path, capsys):
 
     s = import_recording("imucal", datasets / "imucal" / "annotated_session.csv", tmp_path)
     db = tmp_path / "h.sqlite"
-    assert main(["solve", str(s)]) == 0
+    # imucal's faces are placed by hand, 0.5-1.4 deg off: refused unless the poses are trusted on purpose
+    assert main(["solve", str(s), "--trust-poses"]) == 0
     capsys.readouterr()
     _, text, page = _report(s, tmp_path, db)
     ident = page.text("identity")
