@@ -17,7 +17,6 @@ imports the simulator: an effect's error-model field is the effect library's
 
 from __future__ import annotations
 
-import hashlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,7 +32,8 @@ from calib.numerics.uncertainty import pooled_vif
 from drivers.sensors.regs.mpu9150 import DLPF_BW_HZ
 from rig.analysis.discover import step_context
 from rig.analysis.twin_sensors import other_sensors
-from rig.config.rigfile import AxisConfig, load_rig_file, parse_rig_file
+from rig.analysis.uncertainty import session_rig_file
+from rig.config.rigfile import AxisConfig, parse_rig_file
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
 from rig.session import Session, load_session, step_means
@@ -303,24 +303,9 @@ def fit_chamber(session: Session, idx: list) -> tuple[float, float, float | None
 
 
 # -- the rig around the sensor ---------------------------------------------------------------------------
-def _original_rig_file(session: Session):
-    """The session's rig file when it is still there and unchanged (sha256), else None."""
-    rig = session.info.rig
-    path, digest = rig.rig_file, rig.rig_file_sha256
-    if not path or not digest:
-        return None
-    p = Path(path) if Path(path).is_absolute() else Path.cwd() / path
-    try:
-        if hashlib.sha256(p.read_bytes()).hexdigest() != digest:
-            return None
-        return load_rig_file(p)
-    except (OSError, RigInputError):
-        return None
-
-
 def rig_settings(session: Session) -> tuple[dict, str, dict, list]:
     """The twin's axes (name -> mapping), home policy, carried ``sim:`` environment and notes."""
-    original = _original_rig_file(session)
+    original = session_rig_file(session)
     axes, notes = {}, []
     recorded = session.info.rig.turntable.axes if session.info.rig.turntable is not None else None
     for name in STAGE_AXES:
