@@ -33,6 +33,23 @@ def unseal(session_dir) -> Path:
     return Path(session_dir)
 
 
+def scale_counts(session_dir, factor: float) -> Path:
+    """Multiply a session's accelerometer counts in samples.csv by ``factor`` (rounded to whole counts): data of
+    another range or scale under an unchanged manifest."""
+    path = Path(session_dir) / "samples.csv"
+    lines = path.read_text().splitlines()
+    header = lines[0].split(",")
+    cols = [header.index(c) for c in ("ax", "ay", "az")]
+    out = [lines[0]]
+    for line in lines[1:]:
+        cells = line.split(",")
+        for j in cols:
+            cells[j] = str(round(int(cells[j]) * factor))
+        out.append(",".join(cells))
+    path.write_text("\n".join(out) + "\n")
+    return Path(session_dir)
+
+
 def pytest_configure(config):
     """Every solve records into a calibration history (docs/history.md): the tests' go into a
     database of their own, never the user's (subprocesses inherit the variable). Simulated rigs whose

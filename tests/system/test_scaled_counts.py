@@ -10,24 +10,14 @@ import pytest
 
 from rig.cli import main
 
-from conftest import unseal
+from conftest import scale_counts, unseal
 
 
 def _scaled(session, dest, factor: float):
     d = dest / f"scaled-{factor:g}"
     shutil.copytree(session, d, ignore=shutil.ignore_patterns("calibration*.yaml", "report.html"))
     unseal(d)
-    path = d / "samples.csv"
-    lines = path.read_text().splitlines()
-    header = lines[0].split(",")
-    cols = [header.index(c) for c in ("ax", "ay", "az")]
-    out = [lines[0]]
-    for line in lines[1:]:
-        cells = line.split(",")
-        for j in cols:
-            cells[j] = str(round(int(cells[j]) * factor))
-        out.append(",".join(cells))
-    path.write_text("\n".join(out) + "\n")
+    scale_counts(d, factor)
     return d
 
 

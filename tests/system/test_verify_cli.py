@@ -16,7 +16,7 @@ import yaml
 
 from rig.cli import main
 
-from conftest import PROCEDURES
+from conftest import PROCEDURES, scale_counts
 
 
 @pytest.fixture(scope="module")
@@ -42,20 +42,6 @@ def session(recorded, tmp_path, monkeypatch):
     return d
 
 
-def _scale(d, factor=1.10):
-    path = d / "samples.csv"
-    lines = path.read_text().splitlines()
-    header = lines[0].split(",")
-    cols = [header.index(c) for c in ("ax", "ay", "az")]
-    out = [lines[0]]
-    for line in lines[1:]:
-        cells = line.split(",")
-        for j in cols:
-            cells[j] = str(round(int(cells[j]) * factor))
-        out.append(",".join(cells))
-    path.write_text("\n".join(out) + "\n")
-
-
 def _rig(capsys, *args):
     code = main([str(a) for a in args])
     out, err = capsys.readouterr()
@@ -77,7 +63,7 @@ def test_a_run_is_sealed_and_verifies(session, capsys):
 def test_counts_scaled_by_1_10_are_named_and_refused_by_every_command(session, capsys, tmp_path):
     cal = tmp_path / "before.yaml"
     shutil.copy(session / "calibration.yaml", cal)
-    _scale(session)
+    scale_counts(session, 1.10)
     code, out, err = _rig(capsys, "verify", session)
     line = _one_line(err, "verify")
     assert code == 2 and out == "" and f"{session / 'samples.csv'}:2: step 1 (index 0 in samples.csv): " in line
@@ -91,7 +77,7 @@ def test_counts_scaled_by_1_10_are_named_and_refused_by_every_command(session, c
 
 
 def test_rig_unsealed_solves_with_a_warning_and_marks_what_it_writes(session, capsys, tmp_path, monkeypatch):
-    _scale(session)
+    scale_counts(session, 1.10)
     monkeypatch.setenv("RIG_UNSEALED", "1")
     code, out, err = _rig(capsys, "solve", session, "-o", tmp_path / "c.yaml")
     assert code == 0, err

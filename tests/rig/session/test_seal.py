@@ -19,7 +19,7 @@ from rig.session import SessionManifest, SessionWriter, load_session
 from rig.session.seal import BROKEN_MARK, SealBroken, seal_digest, seal_session, verify_session
 from rig.workflow.conclude import conclude
 
-from conftest import PROCEDURES
+from conftest import PROCEDURES, scale_counts
 
 FACES = [[0, 0, 1], [1, 0, 0], [0, 0, -1], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]
 N = 300
@@ -70,20 +70,6 @@ def _doc(d) -> dict:
     return yaml.safe_load((d / "session.yaml").read_text())
 
 
-def _scale_counts(d, factor: float) -> None:
-    path = d / "samples.csv"
-    lines = path.read_text().splitlines()
-    header = lines[0].split(",")
-    cols = [header.index(c) for c in ("ax", "ay", "az")]
-    out = [lines[0]]
-    for line in lines[1:]:
-        cells = line.split(",")
-        for j in cols:
-            cells[j] = str(round(int(cells[j]) * factor))
-        out.append(",".join(cells))
-    path.write_text("\n".join(out) + "\n")
-
-
 def _rewrite_manifest(d, change) -> None:
     """Change a field in session.yaml's text (the seal stays as it was)."""
     path = d / "session.yaml"
@@ -117,7 +103,7 @@ def test_a_completed_session_is_sealed_and_each_step_chained_over_its_rows(seale
 
 
 def test_counts_scaled_by_1_10_are_refused_naming_samples_csv_and_step_1(copy):
-    _scale_counts(copy, 1.10)
+    scale_counts(copy, 1.10)
     with pytest.raises(SealBroken) as exc:
         verify_session(copy)
     assert (exc.value.file, exc.value.key, exc.value.line) == ("samples.csv", "step 1 (index 0 in samples.csv)", 2)
@@ -211,7 +197,7 @@ def test_a_changed_seal_is_named(copy):
 
 
 def test_rig_unsealed_loads_a_broken_session_with_a_warning_and_marks_it(copy, monkeypatch):
-    _scale_counts(copy, 1.10)
+    scale_counts(copy, 1.10)
     monkeypatch.setenv("RIG_UNSEALED", "1")
     s = load_session(copy)
     assert s.id == "six" + BROKEN_MARK and s.info.id.endswith(".SEAL-BROKEN")
@@ -308,7 +294,7 @@ def test_rows_recorded_before_the_seal_get_it(tmp_path, monkeypatch):
 
 def test_a_broken_seal_analysed_under_rig_unsealed_is_marked_in_the_history_and_the_calibration(copy, tmp_path,
                                                                                                    monkeypatch):
-    _scale_counts(copy, 1.10)
+    scale_counts(copy, 1.10)
     monkeypatch.setenv("RIG_UNSEALED", "1")
     db = tmp_path / "h.sqlite"
     out = conclude(load_session(copy), out=tmp_path / "cal.yaml", history=db, report=False)
