@@ -71,7 +71,8 @@ class Adxl345Model(I2CDevice):
         return (np.asarray(counts, np.int64) << justify_shift(self.regs[DATA_FORMAT])).astype("<i2").tobytes()
 
     def _catch_up(self) -> None:
-        s = self.sampler.catch_up(keep_last=FIFO_DEPTH + 2)
+        # in bypass mode (no FIFO) only the newest sample is ever seen; the ones before it are only counted
+        s = self.sampler.catch_up(keep_last=FIFO_DEPTH + 2 if self.regs[FIFO_CTL] >> 6 else 1)
         if s is None:
             return
         t = s["t_s"]

@@ -155,13 +155,16 @@ def test_a_target_the_measured_noise_puts_out_of_reach_stops_at_the_first_pose_w
 
 
 def test_a_time_cap_a_little_short_of_the_target_is_respected_and_the_shortfall_said(make_rig, tmp_path):
-    eng, writer = start(target_procedure("{attitude_error_deg: 0.03, max_seconds: 90}"), make_rig(), tmp_path / "a")
+    # seed 2: the first pose's first block estimates the noise within REFUSE_FACTOR of what the whole run
+    # finds; for 3 of seeds 1-8 the estimate of 0.5 s of data is pessimistic enough that the first look
+    # refuses the cap instead (that path is the test above)
+    eng, writer = start(target_procedure("{attitude_error_deg: 0.03, max_seconds: 90}"), make_rig(seed=2), tmp_path / "a")
     eng.prepare(resuming=False)
     eng.run()
     needed = eng.session_time()
     cap = round(needed - 1.5, 2)
     operator = Recorder()
-    eng, writer = start(target_procedure(f"{{attitude_error_deg: 0.03, max_seconds: {cap}}}"), make_rig(),
+    eng, writer = start(target_procedure(f"{{attitude_error_deg: 0.03, max_seconds: {cap}}}"), make_rig(seed=2),
                         tmp_path / "b", operator)
     eng.prepare(resuming=False)
     eng.run()
