@@ -50,6 +50,29 @@ def scale_counts(session_dir, factor: float) -> Path:
     return Path(session_dir)
 
 
+#: the test modules whose set-up records many simulated sessions (tens of seconds each, measured with
+#: ``--durations``), in falling cost. ``pytest -n auto --dist loadscope`` hands whole modules (and classes) to
+#: the workers in collection order; collected alphabetically, tests/system came last and its long modules
+#: made a tail in which one worker ran alone (111 s of 594 idle on 2 workers). Scheduled first, the short
+#: modules fill the gaps at the end (issue 26).
+HEAVY_FIRST = ("system/test_discover.py", "system/test_adversarial_smoke.py", "system/test_discover_new_effects.py",
+               "system/test_golden.py", "system/test_twin_compare.py", "system/test_gyro_mag_rig.py",
+               "rig/importers/test_import_streaming.py", "system/test_twin_sensors.py", "system/test_hardware_path.py",
+               "calib/test_gyro_mag_uncertainty.py", "system/test_discover_propose.py")
+
+
+def pytest_collection_modifyitems(config, items):
+    """The heavy modules first (:data:`HEAVY_FIRST`), then the other system tests, then the rest, each in
+    its collected order (a stable sort: the tests of a module keep theirs)."""
+    def rank(item) -> int:
+        path = Path(str(item.fspath)).as_posix()
+        for i, name in enumerate(HEAVY_FIRST):
+            if path.endswith("tests/" + name):
+                return i
+        return len(HEAVY_FIRST) + (0 if "/tests/system/" in path else 1)
+    items.sort(key=rank)
+
+
 def pytest_configure(config):
     """Every solve records into a calibration history (docs/history.md): the tests' go into a
     database of their own, never the user's (subprocesses inherit the variable). Simulated rigs whose
