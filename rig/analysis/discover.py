@@ -146,9 +146,14 @@ def headline_lines(session: Session, d: Discovery) -> list[str]:
     return lines
 
 
-def format_report(session: Session, d: Discovery) -> str:
+def format_report(session: Session, d: Discovery, *, details: bool = True) -> str:
     """The plain-text report: the verdict in words first, then localisation, effects named, gap before and
-    after, per-step table."""
+    after, per-step table. ``details`` False (the console's default, issue 33 item 3): the verdict, the effects
+    named with their estimates, what the selection warns of, the gap and the final verdict; the statistics
+    (localisation, the effects tested and not needed, smallest detectable magnitudes, the per-step table) only
+    with ``details`` (``rig discover --details``; always in ``--json`` and the report)."""
+    if not details:
+        return "\n".join(_short_report(session, d))
     lines = headline_lines(session, d) + [""]
     lines += [f"session {session.id}: {len(d.steps)} static steps, noise level {d.noise_rms_g * 1e6:.1f} ug rms "
              f"(from each step's own scatter)" + (f", bias wander {d.wander_rms_g * 1e6:.1f} ug rms between steps "
@@ -195,6 +200,22 @@ def format_report(session: Session, d: Discovery) -> str:
         cells = " ".join(f"{b * 1e6:7.0f} -> {a * 1e6:5.0f}" for b, a in zip(s.residual_before_g, s.residual_after_g))
         lines.append(f"  {s.name[:14]:<14} {temp} {leg:>4}   {cells}")
     return "\n".join(lines)
+
+
+def _short_report(session: Session, d: Discovery) -> list[str]:
+    """The console's report without ``--details``: what to act on, and where the statistics are."""
+    lines = headline_lines(session, d) + [""]
+    for e in d.effects:
+        est = ", ".join(f"{a} {_fmt(v)} +- {_fmt(s)}" for a, v, s in zip(e.axes, e.estimate, e.sigma))
+        lines.append(f"  + {e.name:<24} [{e.unit}] {est}")
+    lines += selection_lines(session, d)
+    lines.append(f"gap: {d.rms_before_g * 1e6:.1f} -> {d.rms_after_g * 1e6:.1f} ug rms "
+                 f"(noise {d.noise_rms_g * 1e6:.1f} ug), chi2/dof {d.chi2_per_dof_before:.2f} -> "
+                 f"{d.chi2_per_dof_after:.2f}")
+    lines += verdict_lines(d)
+    lines.append(f"the statistics (where the data disagree, effects tested and not needed, detectable magnitudes, "
+                 f"the per-step table): rig discover {session.path} --details (or --json)")
+    return lines
 
 
 def selection_lines(session: Session, d: Discovery) -> list[str]:

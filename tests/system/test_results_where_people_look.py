@@ -4,6 +4,7 @@ an exactly determined fit says so instead of a chi2/dof of 0.00."""
 
 from __future__ import annotations
 
+import json
 import re
 
 import pytest
@@ -83,3 +84,24 @@ def test_discover_on_a_clean_session_says_there_is_nothing_to_act_on(simulated_l
     assert main(["discover", str(simulated_lab["six"])]) == 0
     assert capsys.readouterr().out.splitlines()[0] == ("Nothing is missing: the model explains this session to its "
                                                        "noise level. Nothing to act on.")
+
+
+def test_discover_keeps_its_statistics_behind_details_on_the_console(simulated_lab, capsys):
+    """Issue 33 item 3: the console shows the verdict, what was named and the gap; the statistics (tested and not
+    needed, detectable magnitudes, the per-step table) only with --details; --json always has them."""
+    six = str(simulated_lab["six"])
+    assert main(["discover", six]) == 0
+    short = capsys.readouterr().out
+    assert main(["discover", six, "--details"]) == 0
+    full = capsys.readouterr().out
+    assert short.splitlines()[0] == full.splitlines()[0]
+    for statistic in ("per step (residual, ug; before -> after):", "smallest detectable magnitude per candidate",
+                      "where the model and the data disagree:"):
+        assert statistic in full and statistic not in short
+    assert "gap: " in short and "verdict: " in short
+    assert short.splitlines()[-1] == (f"the statistics (where the data disagree, effects tested and not needed, "
+                                      f"detectable magnitudes, the per-step table): rig discover {six} --details "
+                                      "(or --json)")
+    assert main(["discover", six, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["observability"] and doc["steps"]

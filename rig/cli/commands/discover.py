@@ -18,6 +18,9 @@ def add_parser(sub) -> None:
     dc = sub.add_parser("discover", help="find where the model and the data disagree; name the missing effect")
     dc.add_argument("session")
     dc.add_argument("--json", action="store_true", help="print the rig-discover/5 JSON (docs/discrepancy.md) instead of the report")
+    dc.add_argument("--details", action="store_true",
+                    help="print the statistics too: where the data disagree, the effects tested and not needed, "
+                         "the smallest detectable magnitudes, the per-step table (always in --json and the report)")
     dc.add_argument("--plot", metavar="FILE.png", default=None,
                     help="residuals before/after, by pose and temperature (a directory: written inside it)")
     dc.add_argument("-o", "--output", metavar="CALIB.yaml", default=None,
@@ -74,7 +77,7 @@ def run(args) -> int:
     if args.json:
         print(json.dumps({**d.to_json(), **extra}, indent=2, default=json_default))
     else:
-        print(dsc.format_report(session, d))
+        print(dsc.format_report(session, d, details=args.details))
         for k, v in extra.items():
             print(f"{k}: {v}")
     return EXIT_OK
