@@ -137,9 +137,11 @@ def _effect_lines(effects) -> list[str]:
 
 
 def _gyroscope_line(section) -> str:
+    """The gyroscope's result in the calibration file's units, as ``rig history`` and ``rig report`` show it (issue
+    33 item 4: one unit per quantity; the bias was printed in deg/s here and in counts there)."""
     g = section if isinstance(section, GyroCalibration) else GyroCalibration.from_dict(section)
-    b = np.asarray(g.bias_counts) / g.lsb_per_dps
-    sb = np.array([g.sigma[f"b_{x}"] for x in "xyz"]) / g.lsb_per_dps
+    b = np.asarray(g.bias_counts, float)
+    sb = np.array([g.sigma[f"b_{x}"] for x in "xyz"], float)
     return (f"  gyroscope: {g.n_steps} rate steps, residual {g.residual_rms_dps:.4f} deg/s rms; bias "
-            + " ".join(f"{x} {v:+.4f}+-{e:.4f}" for x, v, e in zip("xyz", b, sb)) + " deg/s; scale "
+            + " ".join(f"{x} {v:+.2f}+-{e:.2f}" for x, v, e in zip("xyz", b, sb)) + " counts; scale "
             + " ".join(f"{v:.3f}" for v in np.asarray(g.scale_counts_per_dps)) + " counts/(deg/s)")

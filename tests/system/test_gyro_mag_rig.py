@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import re
 from pathlib import Path
 from typing import NamedTuple
 
@@ -84,6 +85,7 @@ def runs(tmp_path_factory) -> dict[str, Path]:
         proc = _run(tmp, k, p, r)
         assert proc.returncode == 0, (k, proc.stderr)
         out[k] = next((tmp / k).iterdir())
+        out[f"{k}_printed"] = proc.stdout
     out["tmp"] = tmp
     return out
 
@@ -243,3 +245,17 @@ def test_rate_steps_that_never_spin_about_z_cannot_determine_the_gyro_model(tmp_
         "  - {rate: {axis: a1, rate_deg_s: -30, seconds: 10}}\n", "")
     proc = _bad(tmp_path, text)
     assert proc.returncode == 2 and "never spin about z" in proc.stderr, proc.stderr
+
+
+def test_the_gyro_bias_is_printed_in_the_unit_the_history_and_the_report_show(runs):
+    """Issue 33 item 4: rig run printed the gyro bias in deg/s, the history and the report in counts."""
+    from calib.file.parameters import sensor_parameters
+
+    cal = calfile.read(runs["gyro"] / "calibration.yaml")
+    g = GyroCalibration.from_dict(cal.gyroscope)
+    (line,) = [x for x in runs["gyro_printed"].splitlines() if x.strip().startswith("gyroscope:")]
+    printed = dict(re.findall(r"([xyz]) ([+-]\d+\.\d+)\+-", line.split("bias ")[1].split(";")[0]))
+    assert line.split("bias ")[1].split(";")[0].endswith(" counts")
+    assert [float(printed[a]) for a in "xyz"] == pytest.approx(g.bias_counts, abs=0.006)
+    stored = {name: (value, unit) for name, value, _, unit in sensor_parameters(cal)}  # what the history keeps
+    assert [stored[f"gyro.bias_{a}"] for a in "xyz"] == [(pytest.approx(b), "counts") for b in g.bias_counts]
