@@ -63,6 +63,12 @@ DWELL_S, GAP_S = 10.0, 6.0
 CORNER_S = 5000.0
 
 
+def directions26() -> np.ndarray:
+    """The 26 face, edge and corner directions of a cube, unit vectors (procedures/tumble26.yaml's poses)."""
+    d = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1) if (i, j, k) != (0, 0, 0)], float)
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
 def draw_unit(seed: int, same_axes: bool) -> dict:
     rng = np.random.default_rng([seed, 0xB0])
     size = 1 if same_axes else 3
@@ -116,8 +122,10 @@ def main() -> int:
     ap.add_argument("--units", type=int, default=8)
     ap.add_argument("--sessions", type=int, default=100)
     ap.add_argument("--same-axes", action="store_true")
+    ap.add_argument("--ways", default="", help="comma-separated subset of family,profile,truth")
+    ap.add_argument("--faces", default="six", choices=("six", "26"), help="six faces or 26 directions")
     args = ap.parse_args()
-    f = six_faces()
+    f = six_faces() if args.faces == "six" else directions26()
     table = {"family": [], "profile": [], "truth": []}
     for u in range(args.units):
         unit = draw_unit(u, args.same_axes)
@@ -125,6 +133,8 @@ def main() -> int:
         p0, _ = param_vector(calib.solve(adapter.step_means(session(err, unit, f, 0, noise=False)), thermal="off"))
         truth = AxisStability.of(BiasStability(b, k, CORNER_S, "g") for b, k in zip(unit["B"], unit["K"]))
         ways = {"family": None, "profile": characterised(unit, 900 + u), "truth": truth}
+        if args.ways:
+            ways = {k: v for k, v in ways.items() if k in args.ways.split(",")}
         for way, stab in ways.items():
             r = ratios(err, unit, f, p0, stab, args.sessions)
             table[way].append(r)
@@ -132,6 +142,8 @@ def main() -> int:
                   f"{way:8s}: " + " ".join(f"{p} {x:.2f}" for p, x in zip(PARAMS, r)), flush=True)
     print("\nobserved scatter / reported sigma over units (min-max per parameter class; target 0.8-1.25):")
     for way, rows in table.items():
+        if not rows:
+            continue
         r = np.array(rows)
         inside = np.mean(np.all((r >= 0.8) & (r <= 1.25), axis=1))
         print(f"  {way:8s}: biases {r[:, :3].min():.2f}-{r[:, :3].max():.2f}, scales {r[:, 3:6].min():.2f}-"
