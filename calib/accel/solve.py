@@ -99,6 +99,16 @@ def solve(steps: StepMeans, *, model: str = "triangular", method: str = "pinv", 
     raise CalibError(f"unknown method {method!r} (allowed: pinv, flip, combinations, magnitude)")
 
 
+def check_poses(f_nominal_g, model: str = "triangular") -> None:
+    """Raise :class:`ObservabilityError` naming the parameters of the static ``model`` that the poses
+    ``f_nominal_g`` (K, 3) leave undetermined: what a procedure's poses can be judged by before anything
+    is recorded (temperature terms aside: they depend on the temperatures reached)."""
+    f = np.atleast_2d(np.asarray(f_nominal_g, float))
+    x = Inputs(f, None, np.zeros(len(f)))
+    lm = base_model(model)
+    check_model({a: (lm.design(a, x), lm.names(a), lm.terms[a]) for a in SENSOR_AXES})
+
+
 def _model_with_thermal(steps, model, thermal, t0_c):
     order = thermal_order(steps, thermal)
     lm = base_model(model)

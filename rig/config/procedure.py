@@ -182,6 +182,7 @@ class _Expander:
             self.fail(doc, "steps", "steps", "no pose step: nothing to capture")
         if spec.target is not None:
             self.check_target(spec, doc, steps)
+        self.check_solve_poses(spec, doc, steps)
         return Procedure(name=spec.name, description=spec.description or "", path=self.path, sensor=self.sensor,
                          dwell=spec.dwell, settle=spec.settle, order=spec.order, steps=tuple(steps),
                          solve=spec.solve, text=text, target=spec.target, accept=spec.accept,
@@ -212,6 +213,22 @@ class _Expander:
             Predictor(goal, 1.0).covariances(f, np.ones_like(f))
         except CalibError as exc:
             self.fail(doc, "steps", "steps", f"{exc}: a target needs poses that determine every parameter")
+
+    def check_solve_poses(self, spec: ProcedureDoc, doc: dict, steps: list) -> None:
+        """A procedure whose ``solve:`` trusts the poses (pinv, combinations) and whose poses cannot determine
+        the static model is refused here, before anything moves (it used to run to its end and fail in the
+        solve, after every pose and every chamber wait)."""
+        solve = spec.solve
+        poses = [s.f_nominal for s in steps if s.kind == "static" and s.f_nominal is not None]
+        if solve is None or solve.method not in ("pinv", "combinations") or not poses:
+            return
+        from calib.accel.solve import check_poses  # deferred: only for a procedure that solves
+
+        try:
+            check_poses(np.array(poses, float), solve.model)
+        except CalibError as exc:
+            self.fail(doc, "solve", "solve", f"{exc}: these poses cannot calibrate the {solve.model} model; add "
+                      "poses (the six faces determine it) or drop solve:")
 
     def check_dwell(self, dwell: Dwell, container, key, where) -> None:
         rate = self.sensor.sample_rate_hz

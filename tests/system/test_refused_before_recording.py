@@ -63,3 +63,22 @@ def test_resume_of_something_that_is_not_a_session_is_refused_and_leaves_nothing
 def test_a_procedure_and_a_resume_together_are_refused(tmp_path, capsys):
     assert main(["run", str(REPO / "procedures" / "six_position.yaml"), "--resume", str(tmp_path)]) == 2
     assert "not both" in capsys.readouterr().err
+
+
+def test_poses_that_cannot_calibrate_the_model_are_refused_before_anything_moves(tmp_path, capsys):
+    """Two faces cannot determine the scale factors of x and y nor the misalignments: the run used to capture every
+    pose (and wait out every chamber set-point) and only then fail in the solve, with no file or line."""
+    text = ("format: rig-procedure/1\nname: two\nsensor: {accel_range_g: 4, sample_rate_hz: 100}\n"
+            "dwell: {seconds: 1}\nsolve: {model: triangular, method: pinv}\nsteps:\n"
+            '  - temperature: {target_c: 35}\n  - pose: "+Z up"\n  - pose: "-Z up"\n')
+    (tmp_path / "two.yaml").write_text(text)
+    code = main(["run", str(tmp_path / "two.yaml"), "--time-scale", "0", "--yes", "--out", str(tmp_path / "s")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert err[0].startswith(f"rig run: {tmp_path / 'two.yaml'}:5: solve: ") and "k_x" in err[0] and \
+        "undetermined" in err[0] and "add poses" in err[0], err
+    assert not (tmp_path / "s").exists()
+    # without solve: the same poses are a recording, not a calibration: accepted
+    (tmp_path / "rec.yaml").write_text(text.replace("solve: {model: triangular, method: pinv}\n", ""))
+    assert main(["run", str(tmp_path / "rec.yaml"), "--time-scale", "0", "--yes", "--out", str(tmp_path / "r"),
+                 "--quiet"]) == 0

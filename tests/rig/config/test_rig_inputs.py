@@ -68,7 +68,7 @@ def test_yaml_tags_cannot_construct_python_objects():
 
 def test_repeat_expands_and_names_steps():
     text = GOOD.replace('  - pose: "-Z up"\n', '  - repeat: 3\n    steps:\n      - pose: "-Z up"\n')
-    steps = load_procedure_text(text).expanded_steps()
+    steps = load_procedure_text(text.replace("solve: {model: triangular}\n", "")).expanded_steps()  # a recording
     assert [s.name for s in steps] == ["+Z up", "r1/-Z up", "r2/-Z up", "r3/-Z up"]
     assert [s.index for s in steps] == [0, 1, 2, 3]
 
@@ -203,3 +203,12 @@ def test_a_tag_inside_a_flow_sequence_is_one_line_with_its_line_number():
     with pytest.raises(RigInputError) as exc:
         parse_rig_file(text, "r.yaml")
     assert str(exc.value).startswith("r.yaml:") and "\n" not in str(exc.value) and "tag" in str(exc.value)
+
+
+def test_a_solve_the_poses_cannot_determine_is_refused_at_load_with_its_line():
+    assert "p.yaml:8: solve: the pose set leaves k_x, alpha_yz, k_y undetermined" in _err(GOOD)
+    six = GOOD.replace('  - pose: "-Z up"\n', "".join(f'  - pose: "{f}"\n' for f in ("-Z up", "+X up", "-X up", "+Y up",
+                                                                                      "-Y up")))
+    assert [s.name for s in load_procedure_text(six).expanded_steps()][-1] == "-Y up"
+    assert "the pose set leaves m_xy" in _err(six.replace("model: triangular", "model: full")
+                                              .replace('  - pose: "+Y up"\n  - pose: "-Y up"\n', ""))
