@@ -265,7 +265,23 @@ def compare_sessions(path_a, path_b, *, false_alarm: float = 0.01, calibrated: b
 
 
 # -- what a technician reads first ---------------------------------------------------------------------------
-DETAILS_HINT = "the statistics behind this: rig compare A B --details (every step, its z, where); --json has all"
+def details_hint(c: Comparison) -> str:
+    """Where the statistics are, with the command as the user would type it again."""
+    return (f"A is {c.a.session.path}, B is {c.b.session.path}; the statistics behind this: rig compare "
+            f"{c.a.session.path} {c.b.session.path} --details (every step, its z, where); --json has all")
+
+
+#: the differences are called scale-like when their rms z on the axes carrying gravity exceeds this many times
+#: that on the other axes (taken as at least 1: the noise level)
+SCALE_LIKE_RATIO = 3.0
+
+
+def scale_like(c: Comparison) -> bool:
+    """The differences sit on the axes carrying gravity, not on the others: a scale factor (or the range) changed,
+    which no step in time or single event describes as well (a six-position run's loaded axes change with the pose,
+    so a time factor can fit them too; the load pattern is the more specific evidence)."""
+    load = c.by_load()
+    return bool(load and len(load) == 2 and load["loaded"] > SCALE_LIKE_RATIO * max(load["unloaded"], 1.0))
 
 
 def _structure_sentences(c: Comparison) -> list[str]:
@@ -290,6 +306,9 @@ def headline(c: Comparison) -> list[str]:
     where = (f"at {len(w['steps'])} of {len(c.indices)} steps (axes {', '.join(w['axes'])})" if w["cells"]
              else "overall, though no single step stands out")
     look = _structure_sentences(c)
+    if scale_like(c):
+        look = ["the difference is on the axes carrying gravity only (scale-like): look for a changed range or "
+                "sensitivity setting, a different temperature, or a sensor that was damaged or replaced"]
     first = f"A and B differ beyond the noise {where}" + (f": {look[0]}." if look else ".")
     return [first, "Re-run the procedure to see whether it repeats before acting on it."] + twin
 
@@ -298,7 +317,7 @@ def format_report(c: Comparison, details: bool = False) -> str:
     """The headline (:func:`headline`); with ``details`` then what was compared, the per-step table, the verdict
     and where."""
     if not details:
-        return "\n".join(headline(c) + [DETAILS_HINT])
+        return "\n".join(headline(c) + [details_hint(c)])
     return "\n".join(headline(c) + ["", _statistics(c)])
 
 

@@ -34,8 +34,11 @@ def sessions(tmp_path_factory):
     doc["sim"]["effects"] = {"bias_jump": [3e-3, 0.0, 0.0], "bias_jump_t_s": 45.0}  # 3 mg on x at 45 s
     jumped = tmp / "jump-rig.yaml"
     jumped.write_text(yaml.safe_dump(doc))
+    doc["sim"]["effects"] = {"scale_nonlinearity": 2e-3}  # 2 mg per g^2 on every axis: on the loaded axes only
+    scaled = tmp / "scale-rig.yaml"
+    scaled.write_text(yaml.safe_dump(doc))
     return {"a3": _run(tmp / "a3", 3), "b3": _run(tmp / "b3", 3), "c7": _run(tmp / "c7", 7),
-            "jump3": _run(tmp / "j3", 3, jumped)}
+            "jump3": _run(tmp / "j3", 3, jumped), "scale3": _run(tmp / "s3", 3, scaled)}
 
 
 def _compare(capsys, a, b, *extra) -> list[str]:
@@ -96,3 +99,14 @@ def test_the_evidence_for_two_units(tmp_path):
     assert not units_of(_manifest("a", serial="SN1"), _manifest("b", serial="SN1")).different
     assert not units_of(_manifest("a", serial="SN1"), _manifest("b")).different  # cannot tell: nothing said
     assert units_of(_manifest("a"), _manifest("b", model="ADXL345")).why == "sensor models MPU-9150 and ADXL345"
+
+
+def test_a_difference_on_the_loaded_axes_only_is_called_scale_like_not_a_shock(sessions, capsys):
+    """The walkthrough's case: a scale change was headlined 'step in time near 47 s: look for a sudden change (a shock
+    ...)' while the statistics said the difference sat on the axes carrying gravity only."""
+    lines = _compare(capsys, sessions["a3"], sessions["scale3"])
+    assert "scale-like" in lines[0] and "shock" not in lines[0] and "step in time" not in lines[0], lines
+    assert lines[-1].startswith(f"A is {sessions['a3']}, B is {sessions['scale3']}; the statistics behind this: "
+                                f"rig compare {sessions['a3']} {sessions['scale3']} --details")
+    jump = _compare(capsys, sessions["a3"], sessions["jump3"])  # a bias jump is on every axis alike: not scale-like
+    assert "scale-like" not in jump[0]
