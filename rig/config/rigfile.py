@@ -5,7 +5,7 @@ See docs/rig-file.md. ``rigs/sim.yaml`` is the embedded simulated rig. The schem
 :class:`SensorConfig` and :class:`SiteConfig` are frozen pydantic dataclasses, so they are both
 the schema of their mapping and the values the rest of the code reads (``dataclasses.replace``
 works and re-validates). Sections owned by others (``sim:``, ``faults:``) are validated through
-:mod:`rig.config.sections`.
+:mod:`rig.config.sections`; the optional ``fixture:`` (many sensor slots) by :mod:`rig.config.fixture`.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from calib.file.fields import Strict, check_mapping, choice, fail, flag, label, 
 from calib.numerics import gravity as gravity_
 from drivers.sensors.chips import CHIPS, SENSOR_MODELS
 from drivers.ximc.stage_spec import MR191
+from rig.config.fixture import FixtureConfig
 from rig.config.sections import SectionUnavailable, section
 from rig.config.validate import validate_document, validate_located
 from rig.config.yamlload import read_source
@@ -202,6 +203,7 @@ class RigFileDoc(Strict):
     sensor: SensorConfig
     site: Optional[SiteConfig] = None
     gravity: Optional[GravityConfig] = None
+    fixture: Optional[FixtureConfig] = None
     sim: Optional[dict] = None
     faults: Optional[dict] = None
 
@@ -231,6 +233,8 @@ class RigFile:
     #: local gravity as the calibration assumes it, with its standard uncertainty (default: standard gravity)
     gravity: gravity_.Gravity = field(default_factory=gravity_.standard_gravity)
     sections: dict[str, Any] = field(default_factory=dict, repr=False)  # section name -> validated model
+    #: the sensor slots of a multi-sensor fixture (docs/fixture.md); None: the one ``sensor``
+    fixture: FixtureConfig | None = None
 
     @property
     def is_simulated(self) -> bool:
@@ -254,7 +258,7 @@ def parse_rig_file(text: str, path: str = "<rig>") -> RigFile:
     dumped = {k: m.model_dump(exclude_unset=True, by_alias=True) for k, m in sections.items()}
     return RigFile(path=path, name=spec.name if spec.name is not None else Path(path).stem, kind=spec.kind,
                    home_policy=spec.home, axes=axes, sensor=sensor, sim=dumped.get("sim"),
-                   faults=dumped.get("faults"), site=spec.site, sections=sections,
+                   faults=dumped.get("faults"), site=spec.site, sections=sections, fixture=spec.fixture,
                    gravity=spec.gravity.resolve() if spec.gravity is not None else gravity_.standard_gravity())
 
 
