@@ -266,6 +266,24 @@ LIBRARY: dict[str, Effect] = {e.name: e for e in [
            labels=_placements),
 ]}
 
+#: the largest |parameter| of each effect a MEMS accelerometer plausibly has, in the effect's unit: about ten times
+#: the worst datasheet figures of the class (MPU-9150, ADXL345: zero-g tempco <= 1.5 mg/C, sensitivity tempco
+#: <= 0.02 %/C, nonlinearity <= 0.5 % of full scale, cross-axis <= 2 %). An estimate beyond it says the effect is
+#: not what the data hold: among aliases, a plausible explanation is preferred to an implausible one (a scale
+#: change named as a scale tempco of 300 %/C from a session whose temperature moved by a fraction of a degree)
+PLAUSIBLE_MAX = {"bias_tempco": 1e-2, "bias_tempco_quadratic": 1e-3, "bias_tempco_cubic": 1e-4, "scale_tempco": 1e-2,
+                 "scale_nonlinearity": 5e-2, "cross_axis_nonlinearity": 5e-2, "full_misalignment": 0.1,
+                 "table_tilt": 5.0, "bias_drift": 1e-4, "thermal_hysteresis": 5e-2, "bias_jump": 0.5}
+
+
+def plausible(name: str, estimate) -> bool:
+    """Whether every parameter of ``name``'s ``estimate`` (its unit) is within :data:`PLAUSIBLE_MAX` (no bound:
+    always)."""
+    bound = PLAUSIBLE_MAX.get(name)
+    est = np.asarray(estimate, float)
+    return bound is None or not np.any(np.abs(est[np.isfinite(est)]) > bound)
+
+
 #: extra fields an effect entry of a calibration file carries, per effect
 EXTRA_FIELDS = {"bias_tempco": ("t0_c",), "bias_tempco_quadratic": ("t0_c",), "scale_tempco": ("t0_c",),
                 "bias_drift": ("t_ref_s",), "thermal_hysteresis": ("band_c",), "bias_tempco_cubic": ("t0_c",),

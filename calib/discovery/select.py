@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calib.discovery.effects import LIBRARY
+from calib.discovery.effects import LIBRARY, plausible
 from calib.discovery.problem import Problem, scan_jump
 
 TEMP_EFFECTS = ("bias_tempco_quadratic", "bias_tempco_cubic")  # enter only after bias_tempco
@@ -100,7 +100,8 @@ def select(prob: Problem, observable: list, alpha: float, fit) -> tuple[list, li
     """Forward stepwise selection (Bonferroni over the candidates left), aliases, then backward elimination.
 
     When the most significant candidate has aliases (neither it nor they significant once the other
-    is in), :func:`preference` decides which enters; the group is reported, that one first.
+    is in), a physically plausible estimate (:func:`calib.discovery.effects.plausible`) and then
+    :func:`preference` decide which enters; the group is reported, that one first.
     """
     selected: list[str] = []
     aliases: list[list[str]] = []
@@ -120,11 +121,21 @@ def select(prob: Problem, observable: list, alpha: float, fit) -> tuple[list, li
             break
         group = [best] + [n for n in left if n != best and pvals[n][1] < thr and aliased(prob, fit, selected,
                                                                                         best, n, thr)]
-        chosen = min(group, key=lambda n: preference(prob, n))
+        chosen = min(group, key=lambda n: (not plausible(n, estimate(fit(selected + [n]), n, len(prob.labels[n]))),
+                                           *preference(prob, n)))
         if len(group) > 1:
             aliases.append([chosen] + [n for n in group if n != chosen])
         selected.append(chosen)
     return backward(prob, selected, alpha, fit), aliases
+
+
+def estimate(fit, name: str, n_params: int) -> np.ndarray:
+    """Effect ``name``'s parameters in ``fit`` (its unit; NaN where not determined)."""
+    est = np.full(n_params, np.nan)
+    for col, (blk, idx) in enumerate(fit.names):
+        if blk == name and idx < n_params:
+            est[idx] = fit.theta[col]
+    return est
 
 
 def aliased(prob: Problem, fit, selected: list, best: str, n: str, thr: float) -> bool:

@@ -17,6 +17,7 @@ import numpy as np
 from drivers.sensors.base import SensorSettings
 from drivers.sensors.chips import CHIPS
 from calib.accel.predict import Predictor
+from calib.accel.solve import check_poses
 from calib.errors import CalibError
 from rig.config.procedure_model import (ACCEL_RANGES_G, ADXL345_RATES_HZ, FORMAT, GYRO_RANGES_DPS, METHODS, AcceptSpec,
                                          MAX_STEPS, MIN_DWELL_SAMPLES, MODELS, RATE_MAX_DEG_S, STEPS_LIMIT,
@@ -222,8 +223,6 @@ class _Expander:
         poses = [s.f_nominal for s in steps if s.kind == "static" and s.f_nominal is not None]
         if solve is None or solve.method not in ("pinv", "combinations") or not poses:
             return
-        from calib.accel.solve import check_poses  # deferred: only for a procedure that solves
-
         try:
             check_poses(np.array(poses, float), solve.model)
         except CalibError as exc:
