@@ -1,4 +1,4 @@
-"""I2C sensor drivers (MPU-9150, ADXL345, AK8975); their simulators live in ``drivers.sensors.sim``.
+"""I2C sensor drivers (MPU-9150, ADXL345, AK8975) and the TCA9548A I2C switch (``tca9548a``); their simulators live in ``drivers.sensors.sim``.
 
 Layout: ``base`` (the ``AccelSensor`` interface, errors, sample blocks), ``regs/`` (register maps
 and scales, shared with the simulators), one driver module per chip, ``chips`` (the registry:

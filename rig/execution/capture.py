@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.sensors.base import SampleBlock
+from rig.config.bus_budget import POLL_FIFO_SHARE, POLL_MAX_S  # one poll rule: the capture's and the bus budget's
 from rig.execution.context import RunContext, RunError
 from rig.execution.settle import SettleDetector, SettleRule
 
@@ -59,10 +60,6 @@ def lost_samples(ctx: RunContext, step, since: tuple[int, int], *, last_attempt:
     resume = f"rig run --resume {where}" + (f" {why.resume_options}" if why.resume_options else "")
     raise SamplesLost(f"step {step.index + 1} ({step.name}): {what}; run stopped (motors stopped, session kept)"
                       + (f"; {why.advice}" if why.advice else "") + f"; resume with: {resume}")
-
-
-#: the share of its FIFO a sensor fills between two reads of the host, and the longest wait between reads, s
-POLL_FIFO_SHARE, POLL_MAX_S = 0.25, 0.25
 
 
 def poll_interval_s(sensor) -> float:
