@@ -23,12 +23,15 @@ Contributions:
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Callable
 
 import numpy as np
 
 from calib.accel.inputs import StepMeans
 from calib.accel.result import MISALIGNMENT_NAMES, AccelCalibration
+from calib.errors import CalibError
+from calib.numerics.design import SENSOR_AXES, AxisFit, Inputs
 from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, combined, expanded
 from calib.accel.rig_propagation import EPS_DEG, GROUPS, pose_shift, rig_parameters, stage_angles_deg
 from calib.numerics.gravity import G0_M_S2, Gravity
@@ -110,9 +113,14 @@ def _rss(responses: list[dict[str, float]], u: float, base: dict[str, float]) ->
     return {n: float(u * np.sqrt(sum(r[n] ** 2 for r in responses))) for n in base}
 
 
-def rig_contributions(resolve: Resolve, steps: StepMeans, base: dict[str, float], rig: RigErrors) -> list:
+def rig_contributions(resolve: Resolve, steps: StepMeans, base: dict[str, float], rig: RigErrors,
+                      linear: "LinearSolve | None" = None) -> list:
     """One contribution per geometry error of the rig (:mod:`calib.accel.rig_propagation`): the quantities'
-    response to the poses moved as that error moves them, times its standard uncertainty."""
+    response to the poses moved as that error moves them, times its standard uncertainty. With ``linear`` (the
+    solve's linear sensitivity, :func:`linear_solve`) no re-solve: lost motion at every pose of a stage is then
+    one contribution (``lost_motion.a3@1..K``: the root sum of squares over the poses)."""
+    if linear is not None:
+        return _rig_contributions_linear(linear, steps, rig)
     angles = stage_angles_deg(steps.f_nominal_g)
     f = np.asarray(steps.f_nominal_g, float)
     out = []
@@ -124,6 +132,29 @@ def rig_contributions(resolve: Resolve, steps: StepMeans, base: dict[str, float]
         r = _response(resolve, base, moved, EPS_DEG)
         out.append(Contribution(p.name, "B", p.group, {n: abs(v) * p.u_deg for n, v in r.items()},
                                 GROUPS[p.group]))
+    return out
+
+
+def _rig_contributions_linear(linear: "LinearSolve", steps: StepMeans, rig: RigErrors) -> list:
+    angles = stage_angles_deg(steps.f_nominal_g)
+    f = np.asarray(steps.f_nominal_g, float)
+    k = len(steps)
+    per_pose = not rig.one_direction  # lost motion: one parameter per pose and stage, each row its own
+    out = []
+    for p in rig_parameters(dataclasses.replace(rig, one_direction=True), 1 if per_pose else k):
+        if p.directions is not None:  # the stage's lost motion, every pose at once (row j: pose j's own)
+            p = dataclasses.replace(p, directions=np.repeat(p.directions[:1], k, axis=0))
+        shift = pose_shift(p, angles)
+        if p.u_deg == 0 or not np.any(np.abs(shift) > 1e-12):
+            continue
+        r = linear.responses(_replace(steps, f_nominal_g=f - EPS_DEG * shift), EPS_DEG)  # (Q, K)
+        if per_pose and p.name.startswith("lost_motion."):
+            u = p.u_deg * np.sqrt(np.sum(r ** 2, axis=1))
+            name = f"{p.name}@1..{k}"
+        else:
+            u = p.u_deg * np.abs(np.sum(r, axis=1))
+            name = p.name
+        out.append(Contribution(name, "B", p.group, dict(zip(linear.names, map(float, u))), GROUPS[p.group]))
     return out
 
 
@@ -155,9 +186,11 @@ def thermometer_sensitivities(resolve: Resolve, steps: StepMeans, base: dict[str
     return out
 
 
-def contributions(cal: AccelCalibration, steps: StepMeans, resolve: Resolve, rig: RigErrors) -> list[Contribution]:
+def contributions(cal: AccelCalibration, steps: StepMeans, resolve: Resolve, rig: RigErrors,
+                  linear: "LinearSolve | None" = None) -> list[Contribution]:
     """The budget of ``cal`` (solved from ``steps``; ``resolve`` solves perturbed steps the same way), one
-    contribution per rig parameter (:func:`grouped` sums them as the file lists them)."""
+    contribution per rig parameter (:func:`grouped` sums them as the file lists them). ``linear``: the solve's
+    linear sensitivity (:func:`linear_solve`) in place of the re-solves (linear in the steps, not quadratic)."""
     base = quantities(cal)
     zero = {n: 0.0 for n in base}
     birge = birge_ratio(cal)
@@ -166,25 +199,179 @@ def contributions(cal: AccelCalibration, steps: StepMeans, resolve: Resolve, rig
         f" without its misfit scaling (Birge ratio {birge:.2f}: the rig's geometry below)" if birge > 1 else ""),
         type_a)]
     if cal.fit.method != "magnitude" and bool(np.all(steps.pose_known)):
-        out += rig_contributions(resolve, steps, base, rig)
+        out += rig_contributions(resolve, steps, base, rig, linear)
     g_rel = rig.gravity.relative_u
     u_g = {n: (abs(v) * g_rel if n.startswith(("scale", "matrix")) else 0.0) for n, v in base.items()}
     out.append(Contribution("gravity", "B", f"{rig.gravity.source}: u(g)/g = {g_rel:.3g}", u_g,
                             "normal" if rig.gravity.source == "measured" else "rectangular"))
     if cal.temperature is not None and steps.temp_c is not None:
-        out.append(Contribution("thermometer", "B", f"{rig.thermometer_u_c:g} C per step (non-repeatability)",
-                                _rss(thermometer_sensitivities(resolve, steps, base), rig.thermometer_u_c, base)))
+        if linear is not None:
+            r = linear.responses(_replace(steps, temp_c=np.asarray(steps.temp_c, float) + EPS_C), EPS_C)
+            u_t = dict(zip(linear.names, map(float, rig.thermometer_u_c * np.sqrt(np.sum(r ** 2, axis=1)))))
+        else:
+            u_t = _rss(thermometer_sensitivities(resolve, steps, base), rig.thermometer_u_c, base)
+        out.append(Contribution("thermometer", "B", f"{rig.thermometer_u_c:g} C per step (non-repeatability)", u_t))
     else:
         out.append(Contribution("thermometer", "B", "no thermal model: the biases do not depend on it", zero))
     return out
 
 
 def uncertainty_section(cal: AccelCalibration, steps: StepMeans, resolve: Resolve, rig: RigErrors,
-                        k: float = DEFAULT_K) -> dict:
+                        k: float = DEFAULT_K, linear: "LinearSolve | None" = None) -> dict:
     """``accelerometer.uncertainty``: ``U = k u_c`` in ``sigma``'s keys, ``k``, the combined standard
-    uncertainty and the ``budget`` (each contribution's standard uncertainties, same keys)."""
-    parts = grouped(contributions(cal, steps, resolve, rig), rig)
-    return {"k": float(k), **nest(expanded(parts, k), cal),
+    uncertainty and the ``budget`` (each contribution's standard uncertainties, same keys). ``linear``: the
+    solve's linear sensitivity (:func:`linear_solve`) in place of one re-solve per perturbation."""
+    parts = grouped(contributions(cal, steps, resolve, rig, linear), rig)
+    return {"k": float(k), "rig": rig.source, **nest(expanded(parts, k), cal),
             "combined_standard": nest(combined(parts), cal),
             "budget": [{"name": c.name, "type": c.type, "source": c.source, "distribution": c.distribution,
                         **nest(c.u, cal)} for c in parts]}
+
+
+# -- the solve's linear sensitivity (docs/uncertainty.md, "Cost") ------------------------------------------------
+#
+# A pose error (or a thermometer error) at step j moves row j of the solve's design D by dD_j. To first order a
+# weighted least-squares estimate moves by dtheta = -A (dD theta) + N^-1 dD^T C^-1 r, A = N^-1 D^T C^-1 its linear
+# map from the step means to the parameters, N = D^T C^-1 D (pinv, with the solve's own weights, its wander
+# covariance included); the combinations method's average of the subsets' solutions by the same rule applied to
+# every subset with its own solution and residuals (a subset's solution differs from the average by its noise,
+# which is not small on an ill-conditioned subset). Every perturbation then costs one design evaluation and a
+# (P, K) product (combinations: a pass over the subsets, at most COMBINATIONS_MAX_SUBSETS) instead of a re-solve,
+# and the per-step ones (lost motion at every pose, the thermometer at every step) all come out of the same
+# product: the budget grows linearly with the steps, not with their square.
+
+#: the methods whose solve is a fixed linear map of the step means (the linear sensitivity applies)
+LINEAR_METHODS = ("pinv", "combinations")
+
+
+@dataclasses.dataclass
+class LinearSolve:
+    """A session's solve as the linear map it is at the session's inputs (:func:`linear_solve`)."""
+
+    steps: StepMeans
+    model: str
+    method: str
+    order: int
+    t0_c: float
+    lm: object  # calib.numerics.design.LinearModel
+    designs: dict  # axis -> (K, P_a)
+    maps: dict  # axis -> (P_a, K): the step means -> the parameters
+    params: dict  # axis -> (P_a,)
+    residual_terms: dict  # axis -> (N^-1 (P_a, P_a), C^-1 r (K,)) for pinv
+    subsets: list | None  # combinations: per block (subsets (c, n), per axis (map (c, P, n), solution (c, P),
+    count: int  # residuals (c, n), N^-1 (c, P, P))) of the subsets that determine every axis; their number
+    jacobian: np.ndarray  # (Q, sum P_a): the quantities (:func:`quantities` order) per parameter
+    names: list  # the quantities' names, in the jacobian's row order
+
+    def responses(self, steps: StepMeans, eps: float) -> np.ndarray:
+        """(Q, K): the quantities' response to each step's inputs moved alone as ``steps`` moves them all (by
+        ``eps`` of the perturbation: f_nominal or temp_c), per unit of the perturbation. A perturbation common to
+        every step (a stage zero) is the sum over the columns."""
+        x = Inputs.from_steps(steps, self.t0_c)
+        cols = []
+        for j, a in enumerate(SENSOR_AXES):
+            d_design = (self.lm.design(a, x) - self.designs[a]) / eps  # (K, P): row j moved by step j alone
+            if self.subsets is not None:
+                cols.append(self._subset_responses(j, d_design))
+                continue
+            col = -self.maps[a] * (d_design @ self.params[a])[None, :]  # (P, K)
+            if self.residual_terms.get(a) is not None:
+                n_inv, c_inv_r = self.residual_terms[a]
+                col = col + n_inv @ (d_design * c_inv_r[:, None]).T
+            cols.append(col)
+        return self.jacobian @ np.vstack(cols)
+
+    def _subset_responses(self, axis: int, d_design: np.ndarray) -> np.ndarray:
+        """(P, K) of the combinations average: every subset's own first-order response, averaged."""
+        from calib.accel.combinations import _scatter_add
+        acc = np.zeros((d_design.shape[1], len(self.steps)))
+        for s, per_axis in self.subsets:
+            local, theta, res, n_inv = per_axis[axis]
+            dd = d_design[s]  # (c, n, P)
+            moved = -local * np.einsum("cnp,cp->cn", dd, theta)[:, None, :]  # (c, P, n)
+            moved += np.einsum("cpq,cnq->cpn", n_inv, dd) * res[:, None, :]
+            _scatter_add(acc, s, moved)
+        return acc / max(self.count, 1)
+
+
+def linear_solve(cal: AccelCalibration, steps: StepMeans) -> LinearSolve:
+    """The linear map of ``cal``'s solve (method pinv or combinations, its model, thermal order and t0 fixed)."""
+    from calib.accel.combinations import choose_subsets, subset_average_maps
+    from calib.accel.solve import (COMBINATIONS_MAX_SUBSETS, MAX_WANDER_STEPS, _model_with_thermal,
+                                   axis_wander_counts2, assemble, wander_covariance)
+    method = cal.fit.method.split(" ")[0].split("(")[0]
+    if method not in LINEAR_METHODS:
+        raise CalibError(f"the linear sensitivity needs a pinv or combinations solve, not {cal.fit.method!r}")
+    order = cal.temperature.order if cal.temperature is not None else 0
+    t0 = cal.temperature.t0_c if cal.temperature is not None else None
+    lm, x, order = _model_with_thermal(steps, cal.model, order if order else "off", t0)
+    designs = {a: lm.design(a, x) for a in SENSOR_AXES}
+    y = {a: np.asarray(steps.mean_counts, float)[:, j] for j, a in enumerate(SENSOR_AXES)}
+    maps, c_inv_d, blocks, count = {}, {}, None, 0
+    if method == "combinations":
+        n = max(len(lm.terms[a]) for a in SENSOR_AXES)
+        subsets, total, sampled = choose_subsets(len(steps), n, COMBINATIONS_MAX_SUBSETS, 0)
+        avg = subset_average_maps([designs[a] for a in SENSOR_AXES], subsets, total, sampled)
+        maps = {a: avg.maps[j] for j, a in enumerate(SENSOR_AXES)}
+        blocks, count = _subset_blocks([designs[a] for a in SENSOR_AXES], [y[a] for a in SENSOR_AXES], subsets)
+    else:
+        wander = steps.bias_stability is not None and len(steps) <= MAX_WANDER_STEPS  # the solve's own weights
+        w_axes = axis_wander_counts2(steps) if wander else None
+        c_inv_y = {}
+        for j, a in enumerate(SENSOR_AXES):  # one factorisation of C per axis: C^-1 [D, y]
+            sem = np.asarray(steps.sem_counts, float)[:, j]
+            d = designs[a]
+            both = np.column_stack([d, y[a]])
+            both = (np.linalg.solve(wander_covariance(steps, sem, w_axes[j]), both) if wander
+                    else both / sem[:, None] ** 2)
+            c_inv_d[a], c_inv_y[a] = both[:, :-1], both[:, -1]
+            maps[a] = np.linalg.solve(d.T @ c_inv_d[a], c_inv_d[a].T)
+    params = {a: maps[a] @ y[a] for a in SENSOR_AXES}
+    residual_terms = {}
+    for a in c_inv_d:  # C^-1 r = C^-1 y - C^-1 D theta
+        residual_terms[a] = (np.linalg.inv(designs[a].T @ c_inv_d[a]), c_inv_y[a] - c_inv_d[a] @ params[a])
+
+    def q_of(p: dict) -> dict:
+        fits = {a: AxisFit(lm.names(a), p[a], np.zeros((len(p[a]),) * 2), np.zeros((len(p[a]),) * 2),
+                           np.zeros(len(steps)), 0.0, 1, False) for a in SENSOR_AXES}
+        return quantities(assemble(steps, cal.model, fits, order, x.t0_c, method))
+
+    base = q_of(params)
+    names = list(base)
+    columns = []
+    for a in SENSOR_AXES:  # the quantities are smooth functions of the parameters (the angles are ratios)
+        for i in range(len(params[a])):
+            h = 1e-7 * max(abs(params[a][i]), 1.0)
+            moved = {b: params[b].copy() for b in SENSOR_AXES}
+            moved[a][i] += h
+            q = q_of(moved)
+            columns.append([(q[n] - base[n]) / h for n in names])
+    return LinearSolve(steps, cal.model, method, order, x.t0_c, lm, designs, maps, params, residual_terms, blocks,
+                       count, np.array(columns).T, names)
+
+
+def _subset_blocks(designs: list, data: list, subsets: np.ndarray) -> tuple[list, int]:
+    """The combinations method's subsets that determine every axis (as ``subset_average_maps`` keeps them), each
+    with its map, its own solution, residuals and N^-1 per axis: what :meth:`LinearSolve.responses` needs."""
+    from calib.accel.combinations import BLOCK, pinv_batch
+    out, count = [], 0
+    for start in range(0, len(subsets), BLOCK):
+        s = subsets[start:start + BLOCK]
+        locals_, ok = [], np.ones(len(s), bool)
+        for d in designs:
+            local, good = pinv_batch(d[s])
+            locals_.append(local)
+            ok &= good
+        if not ok.any():
+            continue
+        s = s[ok]
+        per_axis = []
+        for d, y, local in zip(designs, data, locals_):
+            local, ds, ys = local[ok], d[s], np.asarray(y, float)[s]
+            theta = np.einsum("cpn,cn->cp", local, ys)
+            res = ys - np.einsum("cnp,cp->cn", ds, theta)
+            n_inv = np.linalg.pinv(np.swapaxes(ds, 1, 2) @ ds)
+            per_axis.append((local, theta, res, n_inv))
+        out.append((s, per_axis))
+        count += len(s)
+    return out, count

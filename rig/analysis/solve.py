@@ -17,6 +17,7 @@ from calib.mag import solve_mag_ellipsoid, solve_mag_positions
 from rig import __version__
 from rig.analysis.coverage import session_coverage
 from rig.analysis.target import calibration_record
+from rig.analysis.uncertainty import session_rig_errors, with_budget
 from rig.session import Session, load_session, mag_step_means, rate_step_means, step_means
 
 SOFTWARE = {"name": "rig-calibration", "version": __version__}
@@ -26,7 +27,10 @@ def calibrate_session(session_dir, *, model: str | None = None, method: str | No
                       session=None) -> calib.CalibrationFile:
     """The calibration of a recorded session, in memory (:func:`rig.workflow.conclude.conclude` judges and writes it):
     the session loaded (or ``session``, loaded already), the procedure's ``solve:`` settings unless
-    overridden, the accelerometer solved, the gyroscope and magnetometer sections when recorded."""
+    overridden, the accelerometer solved, the gyroscope and magnetometer sections when recorded. A pose
+    method's accelerometer (pinv, combinations) carries its uncertainty budget (``accelerometer.uncertainty``,
+    :mod:`rig.analysis.uncertainty`: the session's rig file when it is there unchanged, else the turntable's
+    datasheet classes, the budget saying which); the magnitude method's has none (no poses to be wrong)."""
     session = session or load_session(session_dir)
     if accelerometer_absent(session):
         raise AbsentSensor(f"{session.path}: {ABSENT_ACCEL}: nothing calibrates an accelerometer (rig solve "
@@ -34,6 +38,8 @@ def calibrate_session(session_dir, *, model: str | None = None, method: str | No
     spec = session.solve_spec or {}
     accel, steps, model, method = solve_accelerometer(session, model=model, method=method, thermal=thermal)
     gyro, mag = solve_gyro_and_mag(session, spec, accel)
+    if method in POSE_METHODS:  # the uncertainty budget (docs/uncertainty.md); sigma as the solve gave it
+        accel = with_budget(accel, steps, model, method, session_rig_errors(session))
     return calib.CalibrationFile(
         created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
         software=dict(SOFTWARE),

@@ -2,8 +2,9 @@
 inputs from its rig file (gravity, approach direction, turntable classes) and ``accelerometer.uncertainty``
 made by :func:`calib.accel.budget.uncertainty_section` with the solve the session used.
 
-``rig.analysis.solve.calibrate_session`` attaches it when asked (``budget=True``); off by default until the
-simulated rig's geometry errors are switched on (docs/simulated-rig.md), so files and goldens are unchanged.
+``rig.analysis.solve.calibrate_session`` attaches it to every pose-method solve (pinv, combinations):
+:func:`session_budget`. A session whose rig file is not there unchanged (an import, a rig file edited since)
+gets the turntable's datasheet classes and the budget's rig terms say so (their ``source``).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import hashlib
 from pathlib import Path
 
 import calib
-from calib.accel.budget import at_local_gravity, uncertainty_section
+from calib.accel.budget import LINEAR_METHODS, at_local_gravity, linear_solve, uncertainty_section
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration
 from calib.numerics.budget import DEFAULT_K, RigErrors, TableClass
@@ -42,19 +43,46 @@ def session_rig_file(session) -> RigFile | None:
         return None
 
 
+#: where the rig terms come from when the session's rig file is not known (``RigErrors.source``)
+DATASHEET_SOURCE = "turntable datasheet classes (docs/simulated-rig.md), no characterisation"
+
+
+def session_rig_errors(session) -> RigErrors:
+    """The rig's Type B inputs for a session: from its rig file when that is there unchanged
+    (:func:`session_rig_file`), else the turntable's datasheet classes at standard gravity, the source saying
+    why (an imported session has no rig file; a recorded one's may have changed or gone)."""
+    rig_file = session_rig_file(session)
+    if rig_file is not None:
+        return rig_errors(rig_file)
+    info = session.info
+    rig = info.rig
+    if info.import_ is not None or rig.kind == "import":
+        why = "no rig file: an imported session"
+    elif getattr(info, "replay_of", None):
+        why = "no rig file: a replay of a recorded session"
+    elif not rig.rig_file or not rig.rig_file_sha256:
+        why = "the session records no rig file"
+    else:
+        why = f"the session's rig file {Path(rig.rig_file).name} is not there unchanged (sha256)"
+    return dataclasses.replace(RigErrors.from_classes(), source=f"{DATASHEET_SOURCE}; {why}")
+
+
 def rig_errors(rig_file: RigFile | None) -> RigErrors:
     """The rig's Type B inputs: its stated gravity, whether every axis approaches its poses from one side, and
     the turntable's classes (a simulated rig's ``sim.geometry`` classes, none when they are off; a hardware rig's
     the datasheet classes). Needs a wired program (``rig.composition.wire``: the command line is) to read a
     simulated rig file; unread, the session's rig is taken at its datasheet classes."""
     if rig_file is None:
-        return RigErrors.from_classes()
+        return dataclasses.replace(RigErrors.from_classes(), source=DATASHEET_SOURCE)
     geometry = (rig_file.sim or {}).get("geometry") or {}
     table = TableClass(**{k: float(v) for k, v in geometry.items() if k in _CLASS_KEYS})
+    source = f"rig file {Path(rig_file.path).name}: " + ("sim.geometry classes" if geometry else "datasheet classes")
     if rig_file.is_simulated and not geometry.get("enabled"):
         table = PERFECT_TABLE  # a simulated table without its errors (sim.geometry off) lands where commanded
+        source = f"rig file {Path(rig_file.path).name}: simulated turntable without geometry errors (sim.geometry off)"
     one_direction = all(rig_file.axes[n].approach != "none" for n in STAGE_AXES)
-    return RigErrors.from_classes(table, rig_file.gravity, one_direction=one_direction)
+    rig = RigErrors.from_classes(table, rig_file.gravity, one_direction=one_direction)
+    return dataclasses.replace(rig, source=source + ", no characterisation")
 
 
 def resolver(accel: AccelCalibration, model: str, method: str):
@@ -73,5 +101,6 @@ def with_budget(accel: AccelCalibration, steps: StepMeans, model: str, method: s
     if rig.gravity.g_m_s2 != G0_M_S2:
         steps = at_local_gravity(steps, rig.gravity)
         accel = resolve(steps)
-    section = uncertainty_section(accel, steps, resolve, rig, k)
+    linear = linear_solve(accel, steps) if accel.fit.method.split("(")[0] in LINEAR_METHODS else None
+    section = uncertainty_section(accel, steps, resolve, rig, k, linear=linear)
     return accel.model_copy(update={"uncertainty": section})

@@ -101,8 +101,58 @@ def _accelerometer_lines(a) -> list[str]:
             f"{k} {m[k] * 1e3:.3f} +- {sm.get(k, float('nan')) * 1e3:.3f}" for k in ("alpha_yz", "alpha_zy", "alpha_zx")))
     if a.temperature:
         lines += _tempco_lines(a.temperature, (sig.get("temperature") or {}).get("coefficients"))
+    if a.uncertainty:
+        lines += uncertainty_lines(a.uncertainty)
     if a.effects:
         lines += _effect_lines(a.effects)
+    return lines
+
+
+#: the budget's quantity groups as the printout shows them: (key in the section, label, unit, factor, axis names)
+UNCERTAINTY_GROUPS = (("bias_counts", "bias", "counts", 1.0, "xyz"),
+                      ("scale_counts_per_g", "scale", "counts/g", 1.0, "xyz"),
+                      ("misalignment", "misalignment", "mrad", 1e3, ("alpha_yz", "alpha_zy", "alpha_zx")),
+                      ("matrix_counts_per_g", "cross-axis", "counts/g", 1.0, ("xy", "xz", "yx", "yz", "zx", "zy")))
+#: how many of the largest contributions each group's line names
+LARGEST = 2
+
+
+def _group_values(block, axes) -> list[float]:
+    """A group's values in the section (a list of 3, a 3x3 list or the misalignment mapping) in ``axes``' order."""
+    if isinstance(block, dict):
+        return [float(block.get(a, float("nan"))) for a in axes]
+    arr = np.asarray(block, float)
+    if arr.ndim == 2:
+        return [float(arr["xyz".index(a[0]), "xyz".index(a[1])]) for a in axes]
+    return [float(v) for v in arr]
+
+
+def uncertainty_lines(u: dict) -> list[str]:
+    """The expanded uncertainty of every parameter group, one line each: U = k u_c per axis in the printout's
+    units (counts, counts/g, mrad), and the largest contributions (their largest standard uncertainty over
+    the axes); then where the rig's terms come from. ``sigma`` above stays the Type A standard uncertainty."""
+    k = float(u.get("k", float("nan")))
+    lines = [f"  expanded uncertainty U = k u_c, k = {k:g} (the +- above: sigma, Type A only; docs/uncertainty.md):"]
+    budget = u.get("budget") or []
+    for key, label, unit, factor, axes in UNCERTAINTY_GROUPS:
+        if u.get(key) is None or (key == "matrix_counts_per_g" and u.get("misalignment") is not None):
+            continue  # the triangular model's cross-axis terms are its angles
+        values = [v * factor for v in _group_values(u[key], axes)]
+        if key == "matrix_counts_per_g":
+            shown_axes = [a for a, v in zip(axes, values) if v > 0]
+            values = [v for v in values if v > 0]
+            if not values:
+                continue
+        else:
+            shown_axes = list(axes)
+        named = sorted(((max(_group_values(c.get(key), axes), default=0.0) * factor, c.get("name", "?"))
+                        for c in budget if c.get(key) is not None), key=lambda t: -np.nan_to_num(t[0]))
+        largest = ", ".join(f"{name} {v:.3g}" for v, name in named[:LARGEST] if np.isfinite(v) and v > 0)
+        lines.append(f"    {label} U: " + "  ".join(f"{a.replace('alpha_', '')} {v:.3g}" for a, v in
+                                                  zip(shown_axes, values)) + f" {unit}"
+                     + (f"   largest u: {largest}" if largest else ""))
+    if u.get("rig"):
+        lines.append(f"    rig terms: {u['rig']}")
     return lines
 
 

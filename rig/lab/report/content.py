@@ -111,6 +111,30 @@ class HistoryView:
 
 
 @dataclass
+class UncertaintyRow:
+    """One accelerometer parameter's expanded uncertainty and its budget, in the unit shown (mrad for angles)."""
+
+    name: str
+    value: float
+    unit: str
+    expanded: float | None
+    combined: float | None
+    parts: list[float | None] = field(default_factory=list)  # each contribution's standard uncertainty
+
+
+@dataclass
+class UncertaintyView:
+    """``accelerometer.uncertainty`` of the calibration file (docs/uncertainty.md): U = k u_c per parameter and
+    the budget, one column per contribution ((name, type, source)); ``note`` says why there is none."""
+
+    k: float | None = None
+    contributions: list[tuple[str, str, str]] = field(default_factory=list)
+    rows: list[UncertaintyRow] = field(default_factory=list)
+    rig: str = ""
+    note: str = ""
+
+
+@dataclass
 class ReportContent:
     session: Session
     calibration: object  # calib.file.calibration.CalibrationFile
@@ -123,6 +147,7 @@ class ReportContent:
     history: HistoryView
     sensor_key: str
     other_calibrations: list[tuple[Path, object]] = field(default_factory=list)
+    uncertainty: UncertaintyView = field(default_factory=UncertaintyView)
 
 
 # ---------------------------------------------------------------------------------------------- loading
@@ -297,6 +322,49 @@ def parameters(cal) -> list[Parameter]:
             i, j = "xyz".index(n[2]), "xyz".index(n[3])
             out.append(Parameter("magnetometer", f"mag.{n}", float(a[i, j]), _num(m.sigma.get(n)), "-"))
     return out
+
+
+# ---------------------------------------------------------------------------------------------- uncertainty
+
+def _pick(block, name: str) -> float | None:
+    """The value of parameter ``name`` (``accel.bias_x``, ``accel.alpha_yz``, ``accel.m_xy``) in a block of
+    ``sigma``'s keys (the uncertainty section, u_c, one contribution)."""
+    if not isinstance(block, dict):
+        return None
+    stem = name.removeprefix("accel.")
+    try:
+        if stem.startswith(("bias_", "scale_")):
+            key = "bias_counts" if stem.startswith("bias_") else "scale_counts_per_g"
+            return _num(block[key]["xyz".index(stem[-1])])
+        if stem.startswith("alpha_"):
+            return _num(block["misalignment"][stem])
+        if stem.startswith("m_"):
+            return _num(block["matrix_counts_per_g"]["xyz".index(stem[2])]["xyz".index(stem[3])])
+    except (KeyError, IndexError, TypeError, ValueError):
+        return None
+    return None
+
+
+def uncertainty_view(cal) -> UncertaintyView:
+    """The accelerometer's expanded uncertainty and budget, per parameter (biases, scales, angles or cross-axis
+    terms), in the units the parameters table uses."""
+    u = cal.accelerometer.uncertainty
+    if not u:
+        return UncertaintyView(note="No uncertainty budget in this calibration file (made by rig run and rig solve "
+                                    "for the pose methods pinv and combinations; docs/uncertainty.md).")
+    budget = [c for c in u.get("budget") or [] if isinstance(c, dict)]
+    view = UncertaintyView(k=_num(u.get("k")), rig=str(u.get("rig") or ""),
+                           contributions=[(str(c.get("name", "?")), str(c.get("type", "?")), str(c.get("source", "")))
+                                          for c in budget])
+    for name, value, _, unit in accel_parameters(cal.accelerometer):
+        if not name.startswith(("accel.bias_", "accel.scale_", "accel.alpha_", "accel.m_")):
+            continue
+        factor = shown(1.0, None, unit)[0]
+        scaled = [None if x is None else x * factor for x in
+                  [_pick(u, name), _pick(u.get("combined_standard"), name)] + [_pick(c, name) for c in budget]]
+        view.rows.append(UncertaintyRow(name, value * factor, shown(value, None, unit)[2], scaled[0], scaled[1],
+                                        scaled[2:]))
+    return view
 
 
 # ---------------------------------------------------------------------------------------------- residuals
@@ -505,4 +573,4 @@ def gather(session_dir, *, calibration=None, history_db=None, session: Session |
     return ReportContent(session=session, calibration=cal, calibration_path=cal_path, verdict=verdict(session, cal),
                          parameters=params, residuals=residuals(session, cal), seed=seed_table(session, cal),
                          discover=discover_outputs(session, others, problems), history=hist, sensor_key=hist.key,
-                         other_calibrations=others)
+                         other_calibrations=others, uncertainty=uncertainty_view(cal))

@@ -19,7 +19,8 @@ import numpy as np
 from rig import __version__
 from rig.analysis import plots
 from rig.lab.drift import plot_history
-from rig.lab.report.content import DiscoverSummary, HistoryView, ReportContent, Residuals, SeedTable, Verdict
+from rig.lab.report.content import (DiscoverSummary, HistoryView, ReportContent, Residuals, SeedTable,
+                                    UncertaintyView, Verdict)
 from rig.lab.report.style import CSS
 
 PLOT_DPI = 90
@@ -209,6 +210,32 @@ def parameters_html(c: ReportContent) -> str:
                    f"<thead><tr>{head}</tr></thead>{bodies}</table>")
 
 
+def uncertainty_html(u: UncertaintyView) -> str:
+    """The expanded uncertainty U = k u_c of the accelerometer's parameters and their budget (docs/uncertainty.md)."""
+    title = "Uncertainty budget"
+    if not u.rows:
+        return section("uncertainty", title, note(u.note or "No uncertainty budget."))
+    k = f"{u.k:g}" if u.k is not None else "?"
+    headers = ["parameter", "value", f"U (k = {k})", "u<sub>c</sub>"] + [
+        f"{escape(n)} ({escape(t)})" for n, t, _ in u.contributions] + ["unit"]
+    rows = []
+    for r in u.rows:
+        d = sigma_digits(r.expanded)
+        v, big_u = fmt_value(r.value, r.expanded)
+        rows.append([f"<code>{escape(r.name)}</code>", v, big_u, _num(r.combined, f".{d + 1}f" if d is not None and d >= 0
+                                                                       else ".3g")]
+                    + [_num(x, ".2g") for x in r.parts] + [escape(r.unit)])
+    grid = table(headers, rows, id_="uncertainty-table", numeric=tuple(range(1, 4 + len(u.contributions))))
+    sources = table(["contribution", "type", "source"], [[escape(n), escape(t), escape(s)] for n, t, s in u.contributions],
+                    id_="uncertainty-sources")
+    text = (f"Expanded uncertainty U = k u_c with coverage factor k = {k} (GUM): u_c is the root sum of squares of the "
+            "contributions' standard uncertainties (columns, in the parameter's unit). The 1σ of the parameters "
+            "table is the Type A contribution alone (noise and wander).")
+    return section("uncertainty", title, note(text, "muted") + grid
+                   + note(f"rig terms: {u.rig}" if u.rig else "", "muted")
+                   + f"<details><summary>where each contribution comes from</summary>{sources}</details>")
+
+
 def residuals_html(c: ReportContent) -> str:
     r: Residuals = c.residuals
     if r.values_ug is None:
@@ -335,7 +362,7 @@ def history_html(h: HistoryView) -> str:
 # ---------------------------------------------------------------------------------------------- the page
 
 CONTENTS = [("verdict", "Verdict"), ("identity", "Sensor, rig and session"), ("parameters", "Parameters"),
-            ("residuals", "Residuals"), ("seed-table", "Roll and pitch"), ("discover", "Discrepancy"),
+            ("uncertainty", "Uncertainty"), ("residuals", "Residuals"), ("seed-table", "Roll and pitch"), ("discover", "Discrepancy"),
             ("history", "History")]
 
 
@@ -350,7 +377,8 @@ def page(c: ReportContent) -> str:
     now = when(datetime.now(timezone.utc).isoformat(timespec="seconds"))
     subject = " · ".join(x for x in (info.rig.sensor.model, info.procedure.name) if x)
     nav = "".join(f'<a href="#{i}">{escape(t)}</a>' for i, t in CONTENTS)
-    body = "".join([verdict_html(c.verdict), identity_html(c), parameters_html(c), residuals_html(c),
+    body = "".join([verdict_html(c.verdict), identity_html(c), parameters_html(c), uncertainty_html(c.uncertainty),
+                    residuals_html(c),
                     seed_html(c.seed), discover_html(c.discover, info.id), history_html(c.history)])
     return writable(
         f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'

@@ -1,0 +1,140 @@
+"""The uncertainty budget in the product (issue 29 item 5): ``rig run`` and ``rig solve`` write
+``accelerometer.uncertainty`` for the pose methods and print U with k; ``rig report`` shows U and the budget; a
+session whose rig file is not known gets the turntable's datasheet classes and says so; bad inputs keep their
+one-line errors."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import shutil
+
+import numpy as np
+import pytest
+import yaml
+
+from rig.cli import main
+
+from conftest import DATASETS, NO_DATASETS, PROCEDURES, RIGS
+
+QUANTITIES = ("bias_counts", "scale_counts_per_g")
+
+
+def rig(*args) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in args])
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """A six-position run on a copy of the simulated rig file (virtual time): its session, printout and file."""
+    tmp = tmp_path_factory.mktemp("budget_wiring")
+    rig_file = tmp / "sim.yaml"
+    shutil.copy(RIGS / "sim.yaml", rig_file)
+    code, out, err = rig("run", PROCEDURES / "six_position.yaml", "--rig", rig_file, "--time-scale", "0",
+                         "--seed", "5", "--out", tmp / "s")
+    assert code == 0, err
+    (session,) = (tmp / "s").iterdir()
+    return {"session": session, "out": out, "rig_file": rig_file, "tmp": tmp}
+
+
+def _section(path):
+    return yaml.safe_load(path.read_text())["accelerometer"]
+
+
+def test_a_simulated_run_writes_the_budget_in_its_calibration_file(run):
+    acc = _section(run["session"] / "calibration.yaml")
+    u = acc["uncertainty"]
+    assert u["k"] == 2.0
+    assert [c["name"] for c in u["budget"]][0] == "noise and wander"
+    assert "sim.geometry off" in u["rig"]  # the simulated table lands where commanded: its own rig file says so
+    for key in QUANTITIES:  # U covers at least the Type A sigma it contains, k times
+        assert np.all(np.asarray(u[key]) >= 2 * np.asarray(acc["sigma"][key]) * (1 - 1e-9))
+
+
+def test_the_contributions_add_up_to_the_combined_uncertainty(run):
+    u = _section(run["session"] / "calibration.yaml")["uncertainty"]
+    for key in QUANTITIES:
+        rss = np.sqrt(sum(np.asarray(c[key], float) ** 2 for c in u["budget"]))
+        assert np.allclose(rss, u["combined_standard"][key], rtol=1e-9)
+        assert np.allclose(np.asarray(u[key]), u["k"] * np.asarray(u["combined_standard"][key]), rtol=1e-9)
+    for n, v in u["misalignment"].items():
+        rss = np.sqrt(sum(c["misalignment"][n] ** 2 for c in u["budget"]))
+        assert v == pytest.approx(u["k"] * rss, rel=1e-9)
+
+
+def test_run_prints_the_expanded_uncertainty_with_k(run):
+    out = run["out"]
+    assert "expanded uncertainty U = k u_c, k = 2" in out
+    assert "bias U: x " in out and "scale U: x " in out and "misalignment U: yz " in out and " mrad" in out
+    assert "largest u: noise and wander" in out and "rig terms: rig file sim.yaml" in out
+
+
+def test_solve_writes_and_prints_the_budget_and_keeps_sigma(run):
+    target = run["tmp"] / "resolved.yaml"
+    code, out, err = rig("solve", run["session"], "-o", target)
+    assert code == 0, err
+    assert "expanded uncertainty U = k u_c, k = 2" in out and "misalignment U:" in out
+    first, again = _section(run["session"] / "calibration.yaml"), _section(target)
+    assert again["uncertainty"]["k"] == 2.0 and again["sigma"] == first["sigma"]
+    assert again["uncertainty"]["bias_counts"] == pytest.approx(first["uncertainty"]["bias_counts"], rel=1e-9)
+
+
+def test_a_method_other_than_pinv_or_combinations_has_no_budget(run):
+    target = run["tmp"] / "flip.yaml"
+    code, out, err = rig("solve", run["session"], "--method", "flip", "-o", target)
+    assert code == 0, err
+    assert "uncertainty" not in _section(target) and "expanded uncertainty" not in out
+
+
+def test_the_report_shows_u_with_k_and_the_budget_table(run):
+    page = run["tmp"] / "report.html"
+    code, _, err = rig("report", run["session"], "-o", page)
+    assert code == 0, err
+    html = page.read_text()
+    assert 'id="uncertainty-table"' in html and "U (k = 2)" in html
+    for name in ("noise and wander", "rig frame (mounting, stage zeros)", "gravity", "accel.alpha_yz"):
+        assert name in html
+    assert "mrad" in html
+
+
+def test_a_session_whose_rig_file_changed_gets_the_datasheet_classes_and_says_so(run):
+    session = run["tmp"] / "changed"
+    shutil.copytree(run["session"], session)
+    run["rig_file"].write_text(run["rig_file"].read_text() + "\n# edited after the run\n")
+    try:
+        target = run["tmp"] / "changed.yaml"
+        code, out, err = rig("solve", session, "-o", target)
+    finally:
+        shutil.copy(RIGS / "sim.yaml", run["rig_file"])
+    assert code == 0, err
+    u = _section(target)["uncertainty"]
+    assert "datasheet classes" in u["rig"] and "not there unchanged" in u["rig"]
+    frame = next(c for c in u["budget"] if c["name"] == "rig frame (mounting, stage zeros)")
+    assert min(frame["misalignment"].values()) > 1e-3  # the fixture's 0.1 deg class: about 1 mrad
+    assert "rig terms: turntable datasheet classes" in out
+
+
+@pytest.mark.skipif(not DATASETS.is_dir(), reason=NO_DATASETS)
+def test_an_imported_session_gets_the_datasheet_classes_and_says_so(tmp_path):
+    code, _, err = rig("import", "--from", "imucal", DATASETS / "imucal" / "annotated_session.csv", "-o", tmp_path,
+                       "--id", "imp")
+    assert code == 0, err
+    code, out, err = rig("solve", tmp_path / "imp", "--trust-poses", "-o", tmp_path / "cal.yaml")
+    assert code in (0, 1), err
+    u = _section(tmp_path / "cal.yaml")["uncertainty"]
+    assert "datasheet classes" in u["rig"] and "imported session" in u["rig"]
+    assert "imported session" in out
+
+
+def test_bad_inputs_keep_their_one_line_errors(run, tmp_path):
+    code, _, err = rig("solve", run["session"], "--thermal", "2", "-o", tmp_path / "t.yaml")
+    assert code == 2 and "temperature span" in err and len(err.strip().splitlines()) == 1
+    bad = yaml.safe_load((run["session"] / "calibration.yaml").read_text())
+    bad["accelerometer"]["uncertainty"]["k"] = 0
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(bad))
+    code, _, err = rig("report", run["session"], "--calibration", path, "-o", tmp_path / "r.html")
+    assert code == 2 and "uncertainty.k" in err and len(err.strip().splitlines()) == 1
