@@ -105,18 +105,32 @@ def _g(x: float) -> str:
     return f"{x:.4g}"
 
 
-def _parameter_checks(limits: AcceptanceLimits, params: dict) -> list[LimitCheck]:
+def stored_unit(unit: str | None) -> tuple[str | None, float]:
+    """The default ``shown`` of :func:`evaluate`: every quantity in its stored unit."""
+    return unit, 1.0
+
+
+def _parameter_checks(limits: AcceptanceLimits, params: dict, shown=stored_unit) -> list[LimitCheck]:
+    """The range and sigma limits; each check's ``value`` in the stored unit, its ``line`` for people in the unit
+    ``shown(unit) -> (unit shown, factor)`` gives (limits and values alike)."""
+    def line_range(name, v, u, lo, hi):
+        to, k = shown(u)
+        return (f"{name} = {_g(v * k)} {to}: {'within' if lo <= v <= hi else 'outside'} "
+                f"[{_g(lo * k)}, {_g(hi * k)}] {to}")
+
+    def line_sigma(name, s, u, top):
+        to, k = shown(u)
+        if s is None:
+            return f"{name}: no sigma to compare with {_g(top * k)} {to}"
+        return f"{name}: sigma {_g(s * k)} {to} {'<=' if s <= top else '>'} {_g(top * k)} {to}"
+
     out = []
     for pattern, (lo, hi) in limits.ranges.items():
         out += _each(pattern, params, "range", f"[{_g(lo)}, {_g(hi)}]",
-                     lambda name, v, s, u: (v, lo <= v <= hi,
-                                            f"{name} = {_g(v)} {u}: {'within' if lo <= v <= hi else 'outside'} "
-                                            f"[{_g(lo)}, {_g(hi)}] {u}"))
+                     lambda name, v, s, u: (v, lo <= v <= hi, line_range(name, v, u, lo, hi)))
     for pattern, top in limits.max_sigma.items():
         out += _each(pattern, params, "sigma", f"<= {_g(top)}",
-                     lambda name, v, s, u: (s, s is not None and s <= top,
-                                            f"{name}: sigma {_g(s)} {u} {'<=' if s <= top else '>'} {_g(top)} {u}"
-                                            if s is not None else f"{name}: no sigma to compare with {_g(top)} {u}"))
+                     lambda name, v, s, u: (s, s is not None and s <= top, line_sigma(name, s, u, top)))
     return out
 
 
@@ -144,7 +158,7 @@ def _upper(name: str, value, top: float, what: str, unit: str, missing: str) -> 
 
 
 def evaluate(cal, limits: AcceptanceLimits, *, attitude_error_deg: float | None = None,
-             drift: Drift | None = None) -> Acceptance:
+             drift: Drift | None = None, shown=stored_unit) -> Acceptance:
     """Apply ``limits`` to calibration file ``cal``.
 
     Parameters
@@ -153,9 +167,11 @@ def evaluate(cal, limits: AcceptanceLimits, *, attitude_error_deg: float | None 
     limits : :class:`AcceptanceLimits`.
     attitude_error_deg : largest |roll| or |pitch| error over the session's static poses (deg), or None.
     drift : the largest change since the sensor's previous calibration, or None when not looked up.
+    shown : ``unit -> (unit shown, factor)``: the unit each check's line states a parameter in (values and
+        limits stay in the stored unit; default: the stored unit).
     """
     params = {name: (v, s, u) for name, v, s, u in sensor_parameters(cal)}
-    checks = _parameter_checks(limits, params)
+    checks = _parameter_checks(limits, params, shown)
     fit = cal.accelerometer.fit
     if limits.max_chi2_per_dof is not None:
         checks.append(_upper("max_chi2_per_dof", fit.chi2_per_dof, limits.max_chi2_per_dof, "chi2/dof", "",

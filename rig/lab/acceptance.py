@@ -21,6 +21,7 @@ from calib.evaluation import evaluate as evaluate_poses
 from calib.file.parameters import at_common_temperature
 from rig.lab.drift import sensor_history
 from rig.lab.history import HistoryError, calibration_row, open_history
+from rig.lab.units import shown_scale
 from rig.session import Session
 
 if TYPE_CHECKING:  # type hints only: the procedure's models load when a procedure is validated
@@ -53,7 +54,7 @@ def judge(session: Session, cal, *, calibration_path=None, history=None) -> Acce
     limits = spec.limits()
     attitude = largest_attitude_error_deg(session, cal) if limits.max_attitude_error_deg is not None else None
     previous = previous_calibration(session, cal, calibration_path, history) if limits.max_drift_sigma else None
-    return evaluate(cal, limits, attitude_error_deg=attitude, drift=previous)
+    return evaluate(cal, limits, attitude_error_deg=attitude, drift=previous, shown=shown_scale)  # mrad, as printed
 
 
 def largest_attitude_error_deg(session: Session, cal) -> float | None:

@@ -17,6 +17,11 @@ def shown(value: float, sigma: float | None, unit: str | None) -> tuple[float, f
     return value * k, None if sigma is None else sigma * k, to
 
 
+def shown_scale(unit: str | None) -> tuple[str | None, float]:
+    """``(unit shown, factor from stored to shown)`` of a quantity stored in ``unit``."""
+    return SHOWN_UNITS.get(unit or "", (unit, 1.0))
+
+
 def shown_unit(unit: str | None) -> str | None:
     """The unit a quantity stored in ``unit`` is shown in."""
     return SHOWN_UNITS.get(unit or "", (unit, 1.0))[0]

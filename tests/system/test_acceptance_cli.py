@@ -97,3 +97,20 @@ def test_bad_limits_are_refused_before_anything_moves(tmp_path, capsys, accept, 
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and message in err and f"{proc}:" in err, err
     assert not (tmp_path / "s").exists()
+
+
+def test_a_misalignment_limit_is_said_in_mrad_as_the_angles_are_printed(tmp_path, capsys, monkeypatch):
+    """Issue 33 item 4 (one unit per quantity): the angles print in mrad, and a failed angle limit said
+    'accel.alpha_yz = 0.01659 rad: outside [-0.01, 0.01] rad' right under them. The limit is written in the stored
+    unit (rad) and the file keeps the values in it; the line a person reads is in mrad."""
+    monkeypatch.setenv("RIG_HISTORY", str(tmp_path / "h.sqlite"))
+    code, session = _run(tmp_path, _procedure(tmp_path, "ranges: {accel.alpha_*: [-0.0001, 0.0001]}\n"))
+    out = capsys.readouterr().out
+    assert code == 3
+    fails = [x for x in out.splitlines() if x.startswith("  FAIL accel.alpha_")]
+    assert fails and all(re.fullmatch(r"  FAIL accel\.alpha_(yz|zy|zx) = -?\d+\.?\d* mrad: outside \[-0\.1, 0\.1\] mrad",
+                                      x) for x in fails), fails
+    printed = float(re.search(r"alpha_yz (-?\d+\.\d+)", out).group(1))  # the run's own printout of the angle
+    cal = calfile.read(session / "calibration.yaml")
+    (check,) = [c for c in cal.acceptance["limits"] if c["name"] == "range accel.alpha_yz"]
+    assert check["limit"] == "[-0.0001, 0.0001]" and check["value"] * 1e3 == pytest.approx(printed, abs=1e-3)
