@@ -28,11 +28,14 @@ from typing import Callable
 
 import numpy as np
 
+from calib.accel.combinations import BLOCK, _scatter_add, choose_subsets, pinv_batch, subset_average_maps
 from calib.accel.inputs import StepMeans
 from calib.accel.result import MISALIGNMENT_NAMES, AccelCalibration
 from calib.errors import CalibError
 from calib.numerics.design import SENSOR_AXES, AxisFit, Inputs
 from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, combined, expanded
+from calib.accel.solve import (COMBINATIONS_MAX_SUBSETS, MAX_WANDER_STEPS, _model_with_thermal, assemble,
+                               axis_wander_counts2, wander_covariance)
 from calib.accel.rig_propagation import EPS_DEG, GROUPS, pose_shift, rig_parameters, stage_angles_deg
 from calib.numerics.gravity import G0_M_S2, Gravity
 
@@ -283,7 +286,6 @@ class LinearSolve:
 
     def _subset_responses(self, axis: int, d_design: np.ndarray) -> np.ndarray:
         """(P, K) of the combinations average: every subset's own first-order response, averaged."""
-        from calib.accel.combinations import _scatter_add
         acc = np.zeros((d_design.shape[1], len(self.steps)))
         for s, per_axis in self.subsets:
             local, theta, res, n_inv = per_axis[axis]
@@ -296,9 +298,6 @@ class LinearSolve:
 
 def linear_solve(cal: AccelCalibration, steps: StepMeans) -> LinearSolve:
     """The linear map of ``cal``'s solve (method pinv or combinations, its model, thermal order and t0 fixed)."""
-    from calib.accel.combinations import choose_subsets, subset_average_maps
-    from calib.accel.solve import (COMBINATIONS_MAX_SUBSETS, MAX_WANDER_STEPS, _model_with_thermal,
-                                   axis_wander_counts2, assemble, wander_covariance)
     method = cal.fit.method.split(" ")[0].split("(")[0]
     if method not in LINEAR_METHODS:
         raise CalibError(f"the linear sensitivity needs a pinv or combinations solve, not {cal.fit.method!r}")
@@ -353,7 +352,6 @@ def linear_solve(cal: AccelCalibration, steps: StepMeans) -> LinearSolve:
 def _subset_blocks(designs: list, data: list, subsets: np.ndarray) -> tuple[list, int]:
     """The combinations method's subsets that determine every axis (as ``subset_average_maps`` keeps them), each
     with its map, its own solution, residuals and N^-1 per axis: what :meth:`LinearSolve.responses` needs."""
-    from calib.accel.combinations import BLOCK, pinv_batch
     out, count = [], 0
     for start in range(0, len(subsets), BLOCK):
         s = subsets[start:start + BLOCK]
