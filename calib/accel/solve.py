@@ -211,9 +211,24 @@ def wander_covariance(steps: StepMeans, sem_counts: np.ndarray, w_counts2: np.nd
 
 def axis_wander_counts2(steps: StepMeans) -> np.ndarray:
     """:func:`wander_counts2` per output axis, (3, K, K): each axis's own wander when the stability has per-axis
-    figures (:class:`calib.numerics.stability.AxisStability`), else the one wander (computed once) for all three."""
-    w = axis_cov(steps.bias_stability, np.asarray(steps.t_s, float), steps.duration_s, len(SENSOR_AXES))
-    return float(steps.lsb_per_g) ** 2 * w
+    figures (:class:`calib.numerics.stability.AxisStability`), else the one wander (computed once) for all three.
+    Read-only; the last one is kept for the same steps' times, durations, stability and sensitivity (the budget
+    weighs a session as its solve did: at 2,000 steps computing it again cost 10 s)."""
+    t = np.asarray(steps.t_s, float)
+    dur = None if steps.duration_s is None else np.asarray(steps.duration_s, float)
+    key = (steps.bias_stability, float(steps.lsb_per_g))
+    last = _WANDER_MEMO.get("last")
+    if last is not None and last[0] == key and np.array_equal(last[1], t) and (
+            (last[2] is None and dur is None) or (last[2] is not None and dur is not None and np.array_equal(last[2], dur))):
+        return last[3]
+    w = float(steps.lsb_per_g) ** 2 * axis_cov(steps.bias_stability, t, steps.duration_s, len(SENSOR_AXES))
+    w.setflags(write=False)
+    _WANDER_MEMO["last"] = (key, t.copy(), None if dur is None else dur.copy(), w)
+    return w
+
+
+#: the last :func:`axis_wander_counts2` (one entry: a solve and its budget, one after the other)
+_WANDER_MEMO: dict = {}
 
 
 def wander_counts2(steps: StepMeans) -> np.ndarray:
