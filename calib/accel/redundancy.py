@@ -36,13 +36,14 @@ class Redundancy:
     dof: int
     p_value: np.ndarray  # (3,)
 
-    def format_table(self, lsb_per_g: float) -> str:
-        lines = ["bias from each +/- pose pair (mg):", "  pair     x                 y                 z"]
+    def format_table(self, lsb_per_g: float | None = None) -> str:
+        """The pairs' biases in counts, the unit every other printout of the bias uses (``lsb_per_g`` unused: kept
+        for callers that pass it)."""
+        lines = ["bias from each +/- pose pair (counts):", "  pair     x                 y                 z"]
         for p in self.pairs:
-            cells = "  ".join(f"{b / lsb_per_g * 1e3:8.2f}+-{s / lsb_per_g * 1e3:5.2f}"
-                              for b, s in zip(p.bias_counts, p.sigma_counts))
+            cells = "  ".join(f"{b:8.2f}+-{s:5.2f}" for b, s in zip(p.bias_counts, p.sigma_counts))
             lines.append(f"  +/-{p.axis_up}   {cells}")
-        lines.append("  spread   " + "  ".join(f"{s / lsb_per_g * 1e3:14.2f}" for s in self.spread_counts)
+        lines.append("  spread   " + "  ".join(f"{s:14.2f}" for s in self.spread_counts)
                      + "   chi2/dof " + " ".join(f"{c / max(self.dof, 1):.1f}" for c in self.chi2))
         return "\n".join(lines)
 

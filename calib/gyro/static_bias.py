@@ -56,11 +56,12 @@ class StaticGyroBias:
         return self.sigma_counts / self.lsb_per_dps
 
     def format_line(self) -> str:
-        """``gyroscope zero-rate output (N rest intervals): x +- s, ... deg/s``."""
-        parts = " ".join(f"{'xyz'[i]} {b:+.5f} +- {s:.5f}" for i, (b, s) in enumerate(zip(self.bias_dps,
-                                                                                              self.sigma_dps)))
+        """``gyroscope zero-rate output (N rest intervals): x b +- s ... counts`` (the unit of the gyro bias in the
+        calibration file, the history and the report)."""
+        parts = " ".join(f"{'xyz'[i]} {b:+.2f} +- {s:.2f}" for i, (b, s) in enumerate(zip(self.bias_counts,
+                                                                                            self.sigma_counts)))
         note = " (sigma scaled: the steps disagree beyond their noise)" if self.scaled.any() else ""
-        return f"gyroscope zero-rate output ({self.n_steps} rest intervals): {parts} deg/s{note}"
+        return f"gyroscope zero-rate output ({self.n_steps} rest intervals): {parts} counts{note}"
 
 
 def static_gyro_bias(blocks: list, lsb_per_dps: float) -> StaticGyroBias:

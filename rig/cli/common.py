@@ -8,6 +8,7 @@ import sys
 import numpy as np
 
 from calib.gyro import GyroCalibration
+from calib.gyro.result import NONORTHOGONALITY_NAMES
 from calib.mag import MagCalibration
 from rig.cli.codes import EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, UsageError  # noqa: F401 - the commands use them
 from rig.lab.acceptance import as_lines
@@ -68,11 +69,24 @@ def format_calibration(cal) -> str:
     """A short human summary of a calibration file (accelerometer, gyroscope, magnetometer)."""
     lines = _accelerometer_lines(cal.accelerometer)
     if cal.gyroscope:
-        lines.append(_gyroscope_line(cal.gyroscope))
+        lines += gyroscope_lines(cal.gyroscope)
     if cal.magnetometer:
         m = cal.magnetometer if isinstance(cal.magnetometer, MagCalibration) else MagCalibration.from_dict(cal.magnetometer)
-        lines.append(f"  magnetometer ({m.method}): {m.n_steps} steps, residual {m.residual_rms_ut:.3f} uT rms; "
-                     "hard iron " + " ".join(f"{v:+.2f}" for v in np.asarray(m.hard_iron_ut)) + " uT")
+        lines.append(format_magnetometer(m, "uT"))
+    return "\n".join(lines)
+
+
+def format_magnetometer(m: MagCalibration, unit: str) -> str:
+    """The magnetometer's result with its sigmas (``unit``: uT, or counts for unknown units): hard iron and the
+    soft-iron matrix A, each entry with its 1-sigma."""
+    sig = m.sigma
+    lines = [f"  magnetometer ({m.method}): {m.n_steps} steps, residual {m.residual_rms_ut:.4g} {unit} rms, "
+             f"chi2/dof {m.chi2_per_dof:.2f}",
+             "    hard iron " + "  ".join(f"{a} {v:+.4g} +- {sig[f'hard_iron_{a}']:.2g}"
+                                         for a, v in zip("xyz", m.hard_iron_ut)) + f" {unit}"]
+    for i, r in enumerate("xyz"):
+        lines.append(f"    a_{r}* " + "  ".join(f"{m.matrix[i][j]:+.5g} +- {sig[f'a_{r}{c}']:.2g}"
+                                               for j, c in enumerate("xyz")))
     return "\n".join(lines)
 
 
@@ -186,12 +200,21 @@ def _effect_lines(effects) -> list[str]:
     return found
 
 
-def _gyroscope_line(section) -> str:
+def gyroscope_lines(section) -> list[str]:
     """The gyroscope's result in the calibration file's units, as ``rig history`` and ``rig report`` show it (issue
-    33 item 4: one unit per quantity; the bias was printed in deg/s here and in counts there)."""
+    33 item 4: one unit per quantity, every parameter with its sigma): bias (counts), scale (counts/(deg/s)), the
+    six nonorthogonalities (-) and, when determined, the g-sensitivity (counts/g)."""
     g = section if isinstance(section, GyroCalibration) else GyroCalibration.from_dict(section)
-    b = np.asarray(g.bias_counts, float)
-    sb = np.array([g.sigma[f"b_{x}"] for x in "xyz"], float)
-    return (f"  gyroscope: {g.n_steps} rate steps, residual {g.residual_rms_dps:.4f} deg/s rms; bias "
-            + " ".join(f"{x} {v:+.2f}+-{e:.2f}" for x, v, e in zip("xyz", b, sb)) + " counts; scale "
-            + " ".join(f"{v:.3f}" for v in np.asarray(g.scale_counts_per_dps)) + " counts/(deg/s)")
+    sig = g.sigma
+    out = [f"  gyroscope: {g.n_steps} rate steps, residual {g.residual_rms_dps:.4f} deg/s rms",
+           "    bias " + " ".join(f"{x} {v:+.2f}+-{sig[f'b_{x}']:.2f}" for x, v in zip("xyz", g.bias_counts)) + " counts",
+           "    scale " + " ".join(f"{x} {v:.3f}+-{sig[f'k_{x}']:.3f}" for x, v in zip("xyz", g.scale_counts_per_dps))
+           + " counts/(deg/s)",
+           "    nonorthogonality " + " ".join(f"{n[2:]} {g.nonorthogonality[n]:+.6f}+-{sig[n]:.6f}"
+                                             for n in NONORTHOGONALITY_NAMES)]
+    if g.g_sensitivity:
+        m = np.asarray(g.g_sensitivity["matrix_counts_per_g"], float)
+        s = np.asarray(g.g_sensitivity["sigma_counts_per_g"], float)
+        out.append("    g-sensitivity (counts/g, rows x y z): " + "; ".join(
+            " ".join(f"{v:+.3g}+-{e:.2g}" for v, e in zip(mr, sr)) for mr, sr in zip(m, s)))
+    return out

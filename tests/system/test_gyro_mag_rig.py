@@ -253,9 +253,17 @@ def test_the_gyro_bias_is_printed_in_the_unit_the_history_and_the_report_show(ru
 
     cal = calfile.read(runs["gyro"] / "calibration.yaml")
     g = GyroCalibration.from_dict(cal.gyroscope)
-    (line,) = [x for x in runs["gyro_printed"].splitlines() if x.strip().startswith("gyroscope:")]
-    printed = dict(re.findall(r"([xyz]) ([+-]\d+\.\d+)\+-", line.split("bias ")[1].split(";")[0]))
-    assert line.split("bias ")[1].split(";")[0].endswith(" counts")
+    lines = runs["gyro_printed"].splitlines()
+    (head,) = [i for i, x in enumerate(lines) if x.startswith("  gyroscope: ")]
+    line = lines[head + 1]  # the gyroscope's bias line
+    printed = dict(re.findall(r"([xyz]) ([+-]\d+\.\d+)\+-", line))
+    assert line.endswith(" counts")
     assert [float(printed[a]) for a in "xyz"] == pytest.approx(g.bias_counts, abs=0.006)
+    # every gyro parameter with its sigma (the walkthrough: the scale without, the nonorthogonalities not at all)
+    text = runs["gyro_printed"]
+    for a in "xyz":
+        assert re.search(rf"    scale .*{a} {g.scale_counts_per_dps[' xyz'.index(a) - 1]:.3f}\+-\d", text), text
+    for n in ("xy", "xz", "yx", "yz", "zx", "zy"):
+        assert re.search(rf"    nonorthogonality .*{n} [+-]\d\.\d{{6}}\+-\d", text), text
     stored = {name: (value, unit) for name, value, _, unit in sensor_parameters(cal)}  # what the history keeps
     assert [stored[f"gyro.bias_{a}"] for a in "xyz"] == [(pytest.approx(b), "counts") for b in g.bias_counts]

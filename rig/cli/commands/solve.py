@@ -12,7 +12,8 @@ from calib.mag import MagCalibration
 from rig.analysis.solve import (ABSENT_ACCEL, accelerometer_absent, magnetometer_units, refuse_misplaced_poses,
                                 solve_present_sensors, static_gyro)
 from rig.cli import outputs
-from rig.cli.common import EXIT_OK, UsageError, format_calibration, json_default, parse_thermal, present, report_warnings
+from rig.cli.common import (EXIT_OK, UsageError, format_calibration, format_magnetometer, json_default, parse_thermal,
+                            present, report_warnings)
 from rig.session import load_session
 from rig.workflow.conclude import conclude
 
@@ -104,19 +105,6 @@ def solve_without_accelerometer(session, as_json: bool) -> int:
     if not solved:
         raise CalibError(f"{session.path}: nothing could be solved: {'; '.join(res.problems) or 'no rest intervals'}")
     return EXIT_OK
-
-
-def format_magnetometer(m: MagCalibration, unit: str) -> str:
-    """The magnetometer's result with its sigmas (``unit``: uT, or counts for unknown units)."""
-    sig = m.sigma
-    lines = [f"  magnetometer ({m.method}): {m.n_steps} steps, residual {m.residual_rms_ut:.4g} {unit} rms, "
-             f"chi2/dof {m.chi2_per_dof:.2f}",
-             "    hard iron " + "  ".join(f"{a} {v:+.4g} +- {sig[f'hard_iron_{a}']:.2g}"
-                                         for a, v in zip("xyz", m.hard_iron_ut)) + f" {unit}"]
-    for i, r in enumerate("xyz"):
-        lines.append(f"    a_{r}* " + "  ".join(f"{m.matrix[i][j]:+.5g} +- {sig[f'a_{r}{c}']:.2g}"
-                                               for j, c in enumerate("xyz")))
-    return "\n".join(lines)
 
 
 def warn_if_misfit(cal) -> None:
