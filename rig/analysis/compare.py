@@ -157,6 +157,12 @@ def _side_json(s: Side) -> dict:
 
 
 # -- which steps, which quantity ---------------------------------------------------------------------------
+def _step_words(step) -> str:
+    """``static '+X up' at (0, 90, 0) deg``; a step without a pose says none."""
+    at = "" if step.angles_deg is None else " at (" + ", ".join(f"{float(v):g}" for v in step.angles_deg) + ") deg"
+    return f"{step.kind} {step.name!r}{at}"
+
+
 def _describe(step) -> tuple:
     angles = None if step.angles_deg is None else tuple(round(float(x), 6) for x in step.angles_deg)
     return step.kind, step.name, angles
@@ -171,8 +177,7 @@ def check_same_procedure(a: Session, b: Session) -> None:
     for x, y in zip(sa, sb):
         if _describe(x) != _describe(y):
             raise RigInputError(str(b.path), None, None, f"not a session of the same procedure as {a.path}: step "
-                                f"{x.index + 1} is {y.kind} {y.name!r} at {y.angles_deg}, expected {x.kind} "
-                                f"{x.name!r} at {x.angles_deg}")
+                                f"{x.index + 1} is {_step_words(y)}, expected {_step_words(x)}")
 
 
 def common_steps(a: Session, b: Session) -> tuple[list, list]:

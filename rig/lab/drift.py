@@ -100,7 +100,7 @@ def resolve_sensor(h: History, sensor: str) -> str:
     if len(hits) == 1:
         return hits[0]
     what = "matches several sensors: " + ", ".join(sorted(hits)) if hits else "no such sensor in the history"
-    raise HistoryCorrupt(h.path, f"sensor {sensor!r}: {what} (rig history lists them)")
+    raise HistoryCorrupt(h.path, f"sensor {sensor!r}: {what} (rig history --all lists them, simulated ones too)")
 
 
 def _calibration_info(row: sqlite3.Row, where: str, notes: list[str]) -> dict:

@@ -254,10 +254,15 @@ PX4_INT_PARAMS = {"TC_A_ENABLE"}
 AP_INT_PARAMS = {"INS_TCAL1_ENABLE"}
 
 
+def _hex(address) -> str:
+    """An I2C address as every other output writes it (0x68); anything else as it is."""
+    return f"0x{address:02X}" if isinstance(address, int) and not isinstance(address, bool) else str(address)
+
+
 def _header(cal, target: str, dropped: list[str]) -> list[str]:
     s = cal.sensor or {}
     return [f"# rig export --to {target}: {cal.format} of session {cal.session}, created {cal.created}",
-            f"# sensor {s.get('model')} address {s.get('address')}; accelerometer only, sensor frame "
+            f"# sensor {s.get('model')} address {_hex(s.get('address'))}; accelerometer only, sensor frame "
             "(set the board/sensor rotation on the autopilot)",
             "# not held: " + (", ".join(dropped) if dropped else "nothing"),
             "# conventions: docs/exports.md"]

@@ -66,6 +66,11 @@ def test_history_errors_are_one_line(session, tmp_path, capsys):
     db = tmp_path / "h.sqlite"
     assert main(["history", "--record", str(session), "--history", str(db)]) == 0
     assert main(["history", "no-such-sensor", "--history", str(db)]) == 2
+    assert main(["history", "--record", str(session), "--sensor-id", "SN-43", "--history", str(db)]) == 0
+    capsys.readouterr()
+    assert main(["history", "MPU-9150", "--history", str(db)]) == 2  # two sensors match: the simulated one hidden
+    err = capsys.readouterr().err
+    assert "matches several sensors" in err and "rig history --all lists them" in err, err
     assert main(["history", "--history", str(tmp_path / "missing.sqlite")]) == 2
     assert main(["history", "--plot", "x.png", "--history", str(db)]) == 2
 

@@ -194,6 +194,12 @@ def test_compare_refuses_sessions_of_different_procedures_or_sensors(loop, tmp_p
     renamed = _edited_copy(a, tmp_path / "renamed", lambda d: d["steps"][3].update(name="-Z up (moved)"))
     err = _one_line_exit_2("compare", a, renamed)
     assert "not a session of the same procedure" in err and str(renamed) in err and "step 4" in err
+    assert "None" not in err and " deg" in err  # the walkthrough: a thermal step said 'at None'
+    thermal = next(i for i, st in enumerate(yaml.safe_load((a / "session.yaml").read_text())["steps"])
+                   if st["kind"] != "static")
+    other = _edited_copy(a, tmp_path / "other", lambda d: d["steps"][thermal].update(name="elsewhere"))
+    err = _one_line_exit_2("compare", a, other)
+    assert f"step {thermal + 1} is " in err and "None" not in err, err
     more = {"index": 42, "name": "+Z up", "kind": "static", "angles_deg": [180.0, 0.0, 0.0],
             "f_nominal": [0.0, 0.0, -1.0], "status": "pending"}
     fewer = _edited_copy(a, tmp_path / "fewer", lambda d: d["steps"].append(more))

@@ -49,7 +49,10 @@ def _bias_at(a, temp):
 def test_px4_parameters_follow_px4s_convention(cal):
     c = _variant(cal, thermal=True)
     a = c.accelerometer
-    p = parse_param_file(export_calibration(c, "px4").text)
+    text = export_calibration(c, "px4").text
+    address = c.sensor["address"] if isinstance(c.sensor, dict) else c.sensor.address
+    assert f"address 0x{address:02X};" in text  # as every other output writes it (was 104)
+    p = parse_param_file(text)
     for j, x in enumerate("XYZ"):
         assert p[f"CAL_ACC0_{x}OFF"] == pytest.approx(a.bias_counts[j] * G_MS2 / a.lsb_per_g, rel=1e-8)
         assert p[f"CAL_ACC0_{x}SCALE"] == pytest.approx(a.lsb_per_g / a.scale_counts_per_g[j], rel=1e-8)
