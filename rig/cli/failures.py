@@ -13,6 +13,7 @@ import yaml
 from calib.errors import CalibError
 from drivers.sensors.base import SensorError
 from drivers.ximc.errors import TurntableError
+from rig.devices.bringup import hint_for
 from rig.cli.codes import EXIT_BAD_INPUT, EXIT_FAILURE, UsageError
 from rig.config.yamlload import SymlinkLoop
 from rig.errors import RigInputError, RunAborted, RunError, SessionFormatError
@@ -28,10 +29,20 @@ EXIT_CODES: list[tuple[tuple[type, ...], int, object]] = [
     ((SymlinkLoop,), EXIT_BAD_INPUT, lambda exc, first: f"{exc.filename}: {SymlinkLoop.message}, expected a file"),
     ((yaml.YAMLError,), EXIT_BAD_INPUT, lambda exc, first: f"not valid YAML: {first}"),
     ((RunAborted,), EXIT_FAILURE, lambda exc, first: f"aborted: {first}"),
+    ((TurntableError,), EXIT_FAILURE, lambda exc, first: _turntable_line(exc, first)),
     ((TurntableError, SensorError, RunError, SessionLocked), EXIT_FAILURE, None),
     ((OSError,), EXIT_FAILURE,
      lambda exc, first: f"{exc.strerror or first}" + (f": {exc.filename}" if exc.filename else "")),
 ]
+
+
+def _turntable_line(exc: TurntableError, first: str) -> str:
+    """A port that does not open says what to do, as ``rig check`` does (rig.devices.bringup.OPEN_HINTS): a
+    missing link, a permission, a busy port."""
+    if exc.command != "open":
+        return first
+    name = f"{exc.name} " if exc.name else ""
+    return f"{name}{exc.port}: {hint_for(exc, 'serial')}"
 
 
 def classify(exc: BaseException) -> tuple[int, str]:

@@ -19,3 +19,16 @@ def test_the_planned_duration_is_said_before_the_session_starts(tmp_path, capsys
     err = capsys.readouterr().err.splitlines()
     assert err[0].startswith("planned: 6 steps, about ") and err[0].endswith("of rig time")
     assert err[1].startswith("session ")
+
+
+def test_a_controller_port_that_is_not_there_says_what_to_do_as_rig_check_does(tmp_path, capsys):
+    """The walkthrough: rig run (and rig jog) on the example hardware rig without its controllers gave the raw
+    'cannot open port ([Errno 2] could not open port /dev/ximc/00003A5C: [Errno 2] No such file or directory: ...)'
+    while rig check gave the cause and the fix."""
+    code = main(["run", str(REPO / "procedures" / "six_position.yaml"), "--rig", str(REPO / "rigs" / "example_hardware.yaml"),
+                 "--out", str(tmp_path / "s")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1, err
+    assert err[0].startswith("rig run: a1 /dev/ximc/") and "cannot open (no such file or directory)" in err[0]
+    assert "udev rule" in err[0] and "rig ports" in err[0] and "Errno" not in err[0], err
+    assert not (tmp_path / "s").exists()
