@@ -273,10 +273,32 @@ def _heading(i: int, r: CalibrationRecord) -> str:
             + ("  simulated" if r.info.get("simulated") else ""))
 
 
-def format_history(key: str, records: list[CalibrationRecord]) -> str:
+#: the width ``rig history``'s table keeps to unless asked for every column (``--wide``), characters
+TABLE_WIDTH = 120
+
+
+def shown_columns(name_w: int, width: list[int], max_width: int | None) -> list[int]:
+    """The calibrations (indices) whose columns fit in ``max_width`` characters: the first (the baseline) and as many
+    of the newest as fit, never fewer than those two; every one when ``max_width`` is None."""
+    n = len(width)
+    if max_width is None or name_w + sum(w + 2 for w in width) <= max_width:
+        return list(range(n))
+    room = max_width - name_w - (width[0] + 2) - 5  # the first column and the gap marker
+    newest: list[int] = []
+    for i in range(n - 1, 0, -1):
+        if newest and room < width[i] + 2:
+            break
+        newest.insert(0, i)
+        room -= width[i] + 2
+    return [0] + newest
+
+
+def format_history(key: str, records: list[CalibrationRecord], max_width: int | None = TABLE_WIDTH) -> str:
     """The table: one column per calibration, one row per parameter (angles in mrad, as ``rig run`` prints
     them); accelerometer biases at the sensor's reference temperature (``@25.1C``: at its own temperature, no
-    model moves it); ``(+1.2s)`` is the change since the previous calibration in combined sigmas, ``!`` beyond 3."""
+    model moves it); ``(+1.2s)`` is the change since the previous calibration in combined sigmas, ``!`` beyond 3.
+    The columns keep to ``max_width`` characters (the first and the newest calibrations; a note says which were left
+    out and how to see them); None: every column."""
     view = reference_view(records)
     d = drift(records, view=view)
     head = [f"sensor {key}: {len(records)} calibration(s)"] + [_heading(i, r) for i, r in enumerate(records, 1)]
@@ -290,10 +312,21 @@ def format_history(key: str, records: list[CalibrationRecord]) -> str:
         cells[n] = row
     width = [max(len(f"#{i + 1}"), *(len(c[i]) for c in cells.values())) for i in range(len(records))]
     name_w = max([len("parameter (unit)")] + [len(f"{n} ({_unit(records, n)})") for n in cells])
-    lines = [f"{'parameter (unit)':<{name_w}}  " + "  ".join(f"{f'#{i + 1}':>{w}}" for i, w in enumerate(width))]
+    shown = shown_columns(name_w, width, max_width)
+    gap = len(shown) > 1 and shown[1] > 1  # calibrations left out between the first and the newest
+
+    def row_text(first: str, items: list[str]) -> str:
+        parts = [f"{items[i]:>{width[i]}}" for i in shown]
+        if gap:
+            parts.insert(1, "...")
+        return f"{first:<{name_w}}  " + "  ".join(parts)
+
+    lines = [row_text("parameter (unit)", [f"#{i + 1}" for i in range(len(records))])]
     for n, row in cells.items():
-        lines.append(f"{n + ' (' + _unit(records, n) + ')':<{name_w}}  " + "  ".join(
-            f"{c:>{w}}" for c, w in zip(row, width)))
+        lines.append(row_text(f"{n} ({_unit(records, n)})", row))
+    if gap:
+        lines.append(f"(#2..#{shown[1]} left out to keep to {max_width} characters: rig history {key} --wide shows "
+                     "every calibration; --json and --plot have them all)")
     flagged = flagged_names(d)
     foot = (f"drift beyond {DRIFT_LIMIT_SIGMA:g} combined sigma: " + ", ".join(flagged)) if flagged else \
         f"no drift beyond {DRIFT_LIMIT_SIGMA:g} combined sigma"

@@ -8,7 +8,7 @@ import sys
 from rig.analysis import plots
 from rig.cli import outputs
 from rig.cli.common import EXIT_OK, UsageError, json_default
-from rig.lab import (ENV_VAR, HistoryError, default_path, format_history, history_document, list_sensors, open_history,
+from rig.lab import (ENV_VAR, TABLE_WIDTH, HistoryError, default_path, format_history, history_document, list_sensors, open_history,
                      plot_history, resolve_sensor, sensor_history, store_calibration)
 
 
@@ -16,6 +16,9 @@ def add_parser(sub) -> None:
     s = sub.add_parser("history", help="calibration history: the sensors, or every calibration of one and its drift")
     s.add_argument("sensor", nargs="?", default=None, help="sensor key (or a unique part of it); none: list sensors")
     s.add_argument("--json", action="store_true", help="print the rig-history/1 document")
+    s.add_argument("--wide", action="store_true",
+                   help="one column for every calibration (by default the table keeps to 120 characters: the first "
+                        "and the newest calibrations)")
     s.add_argument("--all", action="store_true",
                    help="include the calibrations recorded on the simulated and replay rigs (left out by default)")
     s.add_argument("--plot", default=None, metavar="FILE.png",
@@ -77,7 +80,7 @@ def _run(args) -> int:
         if plot is not None:  # stdout is the JSON document
             print(f"plot: {plot}", file=sys.stderr)
     else:
-        print(format_history(key, records))
+        print(format_history(key, records, None if args.wide else TABLE_WIDTH))
         if plot is not None:
             print(f"plot: {plot}")
     return EXIT_OK

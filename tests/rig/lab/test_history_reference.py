@@ -208,3 +208,18 @@ def test_records_stored_before_the_migration_are_marked_by_their_rig(base, tmp_p
             conn.execute("INSERT INTO calibrations (sensor_key, recorded_at, rig) VALUES (?, 'x', ?)", (key, rig))
     with open_history(db) as h:
         assert [r[0] for r in h.query("SELECT simulated FROM calibrations ORDER BY id")] == [1, 1, 0]
+
+
+def test_the_table_of_50_calibrations_keeps_to_120_characters_and_wide_shows_every_column(fifty):
+    """The walkthrough: 314 characters a line at 12 calibrations, 550 at 14: unreadable on a terminal."""
+    key, records = fifty
+    table = format_history(key, records).splitlines()
+    start = next(i for i, x in enumerate(table) if x.startswith("parameter (unit)"))
+    rows = table[start:start + 1 + len([x for x in table[start + 1:] if x.startswith("accel.")])]
+    assert all(len(x) <= 120 for x in rows), max(map(len, rows))
+    head = rows[0].split()
+    assert head[2] == "#1" and head[3] == "..." and head[-1] == "#50"  # the baseline and the newest
+    (note,) = [x for x in table if x.startswith("(#2..#")]
+    assert f"rig history {key} --wide shows every calibration" in note
+    wide = format_history(key, records, None).splitlines()
+    assert all(f"#{k}" in wide[start].split() for k in range(1, 51)) and not any(x.startswith("(#2..#") for x in wide)
