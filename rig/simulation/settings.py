@@ -239,6 +239,10 @@ class SimSection(Strict):
     noise_spread: Optional[NoiseSpreadSection] = None  # None: every unit has its family's figures
     geometry: GeometrySection = GeometrySection()  # the turntable's own errors (off unless enabled)
     serial_base: number(ge=1, le=2**31 - 1, integer=True) = 0x5A00
+    repeat: number(ge=0, le=2**31 - 1, integer=True,
+                   description="run number of a repeatability study: 0 the seed's own noise draws; another number "
+                               "draws the noise (and the bias wander) anew for the same hidden sensor, turntable "
+                               "and chamber") = 0
 
 
 # -- faults: -----------------------------------------------------------------------------------------
@@ -326,6 +330,7 @@ class SimSettings:
     geometry: GeometryClass | None = None  # the table's own error classes; None: a perfect table
     gravity_m_s2: float = G0_M_S2  # local gravity of the simulated site (with geometry only)
     serial_base: int = 0x5A00
+    repeat: int = 0  # 0: the seed's own noise draws; N: new draws for the same hidden sensor (repeatability)
 
     @classmethod
     def from_mapping(cls, m, where: str = "sim") -> "SimSettings":
@@ -339,7 +344,7 @@ class SimSettings:
                    effects=given(s.effects) if s.effects is not None else {}, errors=given(s.errors),
                    gyro_errors=given(s.gyro_errors), mag_errors=given(s.mag_errors), noise=s.noise,
                    noise_spread=given(s.noise_spread) if s.noise_spread is not None else None,
-                   serial_base=s.serial_base, **_geometry(s.geometry))
+                   serial_base=s.serial_base, repeat=int(s.repeat), **_geometry(s.geometry))
 
 
 def _geometry(section: GeometrySection) -> dict:

@@ -30,6 +30,8 @@ from rig.planning.kinematics import STAGE_AXES
 from rig.simulation.settings import EFFECT_FIELDS, EFFECT_PARAMS, SimSettings
 from rig.simulation.world import AxisLink, SimChamber, WorldModel
 
+#: the stream the noise seed of a repeated run (``sim.repeat``) is drawn from
+REPEAT_STREAM = 0x5E9
 #: the seed's own stream for the turntable's hidden geometry (no other draw of the seed changes with it)
 GEOMETRY_STREAM = 0x6E0
 
@@ -55,6 +57,10 @@ class SimulatedRig:
                  ximc_faults: dict | None = None, sensor_faults: dict | None = None) -> None:
         self.settings = settings
         self.seed = int(seed)
+        #: the seed of the chip's noise draws: the rig's own, or (``sim.repeat``) one of its own per run number, so that
+        #: the same hidden sensor can be recorded again with other noise (a repeatability study)
+        self.noise_seed = self.seed if not settings.repeat else int(
+            np.random.default_rng([self.seed % 2**63, int(settings.repeat), REPEAT_STREAM]).integers(2**62))
         self.sensor_model = sensor_model
         self.clock = make_clock(settings)
         rng = np.random.default_rng(self.seed)
@@ -154,6 +160,7 @@ class SimulatedRig:
         """Hidden simulator parameters (for sim_truth.yaml; tests and benchmarks only)."""
         return {
             "seed": self.seed,
+            "repeat": self.settings.repeat,
             "sensor_model": self.sensor_model,
             "accelerometer": self.accel_errors.to_dict(),
             "gyroscope": self.gyro_errors.to_dict() if self.gyro_errors else None,
@@ -197,14 +204,14 @@ def _plain(v):
 
 def _mpu9150(sim: "SimulatedRig", faults):
     """The MPU-9150 attaches itself and the AK8975 behind its I2C bypass."""
-    chip = Mpu9150Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.seed, gyro_errors=sim.gyro_errors,
-                        mag_errors=sim.mag_errors, faults=faults, noise=sim.noise)
+    chip = Mpu9150Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.noise_seed, gyro_errors=sim.gyro_errors,
+                        mag_errors=sim.mag_errors, faults=faults, noise=sim.noise, unit_seed=sim.seed)
     chip.attach(sim.bus, sim.sensor_address)
     return chip
 
 
 def _adxl345(sim: "SimulatedRig", faults):
-    chip = Adxl345Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.seed, faults=faults,
+    chip = Adxl345Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.noise_seed, faults=faults,
                         noise=sim.noise)
     sim.bus.add_device(sim.sensor_address, chip)
     return chip

@@ -56,12 +56,13 @@ class Mpu9150Model(I2CDevice):
 
     def __init__(self, physics, accel_errors: AccelErrorModel, *, clock, seed: int = 0, gyro_errors=None,
                  mag_errors: MagErrorModel | None = None, faults: SensorFaults | None = None,
-                 noise: NoiseConfig | str | dict | None = None) -> None:
+                 noise: NoiseConfig | str | dict | None = None, unit_seed: int | None = None) -> None:
         self.clock = clock
         self.noise = resolve_noise(noise, "MPU-9150")
         self.sampler = LazySampler(physics, accel_errors, clock, seed, gyro_errors, noise=self.noise)
         self.faults = FaultInjector(faults, clock)
-        self.trim = SelfTestTrim(seed, failed=self.faults.f.failed_self_test)
+        # the factory self-test trim is the unit's own: ``unit_seed`` (default ``seed``) when the noise is drawn anew
+        self.trim = SelfTestTrim(seed if unit_seed is None else unit_seed, failed=self.faults.f.failed_self_test)
         self.mag = Ak8975Model(physics, mag_errors or MagErrorModel(), clock=clock, seed=seed + 1, noise=self.noise)
         self.master = AuxI2CMaster(self, {AK8975_ADDRESS: self.mag})
         self._bus = None
