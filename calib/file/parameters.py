@@ -74,6 +74,31 @@ def reference_temp_c(params: dict, temp_mean_c: float | None) -> float | None:
     return float(t0[0]) if t0 is not None else finite_or_none(temp_mean_c)
 
 
+def biases_moved(params: dict, polynomial: dict, from_c: float, to_c: float) -> dict:
+    """``params``' accelerometer biases, stated at ``from_c`` (C), moved to ``to_c`` by the temperature terms of
+    another calibration of the same unit (``polynomial``: its parameters, with ``accel.t0_c`` and
+    ``accel.tempco{k}_{axis}``): ``b(to) = b(from) + sum_k c_k ((to - t0)^k - (from - t0)^k)``, each sigma gaining
+    ``|(to - t0)^k - (from - t0)^k| sigma(c_k)`` in quadrature. Only the biases are returned."""
+    t0 = float(polynomial["accel.t0_c"][0])
+    out = {}
+    for axis in "xyz":
+        name = f"accel.bias_{axis}"
+        if name not in params:
+            continue
+        value, sigma, unit = params[name]
+        var = None if sigma is None else sigma**2
+        for k in (1, 2, 3):
+            c = polynomial.get(f"accel.tempco{k}_{axis}")
+            if c is None:
+                continue
+            step = (float(to_c) - t0) ** k - (float(from_c) - t0) ** k
+            value += c[0] * step
+            if var is not None:
+                var = None if c[1] is None else var + (c[1] * abs(step)) ** 2
+        out[name] = (value, None if var is None else math.sqrt(var), unit)
+    return out
+
+
 def biases_at(params: dict, temp_c: float) -> dict:
     """``params`` with the accelerometer biases moved from ``accel.t0_c`` to ``temp_c`` (C) by the
     calibration's own bias polynomial, ``b(T) = b(t0) + sum_k c_k (T - t0)^k``; each bias sigma gains

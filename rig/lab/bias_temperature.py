@@ -9,7 +9,9 @@ its ``t0``), taken over the calibrations without a temperature model when there 
 their biases; the others are carried to them). A calibration with a bias polynomial is carried there by its own polynomial,
 ``b(T) = b(t0) + sum_k c_k (T - t0)^k``, its sigma gaining ``|T - t0|^k sigma(c_k)`` in quadrature
 (:func:`calib.file.parameters.biases_at`; the stored rows have no covariance, so this is approximate). One
-without a model stays at its own temperature and is marked with it when that is more than
+without a model is carried by the temperature terms of the unit's own thermal calibration nearest to it in the
+history (its tempcos are the sensor's, whichever session measured them: :func:`calib.file.parameters.biases_moved`);
+when the history has none it stays at its own temperature and is marked with it when that is more than
 :data:`TEMP_MATCH_C` from the reference (no model allows the move). docs/history.md, "Reference temperature".
 """
 
@@ -18,7 +20,7 @@ from __future__ import annotations
 import statistics
 from dataclasses import dataclass, field
 
-from calib.file.parameters import biases_at, finite_or_none, reference_temp_c
+from calib.file.parameters import biases_at, biases_moved, finite_or_none, reference_temp_c
 
 #: a bias stated within this of the reference temperature is taken as stated there (C); the same figure as
 #: rig compare's note on step temperatures (rig.analysis.compare.TEMP_NOTE_C)
@@ -34,6 +36,7 @@ class BiasesAt:
     values: dict
     temp_c: float | None
     carried_from_c: float | None = None
+    carried_by: int | None = None  # the record (index) whose temperature terms carried them; None: their own
 
 
 @dataclass
@@ -88,17 +91,24 @@ def reference_view(records) -> ReferenceView:
         temps = [t for t in (calibration_temp_c(r.parameters, r.info.get("temp_mean_c")) for r in with_bias)
                  if t is not None]
     ref = float(statistics.median(temps)) if temps else None
+    thermal = [i for i, r in enumerate(records) if "accel.t0_c" in r.parameters and any(
+        k.startswith("accel.tempco") for k in r.parameters)]
     return ReferenceView(ref, len(temps), bool(fixed) and len(fixed) < len(with_bias),
-                         [_biases(r, ref) for r in records])
+                         [_biases(records, i, ref, thermal) for i in range(len(records))])
 
 
-def _biases(record, ref_c: float | None) -> BiasesAt:
-    params = record.parameters
-    stated = reference_temp_c(params, record.info.get("temp_mean_c"))
+def _biases(records, i: int, ref_c: float | None, thermal: list[int]) -> BiasesAt:
+    params = records[i].parameters
+    stated = reference_temp_c(params, records[i].info.get("temp_mean_c"))
     if ref_c is not None and "accel.t0_c" in params:
         moved = biases_at(params, ref_c)
         return BiasesAt({n: moved[n] for n in BIAS_NAMES if n in moved}, ref_c, carried_from_c=stated)
-    return BiasesAt({n: params[n] for n in BIAS_NAMES if n in params}, stated)
+    own = {n: params[n] for n in BIAS_NAMES if n in params}
+    if ref_c is not None and stated is not None and abs(stated - ref_c) > TEMP_MATCH_C and own and thermal:
+        donor = min(thermal, key=lambda j: (abs(j - i), -j))  # the nearest thermal calibration, the later on a tie
+        return BiasesAt(biases_moved(own, records[donor].parameters, stated, ref_c), ref_c, carried_from_c=stated,
+                        carried_by=donor)
+    return BiasesAt(own, stated)
 
 
 def compared_parameters(record, view: ReferenceView, i: int) -> dict:

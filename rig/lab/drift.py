@@ -239,7 +239,9 @@ def history_document(key: str, records: list[CalibrationRecord]) -> dict:
         for n, (v, s, u) in r.parameters.items():
             params[n] = {"value": v, "sigma": s, "unit": u,
                          **({"at_reference": {"value": b.values[n][0], "sigma": b.values[n][1], "temp_c": b.temp_c,
-                                              "own_temperature": view.own_temperature(i)}} if n in b.values else {}),
+                                              "own_temperature": view.own_temperature(i),
+                                              **({"carried_by_calibration": b.carried_by + 1}
+                                                 if b.carried_by is not None else {})}} if n in b.values else {}),
                          **({"change": d[n][i]} if d.get(n) and d[n][i] is not None else {})}
         cals.append({**r.info, "parameters": params})
     notes = history_notes(records)
@@ -339,9 +341,15 @@ def _reference_lines(view: ReferenceView, col: list[dict | None]) -> str:
     """Under the table: the reference temperature, what was carried there, what stays at its own temperature."""
     out = [view.describe()]
     carried = [f"#{i + 1} from its t0 {b.carried_from_c:.1f} C" for i, b in enumerate(view.biases)
-               if b.carried_from_c is not None and abs(b.carried_from_c - (view.temp_c or 0.0)) > TEMP_MATCH_C]
+               if b.carried_by is None and b.carried_from_c is not None
+               and abs(b.carried_from_c - (view.temp_c or 0.0)) > TEMP_MATCH_C]
     if carried:
         out.append("carried by their own bias polynomial (sigma propagated): " + "; ".join(carried))
+    borrowed = [f"#{i + 1} from {b.carried_from_c:.1f} C by the tempcos of #{b.carried_by + 1}"
+                for i, b in enumerate(view.biases) if b.carried_by is not None]
+    if borrowed:
+        out.append("carried by this sensor's tempcos from its thermal calibration (no temperature model of their own; "
+                   "sigma propagated): " + "; ".join(borrowed))
     own = [f"#{i + 1}" for i in range(len(view.biases)) if view.own_temperature(i)]
     if own:
         out.append("marked @T: stated at their own temperature, no temperature model moves them: " + ", ".join(own))

@@ -223,3 +223,36 @@ def test_the_table_of_50_calibrations_keeps_to_120_characters_and_wide_shows_eve
     assert f"rig history {key} --wide shows every calibration" in note
     wide = format_history(key, records, None).splitlines()
     assert all(f"#{k}" in wide[start].split() for k in range(1, 51)) and not any(x.startswith("(#2..#") for x in wide)
+
+
+def test_an_off_temperature_calibration_is_carried_by_the_sensors_own_tempcos_not_called_drift(base, tmp_path):
+    """The walkthrough: a six-position calibration at 35 C (no temperature model) beside calibrations at 27.6 C and a
+    thermal one was flagged 'drift beyond 3 combined sigma: accel.bias_x, ...' though the sensor's own tempco (from
+    its thermal calibration) explained the shift to within a count."""
+    db = tmp_path / "h.sqlite"
+    t = base["calibration"]["temp_mean_c"]
+    warm = copy.deepcopy(base)  # the same sensor calibrated at t + 7.3 C: its bias moved by its tempco
+    warm["parameters"] = [(n, v + TEMPCO * 7.3, s, u) if n == "accel.bias_x" else (n, v, s, u)
+                          for n, v, s, u in warm["parameters"]]
+    rows = [_row(base, 0), _row(base, 1, thermal=True), _row(base, 2), _row(warm, 3, temp_c=t + 7.3)]
+    for row in rows:
+        store_row(row, history=db)
+    with open_history(db) as h:
+        records = sensor_history(h, base["sensor"]["key"])
+    d = drift(records)
+    assert not any(c and c["flagged"] for c in d["accel.bias_x"]), d["accel.bias_x"]
+    doc = history_document(base["sensor"]["key"], records)
+    at = doc["calibrations"][3]["parameters"]["accel.bias_x"]["at_reference"]
+    assert at["carried_by_calibration"] == 2 and not at["own_temperature"]
+    assert at["value"] == pytest.approx(base["parameters"][0][1], abs=1e-6)
+    sigma = base["parameters"][0][2]
+    assert at["sigma"] == pytest.approx(math.hypot(sigma, 0.03 * 7.3))  # the tempco's sigma over the move
+    table = format_history(base["sensor"]["key"], records)
+    assert "#4 from " in table and "by the tempcos of #2" in table and "no drift beyond 3 combined sigma" in table
+    # without a thermal calibration in the history nothing can move it: marked with its own temperature, as before
+    db2 = tmp_path / "h2.sqlite"
+    for row in (rows[0], rows[2], rows[3]):
+        store_row(row, history=db2)
+    with open_history(db2) as h:
+        records = sensor_history(h, base["sensor"]["key"])
+    assert f"@{t + 7.3:.1f}C" in format_history(base["sensor"]["key"], records)
