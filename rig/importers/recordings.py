@@ -10,7 +10,10 @@ Nothing half-written is ever a session: the import works in ``SESSIONS/ID.PID.pa
 session being written, and ``import.lock``, an OS lock held while the import runs that names the source),
 renames the complete session to ``SESSIONS/ID`` at the end and removes the partial directory, also when
 it fails. A partial directory left by a killed import (its lock free) is removed by the next import of
-the same source file or id into the same directory.
+the same source file or id into the same directory. So the session's files need no per-step durability
+(the writer's ``durable_steps=False``: no fsync per step, no steps journal): each is fsynced once before the
+rename (``samples.csv``, ``events.jsonl``, ``session.yaml`` and the session directory), the sessions directory
+once after it.
 
 Every problem with a source file raises :class:`rig.errors.RigInputError` naming the file and,
 where there is one, the line.
@@ -226,7 +229,9 @@ def write_session(rec: Recording, summaries: list[StepSummary], manifest: Sessio
     (``progress``: told (steps written, steps) after each step)."""
     cols = ("t_s", "step", "ax", "ay", "az", "temp_c") + (("wx", "wy", "wz") if rec.has_gyro else ()) \
         + (("mx", "my", "mz") if rec.has_mag else ())
-    w = SessionWriter.create(root, manifest.id, manifest, columns=cols)
+    # no per-step durability: the session is renamed into place complete (import_recording), so a killed import
+    # leaves no session whatever was written; each file is fsynced once when it ends (SessionWriter, durable_steps)
+    w = SessionWriter.create(root, manifest.id, manifest, columns=cols, durable_steps=False)
     try:
         for i, (st, s) in enumerate(zip(rec.steps, summaries)):
             for c in rec.step_chunks(st):

@@ -20,7 +20,7 @@ from datetime import date, datetime, timezone
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from calib.file import yamlsafe
 from calib.file.fields import Index, describe, fail, number
@@ -289,11 +289,18 @@ class SessionManifest(_Section):
     samples_committed_bytes: int | None = Field(default=None, ge=0)
     ended: Timestamp | None = None
 
+    @field_validator("steps")
+    @classmethod
+    def _indexed(cls, steps):
+        """Each step's index is its place (checked when the steps are validated, not at every assignment of
+        another field: a writer sets ``samples_committed_bytes`` once a step, which must not cost O(steps))."""
+        for i, s in enumerate(steps):
+            if s.index != i:
+                raise fail(f"expected a step mapping with index {i}, got index {s.index}", at=(Index(i),))
+        return steps
+
     @model_validator(mode="after")
     def _checked(self):
-        for i, s in enumerate(self.steps):
-            if s.index != i:
-                raise fail(f"expected a step mapping with index {i}, got index {s.index}", at=("steps", Index(i)))
         self.mark_set("format", "id", "created", "status", "procedure", "software", "steps", "rig")
         return self
 

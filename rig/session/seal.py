@@ -187,7 +187,7 @@ class Chains:
 
 
 def seal_session(session_dir, *, source_sha256: str | None = None, text: str | None = None,
-                 digests: dict | None = None) -> dict:
+                 digests: dict | None = None, doc: dict | None = None) -> dict:
     """Seal a completed session: append ``seal:`` to ``session.yaml`` (atomically) and return it.
 
     ``seal``: ``algorithm`` (sha256), ``sha256`` (of the whole record: the lines below, see
@@ -199,14 +199,17 @@ def seal_session(session_dir, *, source_sha256: str | None = None, text: str | N
     A session sealed already keeps its seal (a seal is never replaced).
 
     ``text``: ``session.yaml`` as its writer has just written it, and ``digests``: the files' hashes as their writer
-    kept them (:meth:`Chains.digests`); given, nothing is read back from disk."""
+    kept them (:meth:`Chains.digests`); given, nothing is read back from disk. ``doc``: with ``text``, the plain
+    mapping ``text`` is the YAML of (the writer dumped it: the same mapping :func:`load_yaml` gives back, so the
+    text is not parsed again; a 10,000-step manifest takes about a second to parse)."""
     d = Path(session_dir)
     path = d / "session.yaml"
     # the text kept, the seal appended. The writer has compacted the manifest (a steps journal folded in and
     # removed) before it seals: this is the content every reader folds and checks (SessionManifest.load)
     if text is None:
         text = read_source(path, "session manifest", "missing", MAX_BYTES)
-    doc = load_yaml(text, str(path))
+    if doc is None or text is None:
+        doc = load_yaml(text, str(path))
     if not isinstance(doc, dict):
         raise SessionFormatError(str(path), None, None, "expected a mapping")
     if isinstance(doc.get("seal"), dict):

@@ -11,6 +11,13 @@ Nothing is lost: a crash loses at most the step in progress, and :meth:`SessionW
 ``samples.csv`` back to the last fsynced step so no step is ever duplicated, after checking that the file
 agrees with the manifest (:func:`rig.session.recovery.check_resumable`: a disagreement is refused, nothing
 touched).
+
+A writer made with ``durable_steps=False`` (an import: :mod:`rig.importers.recordings`, which writes into a
+partial directory renamed into place at the end, so a killed import leaves no session whatever was
+written) skips all of the per-step durability: no fsync and no journal line per step, no manifest before
+the end. Each file is fsynced once when the session ends (:meth:`SessionWriter.set_status`: ``samples.csv``
+and ``events.jsonl`` at close, ``session.yaml`` by its atomic write, with the directory), before the
+caller's rename. A recorded run (``durable_steps=True``, the default) is unchanged.
 """
 
 from __future__ import annotations
@@ -77,10 +84,12 @@ class SessionWriter:
     """
 
     def __init__(self, session_dir: Path, info: SessionManifest, columns: tuple[str, ...],
-                 chains: Chains | None = None) -> None:
+                 chains: Chains | None = None, *, durable_steps: bool = True) -> None:
         self.session_dir = Path(session_dir)
         self.info = info
         self.columns = columns
+        #: False: an import's writer (module docstring): the files fsynced once at the end, no steps journal
+        self.durable_steps = durable_steps
         # the files' hashes kept as they are written (rig.session.seal): a step's link and the seal read nothing back
         self._chains = chains if chains is not None else Chains.from_files(self.session_dir, info)
         self._samples = open(self.session_dir / "samples.csv", "ab")
@@ -90,11 +99,13 @@ class SessionWriter:
     # -- construction ------------------------------------------------------------------
     @classmethod
     def create(cls, sessions_root, session_id: str, manifest: SessionManifest | dict,
-               columns: tuple[str, ...] | None = None) -> "SessionWriter":
+               columns: tuple[str, ...] | None = None, *, durable_steps: bool = True) -> "SessionWriter":
         """Create ``sessions_root/session_id`` and write the manifest and the CSV header.
 
         ``manifest``: a :class:`SessionManifest` or a mapping of the same keys (``format``, ``id``,
         ``columns`` and ``samples_committed_bytes`` are set here; ``created`` and ``status`` default).
+        ``durable_steps=False``: only for a directory that is renamed into place once complete (an import):
+        nothing is fsynced and no manifest is written until :meth:`set_status` (module docstring).
         """
         validate_session_id(session_id)
         columns = tuple(columns) if columns else DEFAULT_COLUMNS
@@ -108,12 +119,14 @@ class SessionWriter:
         header = ",".join(columns) + "\n"
         with open(d / "samples.csv", "wb") as fh:
             fh.write(header.encode())
-            fh.flush()
-            os.fsync(fh.fileno())
+            if durable_steps:
+                fh.flush()
+                os.fsync(fh.fileno())
         m["samples_committed_bytes"] = len(header.encode())
         (d / "events.jsonl").touch()
-        atomic_write_text(d / "session.yaml", dump_yaml(m))
-        w = cls(d, as_manifest(m), columns, Chains.fresh(header.encode()))
+        if durable_steps:
+            atomic_write_text(d / "session.yaml", dump_yaml(m))
+        w = cls(d, as_manifest(m), columns, Chains.fresh(header.encode()), durable_steps=durable_steps)
         w.event("start", session=session_id)
         return w
 
@@ -163,11 +176,13 @@ class SessionWriter:
 
     def complete_step(self, index: int, stats: dict, status: str = "complete") -> None:
         """Make the step's samples durable (flush + fsync), then record it: one fsynced line of the steps
-        journal (the step is finished when this returns)."""
+        journal (the step is finished when this returns). Without ``durable_steps`` (an import) the step is
+        recorded in memory only, made durable with the whole session at :meth:`set_status`."""
         if status not in STEP_STATUSES:
             raise ValueError(f"unknown step status {status!r}")
-        self._samples.flush()
-        os.fsync(self._samples.fileno())
+        if self.durable_steps:
+            self._samples.flush()
+            os.fsync(self._samples.fileno())
         stats = self._chains.link(self.session_dir, self.info, index, stats)  # the step's link (rig.session.seal)
         self.info.samples_committed_bytes = int(stats["samples_bytes"][1])
         step = self.info.steps[index]
@@ -187,11 +202,11 @@ class SessionWriter:
         self.info.status = status
         if status != "running":
             self.info.ended = utc_now()
-        text = self._write_manifest()
+        text, doc = self._write_manifest()
         if status != "running":
             self.close()
         if status == "complete":  # the whole record sealed (rig.session.seal), from what was written: nothing re-read
-            self.info.seal = seal_session(self.session_dir, text=text, digests=self._chains.digests())
+            self.info.seal = seal_session(self.session_dir, text=text, digests=self._chains.digests(), doc=doc)
 
     def close(self) -> None:
         self._close_journal()
@@ -204,6 +219,8 @@ class SessionWriter:
     def _record_step(self, index: int) -> None:
         """A finished step's line in the journal (a status the journal does not hold: the whole manifest)."""
         step = self.info.steps[index]
+        if not self.durable_steps:
+            return  # written with the manifest at the end
         if step.status not in journal.FINISHED:
             self._write_manifest()
             return
@@ -213,14 +230,15 @@ class SessionWriter:
         journal.append(self._journal, journal.record_line(index, step.status, plain(stats),
                                                           self.info.samples_committed_bytes or 0))
 
-    def _write_manifest(self) -> str:
+    def _write_manifest(self) -> tuple[str, dict]:
         """Compact: the whole manifest, atomically (the journal's lines are in it), then the journal removed; the
-        text written."""
-        text = dump_yaml(plain(self.info.to_dict()))
+        text written and the plain mapping it is the YAML of (what a reader of the text gets)."""
+        doc = plain(self.info.to_dict())
+        text = dump_yaml(doc)
         atomic_write_text(self.session_dir / "session.yaml", text)
         self._close_journal()
         journal.remove(self.session_dir)
-        return text
+        return text, doc
 
     def _append(self, fh, name: str, data: bytes) -> None:
         fh.write(data)
