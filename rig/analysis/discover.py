@@ -83,11 +83,32 @@ def step_rates(session: Session, step_indices: list[int]) -> tuple[np.ndarray | 
     return (rates if np.all(np.isfinite(rates)) else None), (float(np.median(spans)) if spans else 5.0)
 
 
+#: ``rig discover`` fits at most this many static steps. Its model of the data holds the bias wander as a dense
+#: K x K covariance per axis (whitened by its inverse Cholesky factor) and it refits at every step boundary and
+#: per-step candidate: its time grows with the square to the cube of the steps, and depends on what the data hold
+#: (measured on 2 cores, 2026-11-26: 400 steps 3-6 s, 450 steps 4-31 s, 600 steps 69 s, 1000 steps 60-74 s of
+#: CPU over 60 s; 10,000 steps would need about 2.4 GB for the factors alone, and hours). At 400 the slowest
+#: path seen, scaled, is about 22 s. Beyond the limit it refuses at once (issue 32: under 60 s, or a refusal).
+MAX_DISCOVER_STEPS = 400
+
+
+def check_discover_size(session: Session, n_steps: int) -> None:
+    """Refuse, in one line naming the limit and the reason, a discovery over more than :data:`MAX_DISCOVER_STEPS`."""
+    if n_steps > MAX_DISCOVER_STEPS:
+        raise RigInputError(str(session.path), None, None,
+                            f"{n_steps} static steps: rig discover fits at most {MAX_DISCOVER_STEPS} (its time grows "
+                            "with the square to the cube of the steps: up to 31 s at 450 and 69 s at 600 on 2 cores, "
+                            "hours at 10,000); rig solve works on any number of steps, and rig discover on a part of "
+                            "the recording imported alone")
+
+
 def discover_session(session_dir, *, false_alarm: float = 0.01) -> tuple[Session, Discovery]:
+    """Load the session and run the discovery on its static steps (refused beyond :data:`MAX_DISCOVER_STEPS`)."""
     session = load_session(session_dir)
     idx = session.static_step_indices()
     if not idx:  # an imported recording without known poses: the pose-free baseline
         idx = session.static_step_indices(unknown_pose=True)
+    check_discover_size(session, len(idx))
     steps = step_means(session, idx)
     ctx = step_context(session, idx)
     return session, discover(steps, ctx, false_alarm=false_alarm)
