@@ -127,7 +127,7 @@ def undetermined(g: np.ndarray, names: list[str], cond_max: float = 1e10) -> lis
 def _null_names(g, names, cond_max):
     scale = np.linalg.norm(g, axis=0)
     scale[scale == 0] = 1.0
-    _, sv, vt = np.linalg.svd(g / scale)
+    _, sv, vt = np.linalg.svd(g / scale, full_matrices=False)  # the (K, K) left factor is never used: 30,000^2 at 10,000 steps
     small = sv < sv[0] * (1.0 / cond_max) if sv[0] > 0 else np.ones_like(sv, bool)
     if not small.any():
         return []

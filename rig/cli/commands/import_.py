@@ -7,7 +7,7 @@ import time
 
 import calib
 from calib.errors import CalibError
-from rig.analysis.discover import discover_session
+from rig.analysis.discover import MAX_DISCOVER_STEPS, discover_session
 from rig.analysis.solve import accelerometer_absent, check_plausible, placement, solve_present_sensors
 from rig.cli import outputs
 from rig.cli.common import EXIT_OK, UsageError
@@ -70,11 +70,11 @@ def run(args) -> int:
     for note in imp.notes:
         print(f"  note: {note}")
     if n_samples > TRY_MAX_SAMPLES or len(steps) > TRY_MAX_STEPS:
-        hints = [h for h, _ in next_steps(None, path, known)]
+        hints = [h for h, _ in next_steps(None, path, known, static)]
         print(f"  next (not tried on {n_samples} samples in {len(steps)} steps): {'; '.join(hints)}")
         return EXIT_OK
     s = load_session(path)
-    hints = [h for h, works in next_steps(s, path, known) if works]
+    hints = [h for h, works in next_steps(s, path, known, static) if works]
     print(f"  next: {'; '.join(hints)}" if hints else
           "  next: nothing can be solved from this recording alone (too few distinct poses)")
     return EXIT_OK
@@ -99,9 +99,9 @@ PROGRESS_STEPS = 1000
 PROGRESS_S = 5.0
 
 
-def next_steps(session, path, known: int) -> list[tuple[str, bool]]:
+def next_steps(session, path, known: int, static: int = 0) -> list[tuple[str, bool]]:
     """The follow-up commands, each tried here first on ``session`` (None: not tried): only those that work
-    on this import are shown."""
+    on this import are shown (``rig discover`` never beyond its limit of static steps, ``static``)."""
     if session is not None and accelerometer_absent(session):
         res = solve_present_sensors(session)
         return [(f"rig solve {path}", res.magnetometer is not None or res.gyro_static is not None)]
@@ -111,6 +111,8 @@ def next_steps(session, path, known: int) -> list[tuple[str, bool]]:
         steps = lambda: step_means(session, session.static_step_indices(unknown_pose=True))
         solve = (f"rig solve {path} --method magnitude", session is None or
                  _works(lambda: check_plausible(calib.solve(steps(), method="magnitude"), session.lsb_per_g)))
+    if static > MAX_DISCOVER_STEPS:  # rig discover would refuse it: not suggested
+        return [solve]
     return [solve, (f"rig discover {path}", session is None or _works(lambda: discover_session(path)))]
 
 
