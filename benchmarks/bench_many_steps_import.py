@@ -17,13 +17,15 @@ of about 2 (2026-11-26):
 |---|---|---|---|
 | before | 18.4 s (CPU 15.5 s) | 8.5 s (CPU 9.2 s) | not finished in 60 s (3 of 3) |
 | after | 5.8 s (CPU 6.0 s) | 8.1 s (CPU 9.0 s) | refused in 2.3 s: more than 400 steps (the limit and the reason) |
+| + SVD without its unused left factor (load 2.5) | 6.6 s (CPU 6.1 s) | 3.9 s (CPU 3.9 s) | refused in 2.5 s |
 
 At a load of about 6 the import before took 56.8 s (its 20,011 fsyncs wait on the disk), after 7.0 s. Earlier
 (2026-11-25): 1,000 steps imported in 6.5 s, solved in 2.7 s, not discovered in 60 s.
 
 Against the targets: import 5.8 s for 10 s (met), discover refused at once beyond 400 steps (met: its time grows
 with the square to the cube of the steps and depends on the data: 400 steps 3-6 s, 450 steps 4-31 s, 600 steps 69 s,
-1,000 steps over 60 s), solve 8.1 s for 5 s (missed). Where the import's time went (cProfile of 10,000 steps, 63 s
+1,000 steps over 60 s), solve 8.1 s for 5 s (missed), then 3.9 s (met) once ``_null_names`` computed its SVD
+without the unused (K, K) left factor. Where the import's time went (cProfile of 10,000 steps, 63 s
 profiled): 20,011 fsyncs (two a step: samples.csv and the steps journal, ``SessionWriter.complete_step``) 22.6 s,
 now one per file at the end (the writer's ``durable_steps=False``: the import is renamed into place complete);
 re-checking every step's index at each assignment of ``samples_committed_bytes`` (a pydantic model validator,
