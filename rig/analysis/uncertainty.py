@@ -11,15 +11,19 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
+
+import yaml
 
 import calib
 from calib.accel.budget import LINEAR_METHODS, at_local_gravity, linear_solve, uncertainty_section
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration
 from calib.numerics.budget import DEFAULT_K, RigErrors, TableClass
-from calib.numerics.gravity import G0_M_S2
-from rig.config.rigfile import RigFile, load_rig_file
+from calib.numerics.gravity import G0_M_S2, Gravity, standard_gravity
+from rig.config.rigfile import GravityConfig, RigFile, load_rig_file
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
 
@@ -28,17 +32,57 @@ _CLASS_KEYS = tuple(f.name for f in dataclasses.fields(TableClass))
 PERFECT_TABLE = TableClass(**{k: (TableClass.period_deg if k == "period_deg" else 0.0) for k in _CLASS_KEYS})
 
 
-def session_rig_file(session) -> RigFile | None:
-    """The session's rig file when it is still there and unchanged (its recorded sha256), else None."""
+@dataclass(frozen=True)
+class RigFacts:
+    """What the budget reads of a rig file (:func:`rig_errors` takes it as it takes a :class:`RigFile`): its
+    ``path``, whether it ``is_simulated``, its ``sim`` section (``geometry``), each axis' ``approach`` and its
+    ``gravity``."""
+
+    path: Path
+    is_simulated: bool
+    sim: dict
+    axes: dict
+    gravity: Gravity
+
+
+def session_rig_facts(session) -> RigFacts | None:
+    """What the budget needs of the session's rig file, when that is still there and unchanged (its recorded
+    sha256), else None. Read without validating it again: its bytes are those the run validated (the digest says
+    so), and a full parse would load the simulator's schemas into every ``rig solve`` of a simulated session."""
+    path = _unchanged_rig_file(session)
+    if path is None:
+        return None
+    try:
+        doc = yaml.load(path.read_text(encoding="utf-8"), Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+        sim = doc.get("sim") or {}
+        axes = (doc.get("turntable") or {}).get("axes") or {}
+        stated = doc.get("gravity")
+        gravity = GravityConfig(**stated).resolve() if stated else standard_gravity()
+        return RigFacts(path, doc.get("kind") == "sim", sim if isinstance(sim, dict) else {},
+                        {n: SimpleNamespace(approach=(axes.get(n) or {}).get("approach", "none")) for n in STAGE_AXES},
+                        gravity)
+    except (OSError, ValueError, TypeError, AttributeError, yaml.YAMLError):
+        return None
+
+
+def _unchanged_rig_file(session) -> Path | None:
+    """The session's rig file when it is still there with the sha256 the run recorded, else None."""
     rig = session.info.rig
     path, digest = rig.rig_file, rig.rig_file_sha256
     if not path or not digest:
         return None
     p = Path(path) if Path(path).is_absolute() else Path.cwd() / path
     try:
-        if hashlib.sha256(p.read_bytes()).hexdigest() != digest:
-            return None
-        return load_rig_file(p)
+        return p if hashlib.sha256(p.read_bytes()).hexdigest() == digest else None
+    except OSError:
+        return None
+
+
+def session_rig_file(session) -> RigFile | None:
+    """The session's rig file when it is still there and unchanged (its recorded sha256), else None."""
+    path = _unchanged_rig_file(session)
+    try:
+        return None if path is None else load_rig_file(path)
     except (OSError, RigInputError):
         return None
 
@@ -51,7 +95,7 @@ def session_rig_errors(session) -> RigErrors:
     """The rig's Type B inputs for a session: from its rig file when that is there unchanged
     (:func:`session_rig_file`), else the turntable's datasheet classes at standard gravity, the source saying
     why (an imported session has no rig file; a recorded one's may have changed or gone)."""
-    rig_file = session_rig_file(session)
+    rig_file = session_rig_facts(session)
     if rig_file is not None:
         return rig_errors(rig_file)
     info = session.info
@@ -67,7 +111,7 @@ def session_rig_errors(session) -> RigErrors:
     return dataclasses.replace(RigErrors.from_classes(), source=f"{DATASHEET_SOURCE}; {why}")
 
 
-def rig_errors(rig_file: RigFile | None) -> RigErrors:
+def rig_errors(rig_file: RigFile | RigFacts | None) -> RigErrors:
     """The rig's Type B inputs: its stated gravity, whether every axis approaches its poses from one side, and
     the turntable's classes (a simulated rig's ``sim.geometry`` classes, none when they are off; a hardware rig's
     the datasheet classes). Needs a wired program (``rig.composition.wire``: the command line is) to read a
