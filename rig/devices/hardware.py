@@ -8,6 +8,7 @@ from drivers.sensors.chips import chip_spec
 from drivers.sensors.ak8975 import Ak8975
 from drivers.ximc.stage import Stage
 from rig.devices.buses import open_bus
+from rig.devices.fixture import attach_hardware_fixture
 from rig.devices.registry import register_rig_kind
 from rig.devices.rig import Axis, Rig
 from rig.planning.kinematics import STAGE_AXES
@@ -45,9 +46,12 @@ def open_hardware_rig(rig_file, *, seed: int | None = None, time_scale: float | 
     rig = Rig(kind="hardware", clock=clock, axes=axes, sensor=None, turntable="standa-8smc",
               home_policy=rig_file.home_policy, rig_file=str(rig_file.path))
     try:
-        bus = open_bus(rig_file.sensor.bus, where=str(rig_file.path))
-        rig.closers.append(bus.close)
-        attach_sensors(rig, rig_file.sensor.model, bus, rig_file.sensor.address)
+        if getattr(rig_file, "fixture", None) is not None:  # the slots instead of the one sensor (docs/fixture.md)
+            attach_hardware_fixture(rig, rig_file)
+        else:
+            bus = open_bus(rig_file.sensor.bus, where=str(rig_file.path))
+            rig.closers.append(bus.close)
+            attach_sensors(rig, rig_file.sensor.model, bus, rig_file.sensor.address)
     except Exception:
         rig.close()
         raise

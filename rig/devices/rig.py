@@ -109,6 +109,9 @@ class Rig:
         Files (name -> text) stored in a new session directory, e.g. ``sim_truth.yaml``.
     step_listeners : list
         Called with the step index when a step begins (a replayed sensor seeks its recording).
+    fixture : rig.devices.fixture.Fixture | None
+        The slots of a rig file's ``fixture:`` section, opened (None: the rig has its one ``sensor``);
+        ``sensor`` is then the first slot's, for the checks made before anything moves.
     """
 
     kind: str
@@ -127,6 +130,7 @@ class Rig:
     step_listeners: list[Callable[[int], None]] = field(default_factory=list)
     closers: list[Callable[[], None]] = field(default_factory=list)
     closed: bool = False
+    fixture: Any | None = None  # rig.devices.fixture.Fixture
 
     @property
     def stages(self) -> dict[str, Any]:

@@ -23,6 +23,7 @@ from rig.devices.rig import LostSamples, Rig
 from rig.errors import RigInputError
 from rig.execution.capture import poll_interval_s
 from rig.planning.kinematics import STAGE_AXES
+from rig.simulation.fixture import attach_simulated_fixture
 from rig.simulation.simrig import SimSettings, SimulatedRig
 
 #: the share of this machine a capture's FIFO reads may take at a time scale it keeps up with; the other half
@@ -202,7 +203,10 @@ def open_simulated_rig(rig_file, *, seed: int | None = None, time_scale: float |
               attachments={"sim_truth.yaml": yaml.safe_dump(sim.truth(), sort_keys=False)})
     rig.closers.extend(closers)  # stop (pty) or detach (memory) the emulators: all sim.stop would do
     try:
-        attach_sensors(rig, rig_file.sensor.model, sim.bus, sim.sensor_address)
+        if getattr(rig_file, "fixture", None) is not None:  # the slots instead of the one sensor (docs/fixture.md)
+            attach_simulated_fixture(rig, sim, rig_file)
+        else:
+            attach_sensors(rig, rig_file.sensor.model, sim.bus, sim.sensor_address)
     except Exception:
         rig.close()
         raise

@@ -12,12 +12,14 @@ from rig.devices import open_rig_file
 from rig.execution.context import EngineOptions, RunAborted
 from rig.execution.estimate import step_durations_s
 from rig.execution.engine import check_before_recording
+from rig.execution.fixture import check_fixture_procedure
 from rig.execution.operator import Operator, SilentOperator
 from rig.session.lock import SessionLock
 from rig.errors import RigInputError
 from rig.session import SessionManifest, SessionWriter
 from rig.session.recovery import check_resumable
 from rig.workflow import identity
+from rig.workflow.batch import BatchResult, run_batch
 from rig.workflow import kinds  # noqa: F401 - registers the "sim" rig kind (the simulator loads when it opens)
 from rig.workflow.lifecycle import (NewSession, RunResult, abort_session, configure_devices, execute, file_sha256,
                                     finish, interrupted, start_session)
@@ -48,6 +50,9 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     history record (``history``: the database; default ``$RIG_HISTORY``, else the user's) and the
     report when the procedure asks: exactly what ``rig run`` prints (``RunResult.conclusion``).
 
+    A rig file with a ``fixture:`` runs every slot in one motion (:func:`rig.workflow.batch.run_batch`, docs/fixture.md)
+    and returns a :class:`~rig.workflow.batch.BatchResult` (each slot's outcome and session, the batch record).
+
     Raises the drivers' errors (TurntableError, SensorError), RigInputError, RunError and
     RunAborted; motors are stopped and the session marked aborted before any of them leaves.
     """
@@ -59,6 +64,9 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     rig_file = load_rig_file(resolve_rig(rig_spec))
     seed = 0 if seed is None else seed
     rig = open_rig_file(rig_file, seed=seed, time_scale=time_scale, clock=clock)
+    if rig.fixture is not None:  # many units in one run: docs/fixture.md
+        return _run_fixture(procedure, procedure_path, rig, out_dir=out_dir, seed=seed, operator=operator,
+                            solve=solve, options=options, history=history)
     lock = SessionLock(None)
     try:
         new = NewSession(Path(out_dir), new_session_id(procedure.name, seed), Path(procedure_path).read_text(),
@@ -82,6 +90,21 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     finally:
         rig.close()
         lock.release()
+
+
+def _run_fixture(procedure, procedure_path, rig, *, out_dir, seed: int, operator: Operator, solve: bool,
+                 options: EngineOptions, history) -> BatchResult:
+    """A fixture rig file: every slot in one motion (:func:`rig.workflow.batch.run_batch`); the checks before
+    anything moves are the one-sensor run's, and the fixture's own."""
+    try:
+        new = NewSession(Path(out_dir), new_session_id(procedure.name, seed), Path(procedure_path).read_text(),
+                         str(procedure_path), extra={"seed": rig.seed})
+        check_fixture_procedure(procedure)
+        check_before_recording(procedure, rig, operator)
+        announce_duration(procedure, rig, operator)
+        return run_batch(procedure, rig, new, operator, options=options, solve=solve, history=history)
+    finally:
+        rig.close()
 
 
 #: runs planned longer than this (rig time, s) ask an interactive operator to confirm before moving

@@ -1,0 +1,172 @@
+"""A fixture run (issue 30, items 3, 4, 7): `rig run six_position.yaml --rig rigs/sim-fixture.yaml` calibrates 8
+simulated units in one motion, each slot its own session that solves alone and recovers its own hidden sensor; a
+slot that stops answering is FAULT and the others' calibrations are those of the run without the fault; what a
+fixture cannot run is refused before anything moves."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import yaml
+
+from calib.file import calibration as calfile
+from rig.cli import main
+from rig.session import load_session
+
+from conftest import PROCEDURES, RIGS
+
+LSB = 8192.0  # the MPU-9150 at +-4 g, counts/g
+
+
+def _run(out, rig, capsys, seed=3):
+    code = main(["run", str(PROCEDURES / "six_position.yaml"), "--rig", str(rig), "--out", str(out),
+                 "--seed", str(seed), "--time-scale", "0"])
+    printed = capsys.readouterr()
+    batches = sorted(p for p in out.iterdir() if p.is_dir()) if out.exists() else []
+    return code, printed.out + printed.err, batches
+
+
+@pytest.fixture(scope="module")
+def batch(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("fixture")
+    capsys = _Capture()
+    with capsys:
+        code, printed, batches = _run(tmp / "out", RIGS / "sim-fixture.yaml", capsys)
+    assert code == 0, printed
+    assert len(batches) == 1
+    return batches[0], printed
+
+
+class _Capture:
+    """capsys for a module-scoped fixture: stdout and stderr while the run runs."""
+
+    def __enter__(self):
+        import io
+        import sys
+        self._old = sys.stdout, sys.stderr
+        self.out, self.err = io.StringIO(), io.StringIO()
+        sys.stdout, sys.stderr = self.out, self.err
+        return self
+
+    def __exit__(self, *exc):
+        import sys
+        sys.stdout, sys.stderr = self._old
+
+    def readouterr(self):
+        class R:
+            pass
+        r = R()
+        r.out, r.err = self.out.getvalue(), self.err.getvalue()
+        return r
+
+
+def _slot_dirs(batch_dir):
+    return sorted((d for d in batch_dir.iterdir() if d.is_dir()), key=lambda d: int(d.name.rsplit("slot", 1)[1]))
+
+
+def test_eight_slots_one_run_a_table_a_record_and_eight_sessions(batch, tmp_path):
+    batch_dir, printed = batch
+    rows = [line for line in printed.splitlines() if line.strip().split(" ")[0].isdigit() and "SIM-" in line]
+    assert len(rows) == 8 and all(" PASS " in r for r in rows), printed
+    assert "8 PASS, 0 FAIL, 0 FAULT" in printed
+    record = json.loads((batch_dir / "batch.json").read_text())
+    assert record["format"] == "rig-batch/1" and record["seed"] == 3
+    assert [s["slot"] for s in record["slots"]] == list(range(8))
+    assert {s["outcome"] for s in record["slots"]} == {"PASS"}
+    slots = _slot_dirs(batch_dir)
+    assert [batch_dir / s["session"] for s in record["slots"]] == slots
+    rotations = set()
+    for i, d in enumerate(slots):
+        m = yaml.safe_load((d / "session.yaml").read_text())
+        assert m["format"] == "rig-session/1" and m["status"] == "complete"
+        assert m["rig"]["sensor"]["serial"] == f"SIM-{i}" and m["rig"]["sensor"]["fixture"]["slot"] == i
+        rotations.add(m["rig"]["sensor"]["fixture"]["rotation"])
+        truth = yaml.safe_load((d / "sim_truth.yaml").read_text())
+        assert truth["slot"] == i and truth["rig_seed"] == 3
+        # each slot's session solves alone
+        assert main(["solve", str(d), "--out", str(tmp_path / f"cal{i}.yaml")]) == 0
+    assert len(rotations) == 8
+    seeds = {yaml.safe_load((d / "sim_truth.yaml").read_text())["seed"] for d in slots}
+    assert len(seeds) == 8  # eight different hidden sensors
+
+
+def test_each_slot_gets_its_design_through_its_mounting(batch):
+    batch_dir, _ = batch
+    slots = _slot_dirs(batch_dir)
+    # slot 6 is z+x+: its +x points up the turntable's +z, so "+Z up" is +x up for it; slot 4 (x+z-) is upside down
+    m6 = yaml.safe_load((slots[6] / "session.yaml").read_text())
+    m4 = yaml.safe_load((slots[4] / "session.yaml").read_text())
+    assert m6["steps"][0]["f_nominal"] == [1.0, 0.0, 0.0]
+    assert m4["steps"][0]["f_nominal"] == [0.0, 0.0, -1.0]
+    for d in slots:  # every slot sees all six faces
+        faces = {tuple(s["f_nominal"]) for s in yaml.safe_load((d / "session.yaml").read_text())["steps"]}
+        assert len(faces) == 6
+        s = load_session(d)
+        for step in s.info.to_dict()["steps"]:
+            mean_g = s.step_samples(step["index"])["accel_counts"].mean(axis=0) / LSB
+            assert np.allclose(mean_g, step["f_nominal"], atol=0.15)
+
+
+@pytest.mark.parametrize("slot", [0, 3, 6])
+def test_each_slot_recovers_its_own_hidden_sensor(batch, slot):
+    d = _slot_dirs(batch[0])[slot]
+    truth = yaml.safe_load((d / "sim_truth.yaml").read_text())["accelerometer"]
+    cal = calfile.read(d / "calibration.yaml").accelerometer
+    temp_c = float(np.mean(load_session(d).samples["temp_c"]))
+    true_b = (np.asarray(truth["bias_g"]) + np.asarray(truth["bias_tempco_g_per_c"]) * (temp_c - truth["t_ref_c"])) * LSB
+    true_k = np.diag(np.asarray(truth["matrix"])) * LSB
+    sig_b, sig_k = np.asarray(cal.sigma["bias_counts"]), np.asarray(cal.sigma["scale_counts_per_g"])
+    assert np.all(np.abs(np.asarray(cal.bias_counts) - true_b) < 4 * sig_b), (cal.bias_counts, true_b, sig_b)
+    assert np.all(np.abs(np.asarray(cal.scale_counts_per_g) - true_k) < 4 * sig_k), (cal.scale_counts_per_g, true_k)
+    assert np.all(sig_b < 2.0)
+
+
+def test_a_slot_that_stops_answering_is_fault_and_the_others_are_unchanged(batch, tmp_path, capsys):
+    rig = yaml.safe_load((RIGS / "sim-fixture.yaml").read_text())
+    # the run's clock reaches pose 4 (-X up) about 48 s in; its dwell runs about 54 s to 64 s
+    rig["faults"] = {"slots": {3: {"dead_after_s": 55.0}}}
+    (tmp_path / "rig.yaml").write_text(yaml.safe_dump(rig))
+    code, printed, batches = _run(tmp_path / "out", tmp_path / "rig.yaml", capsys)
+    assert code == 0, printed
+    assert "7 PASS, 0 FAIL, 1 FAULT" in printed
+    record = json.loads((batches[0] / "batch.json").read_text())
+    bad = record["slots"][3]
+    assert bad["outcome"] == "FAULT" and "step 4 (-X up)" in bad["reason"], bad
+    assert yaml.safe_load((batches[0] / bad["session"] / "session.yaml").read_text())["status"] == "aborted"
+    clean = _slot_dirs(batch[0])
+    for s in record["slots"]:
+        if s["slot"] == 3:
+            continue
+        assert s["outcome"] == "PASS"
+        got = calfile.read(batches[0] / s["calibration"]).accelerometer
+        want = calfile.read(clean[s["slot"]] / "calibration.yaml").accelerometer
+        assert np.array_equal(got.bias_counts, want.bias_counts), s["slot"]
+        assert np.array_equal(got.scale_counts_per_g, want.scale_counts_per_g), s["slot"]
+
+
+@pytest.mark.parametrize("change, expect", [
+    (lambda r: r["fixture"]["slots"][1].update(channel=0), "fixture.slots[1].address"),
+    (lambda r: r["fixture"]["slots"][2].update(rotation="x+x+"), "fixture.slots[2].rotation"),
+    (lambda r: r["fixture"]["slots"][5].update(serial="SIM-0"), "fixture.slots[5].serial"),
+    (lambda r: r["fixture"].update(rate_hz=1000), "fixture.slots[1].bus"),
+])
+def test_a_bad_fixture_is_refused_before_anything_moves(tmp_path, capsys, change, expect):
+    rig = yaml.safe_load((RIGS / "sim-fixture.yaml").read_text())
+    change(rig)
+    (tmp_path / "rig.yaml").write_text(yaml.safe_dump(rig))
+    code, printed, batches = _run(tmp_path / "out", tmp_path / "rig.yaml", capsys)
+    assert code == 2 and expect in printed, printed
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_procedure_a_fixture_cannot_run_is_refused_before_anything_moves(tmp_path, capsys):
+    (tmp_path / "p.yaml").write_text("format: rig-procedure/1\nname: t\nsensor: {accel_range_g: 4, sample_rate_hz: 100}\n"
+                                     "dwell: {seconds: 1}\nsteps:\n  - pose: \"+Z up\"\n"
+                                     "  - rate: {axis: a1, rate_deg_s: 10, seconds: 2}\n")
+    code = main(["run", str(tmp_path / "p.yaml"), "--rig", str(RIGS / "sim-fixture.yaml"), "--time-scale", "0",
+                 "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2 and "a fixture runs static poses" in err, err
+    assert not (tmp_path / "out").exists()
