@@ -17,7 +17,6 @@ from typing import Annotated, Any, ClassVar, Optional
 
 import numpy as np
 from pydantic import BeforeValidator, Field, WithJsonSchema, create_model
-from pydantic.json_schema import SkipJsonSchema
 
 from calib.discovery.effects import LIBRARY
 from calib.file.fields import Strict, choice, fail, flag, number
@@ -308,10 +307,8 @@ class FaultsSection(Strict):
 
     ximc: XimcAxesFaults = None
     sensor: SensorFaultsSection = None
-    #: a fixture's slots (rig file ``fixture:``): slot number -> the faults of that slot's chip (docs/fixture.md).
-    #: Left out of the published JSON Schema until docs/schemas/rig-file.schema.json is regenerated with it
-    #: (``python -m rig.cli.schemas docs/schemas``; then drop the SkipJsonSchema): the loader validates it already
-    slots: SkipJsonSchema[Optional[dict[Annotated[int, Field(ge=0, lt=64)], SensorFaultsSection]]] = None
+    #: a fixture's slots (rig file ``fixture:``): slot number -> the faults of that slot's chip (docs/fixture.md)
+    slots: Optional[dict[Annotated[int, Field(ge=0, lt=64)], SensorFaultsSection]] = None
 
 
 # -- the settings the simulated rig is built from -------------------------------------------------------

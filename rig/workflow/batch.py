@@ -188,9 +188,6 @@ def run_batch(procedure, rig: Rig, new: NewSession, operator: Operator, *, optio
         outcomes[run.slot.index] = _conclude_slot(procedure, run, solve=solve, history=history)
     ordered = [outcomes[i] for i in sorted(outcomes)]
     record = write_batch_record(batch_dir, new, procedure, rig, ordered)
-    for line in format_batch_table(ordered, batch_dir).splitlines():
-        operator.info(line)
-    operator.info(f"batch record: {record}")
     first = next((o for o in ordered if o.session_dir is not None), None)
     return BatchResult(session_dir=first.session_dir if first is not None else batch_dir,
                        status="complete", outcomes=[], conclusion=None, batch_dir=batch_dir, record_path=record,
