@@ -9,7 +9,7 @@ from pathlib import Path
 from rig.config.procedure import load_procedure, load_procedure_text
 from rig.config.rigfile import load_rig_file
 from rig.devices import open_rig_file
-from rig.execution.context import EngineOptions, RunAborted
+from rig.execution.context import EngineOptions, RunAborted, wall_per_rig_s
 from rig.execution.estimate import step_durations_s
 from rig.execution.engine import check_before_recording
 from rig.execution.fixture import check_fixture_procedure
@@ -115,11 +115,22 @@ def announce_duration(procedure, rig, operator: Operator) -> None:
     """Say how long the run will take before anything moves; ask first when that is long."""
     planned_s = sum(step_durations_s(procedure.expanded_steps(), rig))
     line = f"planned: {len(procedure.expanded_steps())} steps, about {format_duration(planned_s)} of rig time"
-    operator.info(line)
+    operator.info(line + wall_clock_words(planned_s, rig.clock))
     if planned_s > CONFIRM_ABOVE_S and getattr(operator, "interactive", False) and not getattr(
             operator, "assume_yes", False):
         if not operator.confirm(f"{line}. Start?"):
             raise RunAborted("the operator did not start the run")
+
+
+def wall_clock_words(planned_s: float, clock) -> str:
+    """What the rig time is on the wall: nothing on hardware (the same), ``(about 12 s at time scale 10)`` for a
+    time-scaled simulated rig, ``(virtual time: as fast as this machine runs it)`` for virtual time."""
+    wall = wall_per_rig_s(clock)
+    if wall is None:
+        return " (virtual time: as fast as this machine runs it)"
+    if abs(wall - 1.0) < 1e-9:
+        return ""
+    return f" (about {format_duration(planned_s * wall)} at time scale {1.0 / wall:g})"
 
 
 def format_duration(seconds: float) -> str:

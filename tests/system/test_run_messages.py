@@ -17,8 +17,20 @@ def test_the_planned_duration_is_said_before_the_session_starts(tmp_path, capsys
     six.write_text(SIX_SHORT)
     assert main(["run", str(six), "--seed", "2", "--time-scale", "0", "--out", str(tmp_path / "s")]) == 0
     err = capsys.readouterr().err.splitlines()
-    assert err[0].startswith("planned: 6 steps, about ") and err[0].endswith("of rig time")
+    assert err[0].startswith("planned: 6 steps, about ") and err[0].endswith(
+        "of rig time (virtual time: as fast as this machine runs it)")
     assert err[1].startswith("session ")
+
+
+def test_the_planned_duration_says_the_wall_time_of_a_time_scaled_rig():
+    """The walkthrough: 'planned: 6 steps, about 2 min of rig time' and the run was over in 12 s (time scale 10)."""
+    from types import SimpleNamespace
+
+    from rig.workflow.run import wall_clock_words
+
+    assert wall_clock_words(120.0, SimpleNamespace(time_scale=10.0)) == " (about 12 s at time scale 10)"
+    assert wall_clock_words(120.0, SimpleNamespace(time_scale=1.0)) == ""  # hardware, or real time: the same
+    assert wall_clock_words(120.0, SimpleNamespace(time_scale=None)) == " (virtual time: as fast as this machine runs it)"
 
 
 def test_a_controller_port_that_is_not_there_says_what_to_do_as_rig_check_does(tmp_path, capsys):
