@@ -66,6 +66,27 @@ def birge_ratio(cal: AccelCalibration) -> float:
     return float(np.sqrt(chi2)) if scaled and chi2 is not None and np.isfinite(chi2) and chi2 > 1 else 1.0
 
 
+def type_a_contribution(cal: AccelCalibration, birge: float, rig_terms: list[Contribution]) -> Contribution:
+    """The Type A entry: the solve's sigma. When the solve scaled it for a misfit (``birge`` > 1), the part of that
+    scaling the rig's geometry (``rig_terms``) explains is left out, so nothing is counted twice; the part it does
+    not explain stays: ``u_A^2 = max(sigma^2 / birge^2, sigma^2 - u_rig^2)``, and the combined uncertainty is never
+    below the printed sigma (a session that misfits on a rig without geometry errors keeps its whole sigma)."""
+    sigma = flat_sigma(cal)
+    if birge <= 1:
+        return Contribution("noise and wander", "A", "the solve's sigma (step scatter, bias wander)", sigma)
+    u_rig2 = {n: 0.0 for n in sigma}
+    for c in rig_terms:
+        for n, u in c.u.items():
+            if n in u_rig2 and np.isfinite(u):
+                u_rig2[n] += float(u) ** 2
+    u_a = {n: float(np.sqrt(max(v**2 / birge**2, v**2 - u_rig2[n]))) if np.isfinite(v) else v for n, v in sigma.items()}
+    kept = max((u_a[n] ** 2 - (v / birge) ** 2) / max(v**2 - (v / birge) ** 2, 1e-300)
+               for n, v in sigma.items() if np.isfinite(v) and v > 0) if sigma else 0.0
+    return Contribution("noise and wander", "A", f"the solve's sigma (step scatter, bias wander) with its misfit "
+                        f"scaling (Birge ratio {birge:.2f}) less what the rig's geometry below explains (up to "
+                        f"{100 * min(max(kept, 0.0), 1.0):.0f} % of the scaling kept)", u_a)
+
+
 def flat_sigma(cal: AccelCalibration) -> dict[str, float]:
     """``sigma`` flattened like :func:`quantities` (NaN where it has no value)."""
     sig = cal.sigma
@@ -197,12 +218,9 @@ def contributions(cal: AccelCalibration, steps: StepMeans, resolve: Resolve, rig
     base = quantities(cal)
     zero = {n: 0.0 for n in base}
     birge = birge_ratio(cal)
-    type_a = {n: v / birge for n, v in flat_sigma(cal).items()}
-    out = [Contribution("noise and wander", "A", "the solve's sigma (step scatter, bias wander)" + (
-        f" without its misfit scaling (Birge ratio {birge:.2f}: the rig's geometry below)" if birge > 1 else ""),
-        type_a)]
-    if cal.fit.method != "magnitude" and bool(np.all(steps.pose_known)):
-        out += rig_contributions(resolve, steps, base, rig, linear)
+    rig_terms = (rig_contributions(resolve, steps, base, rig, linear)
+                 if cal.fit.method != "magnitude" and bool(np.all(steps.pose_known)) else [])
+    out = [type_a_contribution(cal, birge, rig_terms)] + rig_terms
     g_rel = rig.gravity.relative_u
     u_g = {n: (abs(v) * g_rel if n.startswith(("scale", "matrix")) else 0.0) for n, v in base.items()}
     out.append(Contribution("gravity", "B", f"{rig.gravity.source}: u(g)/g = {g_rel:.3g}", u_g,

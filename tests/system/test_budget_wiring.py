@@ -138,3 +138,24 @@ def test_bad_inputs_keep_their_one_line_errors(run, tmp_path):
     path.write_text(yaml.safe_dump(bad))
     code, _, err = rig("report", run["session"], "--calibration", path, "-o", tmp_path / "r.html")
     assert code == 2 and "uncertainty.k" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_session_that_misfits_on_a_rig_without_geometry_errors_keeps_its_whole_sigma_in_u(run):
+    """The walkthrough's session with a hidden scale nonlinearity (chi2/dof ~120) printed 'bias +- 7.71 counts' and
+    then 'bias U: x 1.41': the budget dropped the solve's misfit scaling as 'the rig's geometry', though the rig's
+    terms were all zero (sim.geometry off). Only what the rig's geometry explains may be dropped."""
+    doc = yaml.safe_load(run["rig_file"].read_text())
+    doc["sim"]["effects"] = {"scale_nonlinearity": 2e-3}
+    bad = run["tmp"] / "nonlinear.yaml"
+    bad.write_text(yaml.safe_dump(doc))
+    code, _, err = rig("run", PROCEDURES / "six_position.yaml", "--rig", bad, "--time-scale", "0", "--seed", "5",
+                       "--out", run["tmp"] / "nl")
+    assert code == 0, err
+    (session,) = (run["tmp"] / "nl").iterdir()
+    acc = _section(session / "calibration.yaml")
+    assert acc["fit"]["chi2_per_dof"] > 20  # the misfit is real and the solve scaled its sigmas for it
+    u = acc["uncertainty"]
+    for key in QUANTITIES:
+        assert np.all(np.asarray(u[key]) >= 2 * np.asarray(acc["sigma"][key]) * (1 - 1e-9)), key
+    for n, v in u["misalignment"].items():
+        assert v >= 2 * acc["sigma"]["misalignment"][n] * (1 - 1e-9), n
