@@ -99,11 +99,21 @@ def solve(steps: StepMeans, *, model: str = "triangular", method: str = "pinv", 
     raise CalibError(f"unknown method {method!r} (allowed: pinv, flip, combinations, magnitude)")
 
 
-def check_poses(f_nominal_g, model: str = "triangular") -> None:
+def check_poses(f_nominal_g, model: str = "triangular", method: str = "pinv") -> None:
     """Raise :class:`ObservabilityError` naming the parameters of the static ``model`` that the poses
-    ``f_nominal_g`` (K, 3) leave undetermined: what a procedure's poses can be judged by before anything
-    is recorded (temperature terms aside: they depend on the temperatures reached)."""
+    ``f_nominal_g`` (K, 3) leave undetermined, or, for the flip ``method``, the axis without its + and - pose:
+    what a procedure's poses can be judged by before anything is recorded (temperature terms aside: they
+    depend on the temperatures reached)."""
     f = np.atleast_2d(np.asarray(f_nominal_g, float))
+    if method == "flip":
+        for j, a in enumerate(SENSOR_AXES):
+            e = np.zeros(3)
+            e[j] = 1
+            plus, minus = (int(np.sum(np.linalg.norm(f - s_ * e, axis=1) < FLIP_TOL_G)) for s_ in (1, -1))
+            if not plus or not minus:
+                raise ObservabilityError(f"the flip method needs poses with gravity along +{a.upper()} and "
+                                         f"-{a.upper()}; the procedure has {plus} and {minus}")
+        return
     x = Inputs(f, None, np.zeros(len(f)))
     lm = base_model(model)
     check_model({a: (lm.design(a, x), lm.names(a), lm.terms[a]) for a in SENSOR_AXES})
@@ -318,7 +328,11 @@ def _angles(fits) -> tuple[dict, dict]:
             {"alpha_yz": s_yz, "alpha_zy": s_zy, "alpha_zx": s_zx})
 
 
-def solve_flip(steps: StepMeans, *, thermal="off", tol: float = 0.05) -> AccelCalibration:
+#: how close (g) a pose's gravity must be to +-axis for the flip method
+FLIP_TOL_G = 0.05
+
+
+def solve_flip(steps: StepMeans, *, thermal="off", tol: float = FLIP_TOL_G) -> AccelCalibration:
     """Two-position flip method: bias = (u+ + u-)/2, scale = (u+ - u-)/2 per axis.
 
     Needs, for each axis, a step with gravity along +axis and one along -axis

@@ -387,6 +387,10 @@ def verdict_lines(c: Comparison) -> list[str]:
                      f"{w['time_span_s'][0]:.0f} .. {w['time_span_s'][1]:.0f} s")
     if c.structure is not None:
         different = c.units is not None and c.units.different  # no shock or re-mount explains two units apart
+        scaled = scale_like(c)  # the load pattern is the more specific evidence: the headline's words, not a time step
         lines += ["  " + s.replace("residual rms z", "difference rms z") for s in unexplained_lines(c.structure)
-                  if not (different and ": look for " in s)]
+                  if not ((different or scaled) and ": look for " in s)]
+        if scaled and not different:
+            lines.append("  scale-like: the difference is on the axes carrying gravity only: look for a changed range "
+                         "or sensitivity setting, a different temperature, or a sensor that was damaged or replaced")
     return lines

@@ -76,6 +76,19 @@ def format_calibration(cal) -> str:
     return "\n".join(lines)
 
 
+def warn_if_misfit(cal, command: str) -> None:
+    """Say plainly, on stderr, when the fit is worse than the noise explains, by the solvers' own rule
+    (:meth:`calib.accel.result.AccelCalibration.misfit`, the one the report and discovery use): ``rig solve`` and
+    ``rig run`` alike (a run at chi2/dof 119 said nothing)."""
+    fit = cal.accelerometer.fit
+    significant, p = cal.accelerometer.misfit()
+    if significant:
+        print(f"rig {command}: warning: the model does not fit the data (chi2/dof {fit.chi2_per_dof:.2f}, p = {p:.2g}, "
+              f"residual {fit.residual_rms_g * 1e6:.0f} ug rms): poses not where the session says (hand-placed?), "
+              "another sensor, or an effect the model lacks; see rig discover. The sigmas carry the misfit.",
+              file=sys.stderr)
+
+
 def format_magnetometer(m: MagCalibration, unit: str) -> str:
     """The magnetometer's result with its sigmas (``unit``: uT, or counts for unknown units): hard iron and the
     soft-iron matrix A, each entry with its 1-sigma."""

@@ -216,15 +216,15 @@ class _Expander:
             self.fail(doc, "steps", "steps", f"{exc}: a target needs poses that determine every parameter")
 
     def check_solve_poses(self, spec: ProcedureDoc, doc: dict, steps: list) -> None:
-        """A procedure whose ``solve:`` trusts the poses (pinv, combinations) and whose poses cannot determine
+        """A procedure whose ``solve:`` trusts the poses (pinv, combinations, flip) and whose poses cannot determine
         the static model is refused here, before anything moves (it used to run to its end and fail in the
         solve, after every pose and every chamber wait)."""
         solve = spec.solve
         poses = [s.f_nominal for s in steps if s.kind == "static" and s.f_nominal is not None]
-        if solve is None or solve.method not in ("pinv", "combinations") or not poses:
+        if solve is None or solve.method not in ("pinv", "combinations", "flip") or not poses:
             return
         try:
-            check_poses(np.array(poses, float), solve.model)
+            check_poses(np.array(poses, float), solve.model, solve.method)
         except CalibError as exc:
             self.fail(doc, "solve", "solve", f"{exc}: these poses cannot calibrate the {solve.model} model; add "
                       "poses (the six faces determine it) or drop solve:")

@@ -54,11 +54,11 @@ def test_clean_sessions_are_flagged_about_as_often_as_the_level():
 
 
 def test_hand_placed_poses_are_a_misfit_and_the_command_line_says_so(capsys):
-    from rig.cli.commands.solve import warn_if_misfit
+    from rig.cli.common import warn_if_misfit
 
     cal = _solve(TWELVE, tilt_deg=2.0)
     assert cal.misfit()[0]
-    warn_if_misfit(SimpleNamespace(accelerometer=cal))  # what it reads of a calibration file
-    assert "the model does not fit the data" in capsys.readouterr().err
-    warn_if_misfit(SimpleNamespace(accelerometer=_solve(TWELVE)))
+    warn_if_misfit(SimpleNamespace(accelerometer=cal), "solve")  # what it reads of a calibration file
+    assert "rig solve: warning: the model does not fit the data" in capsys.readouterr().err
+    warn_if_misfit(SimpleNamespace(accelerometer=_solve(TWELVE)), "solve")
     assert capsys.readouterr().err == ""

@@ -151,6 +151,7 @@ def test_a_session_that_misfits_on_a_rig_without_geometry_errors_keeps_its_whole
     code, _, err = rig("run", PROCEDURES / "six_position.yaml", "--rig", bad, "--time-scale", "0", "--seed", "5",
                        "--out", run["tmp"] / "nl")
     assert code == 0, err
+    assert "rig run: warning: the model does not fit the data" in err  # as rig solve says it (the run said nothing)
     (session,) = (run["tmp"] / "nl").iterdir()
     acc = _section(session / "calibration.yaml")
     assert acc["fit"]["chi2_per_dof"] > 20  # the misfit is real and the solve scaled its sigmas for it

@@ -7,7 +7,8 @@ import shlex
 import signal
 import sys
 
-from rig.cli.common import EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, UsageError, format_calibration, present
+from rig.cli.common import (EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, UsageError, format_calibration, present,
+                            warn_if_misfit)
 from rig.cli.console import ConsoleUI
 from rig.cli.terminal import say, say_raw
 from rig.execution.context import RunAborted
@@ -87,6 +88,7 @@ def _run_and_report(args, stop: SignalStop) -> int:
         return EXIT_OK
     say(f"calibration: {result.calibration_path}", out)
     say(format_calibration(result.calibration), out)
+    warn_if_misfit(result.calibration, "run")
     return present("run", result.conclusion)
 
 

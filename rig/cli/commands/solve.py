@@ -13,7 +13,7 @@ from rig.analysis.solve import (ABSENT_ACCEL, accelerometer_absent, magnetometer
                                 solve_present_sensors, static_gyro)
 from rig.cli import outputs
 from rig.cli.common import (EXIT_OK, UsageError, format_calibration, format_magnetometer, json_default, parse_thermal,
-                            present, report_warnings)
+                            present, report_warnings, warn_if_misfit)
 from rig.session import load_session
 from rig.workflow.conclude import conclude
 
@@ -75,7 +75,7 @@ def run(args) -> int:
         gyro = static_gyro(session)
         if gyro is not None:
             print(f"  {gyro.format_line()}")
-        warn_if_misfit(cal)
+        warn_if_misfit(cal, "solve")
         if args.method != "magnitude":
             print_redundancy(session)
     return verdict_code
@@ -105,18 +105,6 @@ def solve_without_accelerometer(session, as_json: bool) -> int:
     if not solved:
         raise CalibError(f"{session.path}: nothing could be solved: {'; '.join(res.problems) or 'no rest intervals'}")
     return EXIT_OK
-
-
-def warn_if_misfit(cal) -> None:
-    """Say plainly when the fit is worse than the noise explains, by the solvers' own rule
-    (:meth:`calib.accel.result.AccelCalibration.misfit`, the one the report and discovery use)."""
-    fit = cal.accelerometer.fit
-    significant, p = cal.accelerometer.misfit()
-    if significant:
-        print(f"rig solve: warning: the model does not fit the data (chi2/dof {fit.chi2_per_dof:.2f}, p = {p:.2g}, "
-              f"residual {fit.residual_rms_g * 1e6:.0f} ug rms): poses not where the session says (hand-placed?), "
-              "another sensor, or an effect the model lacks; see rig discover. The sigmas carry the misfit.",
-              file=sys.stderr)
 
 
 #: what rig solve may write in the session it solves (docs/cli.md, "Output paths")

@@ -108,5 +108,7 @@ def test_a_difference_on_the_loaded_axes_only_is_called_scale_like_not_a_shock(s
     assert "scale-like" in lines[0] and "shock" not in lines[0] and "step in time" not in lines[0], lines
     assert lines[-1].startswith(f"A is {sessions['a3']}, B is {sessions['scale3']}; the statistics behind this: "
                                 f"rig compare {sessions['a3']} {sessions['scale3']} --details")
+    details = "\n".join(_compare(capsys, sessions["a3"], sessions["scale3"], "--details"))
+    assert "shock" not in details and "scale-like" in details, details  # the statistics say what the headline says
     jump = _compare(capsys, sessions["a3"], sessions["jump3"])  # a bias jump is on every axis alike: not scale-like
     assert "scale-like" not in jump[0]

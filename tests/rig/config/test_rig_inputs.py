@@ -212,3 +212,8 @@ def test_a_solve_the_poses_cannot_determine_is_refused_at_load_with_its_line():
     assert [s.name for s in load_procedure_text(six).expanded_steps()][-1] == "-Y up"
     assert "the pose set leaves m_xy" in _err(six.replace("model: triangular", "model: full")
                                               .replace('  - pose: "+Y up"\n  - pose: "-Y up"\n', ""))
+
+
+def test_a_flip_solve_without_a_pair_on_every_axis_is_refused_at_load():
+    flip = GOOD.replace("solve: {model: triangular}", "solve: {model: triangular, method: flip}")
+    assert "the flip method needs poses with gravity along +X and -X; the procedure has 0 and 0" in _err(flip)
