@@ -49,6 +49,18 @@ the simulator to start; medians, wall s / CPU s):
 The same tree measured the old way (its modules recompiled on every run): 0.379 s wall / 0.481 s CPU
 against the peer's 0.354 / 0.456 (1.07).
 
+2026-11-26, quiet machine (load 0.9), 9-11 runs, medians. ``rig solve`` now writes the uncertainty budget
+(issue 29), which read the session's rig file through the simulator's schemas and propagated every rig class
+even when all were zero: 0.378 s against the peer's 0.348 (1.09, the target missed). Then: the rig file read
+without validating it again (its sha256 is the run's), ``rig.simulation`` no longer loading the simulated
+world when imported, ``rig check``'s port hints imported only when a port fails, zero classes skipped before
+their propagation, the calibration file written by libyaml's emitter:
+
+    command                         wall s   least wall s   CPU s
+    rig --help                       0.031      0.029       0.030
+    rig solve SESSION                0.337      0.330       0.437
+    peer: imucal Ferraris script     0.346      0.341       0.446     (rig solve / peer: 0.97)
+
 Earlier history: ``rig --help`` and ``--version`` meet their target by far (they import no command and nothing
 numeric). ``rig solve`` does not yet: about 3.6 times the peer script. Nearly all of its time is
 imports (the solve itself, history and acceptance take about 0.07 s), and most of those are calib's:

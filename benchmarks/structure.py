@@ -34,6 +34,7 @@ DEFERRED: tuple[tuple[str, str, str], ...] = (
     ("rig.composition", "rig.cli.main", "the composition root, called once a command runs (not for --help)"),
     ("rig.cli.commands", "rig.cli.commands", "a command's module, only when that command is given"),
     ("rig.cli.failures", "rig.cli.main", "every layer's error types (calib, pandas), once a command runs"),
+    ("rig.devices.bringup", "rig.cli.failures", "rig check's hints for a port that does not open, only then"),
     ("scipy.optimize", "calib.numerics.magnitude", "the magnitude method's nonlinear fit, only when that method is asked for"),
     ("scipy.optimize", "calib.mag.ellipsoid", "the ellipsoid's nonlinear fit, only when a magnetometer is solved"),
     ("allantools", "calib.noise.allan", "the Allan deviation and its intervals, only when rig characterize computes one"),

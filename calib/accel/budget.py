@@ -166,10 +166,12 @@ def _rig_contributions_linear(linear: "LinearSolve", steps: StepMeans, rig: RigE
     per_pose = not rig.one_direction  # lost motion: one parameter per pose and stage, each row its own
     out = []
     for p in rig_parameters(dataclasses.replace(rig, one_direction=True), 1 if per_pose else k):
+        if p.u_deg == 0:  # a class of zero (a simulated table without its errors): nothing to propagate
+            continue
         if p.directions is not None:  # the stage's lost motion, every pose at once (row j: pose j's own)
             p = dataclasses.replace(p, directions=np.repeat(p.directions[:1], k, axis=0))
         shift = pose_shift(p, angles)
-        if p.u_deg == 0 or not np.any(np.abs(shift) > 1e-12):
+        if not np.any(np.abs(shift) > 1e-12):
             continue
         r = linear.responses(_replace(steps, f_nominal_g=f - EPS_DEG * shift), EPS_DEG)  # (Q, K)
         if per_pose and p.name.startswith("lost_motion."):

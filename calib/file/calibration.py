@@ -297,7 +297,9 @@ def write(path, cal: CalibrationFile) -> Path:
     """Write ``cal`` as YAML ``rig-calibration/1`` atomically (:func:`atomic_write_text`); returns the path."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(p, yaml.safe_dump(cal.to_dict(), sort_keys=False, default_flow_style=None))
+    # libyaml's emitter when there is one: the same text as yaml.safe_dump's Python emitter, a fifth of the time
+    dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+    atomic_write_text(p, yaml.dump(cal.to_dict(), Dumper=dumper, sort_keys=False, default_flow_style=None))
     return p
 
 

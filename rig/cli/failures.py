@@ -13,7 +13,6 @@ import yaml
 from calib.errors import CalibError
 from drivers.sensors.base import SensorError
 from drivers.ximc.errors import TurntableError
-from rig.devices.bringup import hint_for
 from rig.cli.codes import EXIT_BAD_INPUT, EXIT_FAILURE, UsageError
 from rig.config.yamlload import SymlinkLoop
 from rig.errors import RigInputError, RunAborted, RunError, SessionFormatError
@@ -41,6 +40,7 @@ def _turntable_line(exc: TurntableError, first: str) -> str:
     missing link, a permission, a busy port."""
     if exc.command != "open":
         return first
+    from rig.devices.bringup import hint_for  # deferred: rig check's hints (17 ms), only when a port did not open
     name = f"{exc.name} " if exc.name else ""
     return f"{name}{exc.port}: {hint_for(exc, 'serial')}"
 
