@@ -32,10 +32,10 @@ from calib.accel.combinations import BLOCK, _scatter_add, choose_subsets, pinv_b
 from calib.accel.inputs import StepMeans
 from calib.accel.result import MISALIGNMENT_NAMES, AccelCalibration
 from calib.errors import CalibError
-from calib.numerics.design import SENSOR_AXES, AxisFit, Inputs
+from calib.numerics.design import SENSOR_AXES, Inputs
 from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, combined, expanded
-from calib.accel.solve import (COMBINATIONS_MAX_SUBSETS, MAX_WANDER_STEPS, _model_with_thermal, assemble,
-                               axis_wander_counts2, wander_covariance)
+from calib.accel.solve import (TRIANGULAR_NAMES, MAX_WANDER_STEPS, _model_with_thermal, axis_wander_counts2,
+                               wander_covariance)
 from calib.accel.rig_propagation import EPS_DEG, GROUPS, pose_shift, rig_parameters, stage_angles_deg
 from calib.numerics.gravity import G0_M_S2, Gravity
 
@@ -54,6 +54,35 @@ def quantities(cal: AccelCalibration) -> dict[str, float]:
     q.update({f"matrix_counts_per_g[{i}][{j}]": float(m[i, j]) for i in range(3) for j in range(3)})
     if cal.misalignment is not None:
         q.update({f"misalignment.{n}": float(cal.misalignment[n]) for n in MISALIGNMENT_NAMES})
+    return q
+
+
+def quantities_of_parameters(model: str, p: dict) -> dict[str, float]:
+    """:func:`quantities` of the calibration the per-axis fitted parameters ``p`` (axis -> {name: value}) make, as
+    :func:`calib.accel.solve.assemble` maps them, without building the calibration (the budget's linear map
+    differentiates it ten times a solve: building and validating each cost 0.56 ms)."""
+    m = np.zeros((3, 3))
+    b = np.zeros(3)
+    for j, a in enumerate(SENSOR_AXES):
+        b[j] = p[a][f"b_{a}"]
+        if model == "triangular":
+            for name, c in zip(TRIANGULAR_NAMES[a][1:], {"x": [0, 1, 2], "y": [1, 2], "z": [2]}[a]):
+                m[j, c] = p[a][name]
+        elif model == "full":
+            for c, cc in enumerate(SENSOR_AXES):
+                m[j, c] = p[a][f"m_{a}{cc}"]
+        else:
+            m[j, j] = p[a][f"k_{a}"]
+    q = {f"bias_counts[{i}]": float(v) for i, v in enumerate(b)}
+    q.update({f"scale_counts_per_g[{i}]": float(m[i, i]) for i in range(3)})
+    q.update({f"matrix_counts_per_g[{i}][{j}]": float(m[i, j]) for i in range(3) for j in range(3)})
+    if model == "triangular":  # calib.accel.solve._angles
+        px, py = p["x"], p["y"]
+        a_yz = px["kx_ayz"] / px["k_x"]
+        a_zx = py["ky_azx"] / py["k_y"]
+        a_zy = -px["kx_azy"] / px["k_x"] + a_yz * a_zx
+        q.update({"misalignment.alpha_yz": float(a_yz), "misalignment.alpha_zy": float(a_zy),
+                  "misalignment.alpha_zx": float(a_zx)})
     return q
 
 
@@ -259,7 +288,7 @@ def uncertainty_section(cal: AccelCalibration, steps: StepMeans, resolve: Resolv
 # covariance included); the combinations method's average of the subsets' solutions by the same rule applied to
 # every subset with its own solution and residuals (a subset's solution differs from the average by its noise,
 # which is not small on an ill-conditioned subset). Every perturbation then costs one design evaluation and a
-# (P, K) product (combinations: a pass over the subsets, at most COMBINATIONS_MAX_SUBSETS) instead of a re-solve,
+# (P, K) product (combinations: a pass over the subsets, at most BUDGET_MAX_SUBSETS) instead of a re-solve,
 # and the per-step ones (lost motion at every pose, the thermometer at every step) all come out of the same
 # product: the budget grows linearly with the steps, not with their square.
 
@@ -316,6 +345,13 @@ class LinearSolve:
         return acc / max(self.count, 1)
 
 
+#: the combinations method's subsets the budget's linear map averages over: all of them up to this many, else a
+#: random sample of this many (the solve's own sample is 32,768: its responses cost 0.6 s on 26 directions; the
+#: budget's Type B sensitivities are averages over subsets whose spread is small, and a tenth of a standard
+#: uncertainty is far below what the classes themselves are known to)
+BUDGET_MAX_SUBSETS = 2048
+
+
 def linear_solve(cal: AccelCalibration, steps: StepMeans) -> LinearSolve:
     """The linear map of ``cal``'s solve (method pinv or combinations, its model, thermal order and t0 fixed)."""
     method = cal.fit.method.split(" ")[0].split("(")[0]
@@ -329,7 +365,7 @@ def linear_solve(cal: AccelCalibration, steps: StepMeans) -> LinearSolve:
     maps, c_inv_d, blocks, count = {}, {}, None, 0
     if method == "combinations":
         n = max(len(lm.terms[a]) for a in SENSOR_AXES)
-        subsets, total, sampled = choose_subsets(len(steps), n, COMBINATIONS_MAX_SUBSETS, 0)
+        subsets, total, sampled = choose_subsets(len(steps), n, BUDGET_MAX_SUBSETS, 0)
         avg = subset_average_maps([designs[a] for a in SENSOR_AXES], subsets, total, sampled)
         maps = {a: avg.maps[j] for j, a in enumerate(SENSOR_AXES)}
         blocks, count = _subset_blocks([designs[a] for a in SENSOR_AXES], [y[a] for a in SENSOR_AXES], subsets)
@@ -351,9 +387,7 @@ def linear_solve(cal: AccelCalibration, steps: StepMeans) -> LinearSolve:
         residual_terms[a] = (np.linalg.inv(designs[a].T @ c_inv_d[a]), c_inv_y[a] - c_inv_d[a] @ params[a])
 
     def q_of(p: dict) -> dict:
-        fits = {a: AxisFit(lm.names(a), p[a], np.zeros((len(p[a]),) * 2), np.zeros((len(p[a]),) * 2),
-                           np.zeros(len(steps)), 0.0, 1, False) for a in SENSOR_AXES}
-        return quantities(assemble(steps, cal.model, fits, order, x.t0_c, method))
+        return quantities_of_parameters(cal.model, {a: dict(zip(lm.names(a), p[a])) for a in SENSOR_AXES})
 
     base = q_of(params)
     names = list(base)
