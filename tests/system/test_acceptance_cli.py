@@ -114,3 +114,9 @@ def test_a_misalignment_limit_is_said_in_mrad_as_the_angles_are_printed(tmp_path
     cal = calfile.read(session / "calibration.yaml")
     (check,) = [c for c in cal.acceptance["limits"] if c["name"] == "range accel.alpha_yz"]
     assert check["limit"] == "[-0.0001, 0.0001]" and check["value"] * 1e3 == pytest.approx(printed, abs=1e-3)
+    # the report's acceptance table too (the re-check: its value and limit columns were in unlabelled rad)
+    assert main(["report", str(session), "-o", str(tmp_path / "r.html")]) == 0
+    page = (tmp_path / "r.html").read_text()
+    table = page[page.index('id="acceptance-table"'):]
+    table = table[:table.index("</table>")]
+    assert "[-0.1, 0.1] mrad" in table and "[-0.0001, 0.0001]" not in table

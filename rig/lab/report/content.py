@@ -25,13 +25,13 @@ from calib.discovery.effects import LIBRARY
 from calib.errors import CalibError
 from calib.gyro.result import NONORTHOGONALITY_NAMES
 from calib.mag.result import sigma_names as mag_sigma_names
-from calib.file.parameters import accel_parameters
+from calib.file.parameters import accel_parameters, sensor_parameters
 from rig.errors import RigInputError
 from rig.lab.bias_temperature import reference_view
 from rig.lab.drift import CalibrationRecord, drift, flagged_names, history_notes, sensor_history
 from rig.lab.history import HistoryError, default_path, open_history
 from rig.lab.identity import sensor_identity
-from rig.lab.units import shown
+from rig.lab.units import shown, shown_scale
 from rig.session import Session, load_session, step_means
 
 #: the seed paper's verification procedure (an independent roll/pitch check)
@@ -204,6 +204,22 @@ def _first_line(exc: BaseException) -> str:
 
 # ---------------------------------------------------------------------------------------------- verdict
 
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+
+def _shown_limit(e: dict, units: dict) -> dict:
+    """A parameter check's value and limit in the unit the report shows the parameter in (angles in mrad, as the
+    line and every printout state them; the file keeps the stored unit)."""
+    kind, _, name = e["name"].partition(" ")
+    unit = units.get(name) if kind in ("range", "sigma") else None
+    to, k = shown_scale(unit)
+    if unit is None or k == 1.0:
+        return e
+    value = e["value"] * k if isinstance(e["value"], (int, float)) and not isinstance(e["value"], bool) else e["value"]
+    limit = _NUMBER.sub(lambda m: f"{float(m.group()) * k:.4g}", str(e["limit"])) + f" {to}"
+    return {**e, "value": value, "limit": limit}
+
+
 def _field(obj, name, default=None):
     """``obj.name`` or ``obj[name]`` (the acceptance section may be a model or a plain mapping)."""
     if isinstance(obj, dict):
@@ -269,8 +285,10 @@ def verdict(session: Session, cal) -> Verdict:
                 warnings=warnings)
     if acceptance is None:
         return v
-    limits = [{"name": str(_field(e, "name", "")), "limit": _field(e, "limit"), "value": _field(e, "value"),
-               "passed": bool(_field(e, "passed", False)), "line": str(_field(e, "line", "") or "")}
+    units = {name: unit for name, _, _, unit in sensor_parameters(cal)}
+    limits = [_shown_limit({"name": str(_field(e, "name", "")), "limit": _field(e, "limit"), "value": _field(e, "value"),
+                            "passed": bool(_field(e, "passed", False)), "line": str(_field(e, "line", "") or "")},
+                           units)
               for e in (_field(acceptance, "limits") or [])]
     passed = bool(_field(acceptance, "passed", False))
     v.state, v.limits = ("pass" if passed else "fail"), limits
