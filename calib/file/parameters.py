@@ -106,23 +106,8 @@ def biases_at(params: dict, temp_c: float) -> dict:
     so this is an approximation). Unchanged without temperature terms."""
     if "accel.t0_c" not in params:
         return params
-    dt = float(temp_c) - float(params["accel.t0_c"][0])
-    out = dict(params)
-    for axis in "xyz":
-        name = f"accel.bias_{axis}"
-        if name not in params:
-            continue
-        value, sigma, unit = params[name]
-        var = None if sigma is None else sigma**2
-        for k in (1, 2, 3):
-            c = params.get(f"accel.tempco{k}_{axis}")
-            if c is None:
-                continue
-            value += c[0] * dt**k
-            if var is not None:
-                var = None if c[1] is None else var + (c[1] * abs(dt) ** k) ** 2
-        out[name] = (value, None if var is None else math.sqrt(var), unit)
-    return out
+    t0 = float(params["accel.t0_c"][0])
+    return {**params, **biases_moved(params, params, t0, temp_c)}  # from t0 by its own polynomial
 
 
 def at_common_temperature(previous: dict, prev_temp_c: float | None, current: dict,
