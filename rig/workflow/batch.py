@@ -29,9 +29,8 @@ from rig.execution.context import EngineOptions, RunContext, RunError
 from rig.execution.estimate import step_durations_s
 from rig.execution.fixture import FixtureEngine, SlotRun
 from rig.execution.operator import Operator
-from rig.session import ProcedureInfo, RigInfo, SessionManifest, SessionWriter, StepRecord
-from rig.workflow.lifecycle import (NewSession, RunResult, abort_session, configure_devices, file_sha256, finish,
-                                    self_test, session_columns)
+from rig.session import SessionWriter, StepRecord
+from rig.workflow.lifecycle import NewSession, RunResult, abort_session, finish, start_session
 
 #: the batch record's format and file name
 BATCH_FORMAT = "rig-batch/1"
@@ -119,25 +118,8 @@ def start_slot_session(procedure, rig: Rig, slot: Slot, new: NewSession) -> Sess
 
     Raises the sensor's errors and RunError (a failed self-test): the slot is then FAULT without a session.
     """
-    magnetometer = configure_devices(procedure, rig)
-    checked = self_test(rig)
-    rig_info = rig.describe()
-    rig_info["sensor"]["serial"] = slot.serial
-    rig_info["sensor"]["fixture"] = slot.describe()
-    if checked is not None:
-        rig_info["sensor"]["self_test"] = checked
-    if magnetometer is not None:
-        rig_info["sensor"]["magnetometer"] = magnetometer
-    if rig.rig_file is not None:
-        rig_info["rig_file_sha256"] = file_sha256(rig.rig_file)
-    manifest = SessionManifest(
-        id=new.session_id, created=datetime.now(timezone.utc).isoformat(timespec="seconds"), **new.extra,
-        procedure=ProcedureInfo.from_text(procedure.name, new.procedure_file, new.procedure_text),
-        steps=slot_steps(procedure, slot), rig=RigInfo.model_validate(rig_info))
-    writer = SessionWriter.create(new.sessions_root, new.session_id, manifest, columns=session_columns(procedure, rig))
-    for name, text in rig.attachments.items():
-        (writer.session_dir / name).write_text(text)
-    return writer
+    return start_session(procedure, rig, new, steps=slot_steps(procedure, slot),
+                         sensor_info={"serial": slot.serial, "fixture": slot.describe()})
 
 
 def run_batch(procedure, rig: Rig, new: NewSession, operator: Operator, *, options: EngineOptions = EngineOptions(),

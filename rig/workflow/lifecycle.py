@@ -100,12 +100,15 @@ def self_test(rig: Rig) -> dict | None:
     return result.to_dict()
 
 
-def start_session(procedure, rig: Rig, new: NewSession) -> SessionWriter:
+def start_session(procedure, rig: Rig, new: NewSession, *, steps: list | None = None,
+                  sensor_info: dict | None = None) -> SessionWriter:
     """Configure the devices, self-test the sensor, write the manifest (rig identity, planned steps,
-    self-test result) and the attachments."""
+    self-test result) and the attachments. ``steps``: the manifest's step records (default: the procedure's
+    planned steps); ``sensor_info``: more of the sensor's identity (a fixture slot's serial and mounting)."""
     magnetometer = configure_devices(procedure, rig)
     checked = self_test(rig)
     rig_info = rig.describe()
+    rig_info["sensor"].update(sensor_info or {})
     if checked is not None:
         rig_info["sensor"]["self_test"] = checked
     if magnetometer is not None:
@@ -115,7 +118,8 @@ def start_session(procedure, rig: Rig, new: NewSession) -> SessionWriter:
     manifest = SessionManifest(
         id=new.session_id, created=datetime.now(timezone.utc).isoformat(timespec="seconds"), **new.extra,
         procedure=ProcedureInfo.from_text(procedure.name, new.procedure_file, new.procedure_text),
-        steps=[StepRecord.model_validate(step.to_manifest()) for step in procedure.expanded_steps()],
+        steps=steps if steps is not None else [StepRecord.model_validate(step.to_manifest())
+                                                for step in procedure.expanded_steps()],
         rig=RigInfo.model_validate(rig_info))
     writer = SessionWriter.create(new.sessions_root, new.session_id, manifest,
                                   columns=session_columns(procedure, rig))
