@@ -28,7 +28,7 @@ from typing import Callable
 
 import numpy as np
 
-from calib.accel.combinations import BLOCK, _scatter_add, choose_subsets, pinv_batch, subset_average_maps
+from calib.accel.combinations import _scatter_add, choose_subsets, determined_blocks
 from calib.accel.inputs import StepMeans
 from calib.accel.result import MISALIGNMENT_NAMES, AccelCalibration
 from calib.errors import CalibError
@@ -366,9 +366,9 @@ def linear_solve(cal: AccelCalibration, steps: StepMeans) -> LinearSolve:
     if method == "combinations":
         n = max(len(lm.terms[a]) for a in SENSOR_AXES)
         subsets, total, sampled = choose_subsets(len(steps), n, BUDGET_MAX_SUBSETS, 0)
-        avg = subset_average_maps([designs[a] for a in SENSOR_AXES], subsets, total, sampled)
-        maps = {a: avg.maps[j] for j, a in enumerate(SENSOR_AXES)}
-        blocks, count = _subset_blocks([designs[a] for a in SENSOR_AXES], [y[a] for a in SENSOR_AXES], subsets)
+        blocks, count, avg_maps = _subset_blocks([designs[a] for a in SENSOR_AXES], [y[a] for a in SENSOR_AXES],
+                                                 subsets)
+        maps = dict(zip(SENSOR_AXES, avg_maps))
     else:
         wander = steps.bias_stability is not None and len(steps) <= MAX_WANDER_STEPS  # the solve's own weights
         w_axes = axis_wander_counts2(steps) if wander else None
@@ -403,27 +403,21 @@ def linear_solve(cal: AccelCalibration, steps: StepMeans) -> LinearSolve:
                        count, np.array(columns).T, names)
 
 
-def _subset_blocks(designs: list, data: list, subsets: np.ndarray) -> tuple[list, int]:
-    """The combinations method's subsets that determine every axis (as ``subset_average_maps`` keeps them), each
-    with its map, its own solution, residuals and N^-1 per axis: what :meth:`LinearSolve.responses` needs."""
+def _subset_blocks(designs: list, data: list, subsets: np.ndarray) -> tuple[list, int, list]:
+    """The combinations method's subsets that determine every axis (:func:`calib.accel.combinations.determined_blocks`),
+    each with its map, its own solution, residuals and N^-1 per axis: what :meth:`LinearSolve.responses` needs; their
+    count; and the average map per axis (``subset_average_maps``' maps, from the same pass)."""
     out, count = [], 0
-    for start in range(0, len(subsets), BLOCK):
-        s = subsets[start:start + BLOCK]
-        locals_, ok = [], np.ones(len(s), bool)
-        for d in designs:
-            local, good = pinv_batch(d[s])
-            locals_.append(local)
-            ok &= good
-        if not ok.any():
-            continue
-        s = s[ok]
+    sums = [np.zeros((d.shape[1], d.shape[0])) for d in designs]
+    for s, locals_ in determined_blocks(designs, subsets):
         per_axis = []
-        for d, y, local in zip(designs, data, locals_):
-            local, ds, ys = local[ok], d[s], np.asarray(y, float)[s]
+        for d, y, local, acc in zip(designs, data, locals_, sums):
+            _scatter_add(acc, s, local)
+            ds, ys = d[s], np.asarray(y, float)[s]
             theta = np.einsum("cpn,cn->cp", local, ys)
             res = ys - np.einsum("cnp,cp->cn", ds, theta)
             n_inv = np.linalg.pinv(np.swapaxes(ds, 1, 2) @ ds)
             per_axis.append((local, theta, res, n_inv))
         out.append((s, per_axis))
         count += len(s)
-    return out, count
+    return out, count, [acc / count if count else acc for acc in sums]

@@ -84,20 +84,11 @@ def subset_average_maps(designs: list, subsets: np.ndarray, total: int, sampled:
     sums = [np.zeros((d.shape[1], k)) for d in designs]
     solutions: list[list] = [[] for _ in designs]
     count = 0
-    for start in range(0, len(subsets), BLOCK):
-        s = subsets[start:start + BLOCK]
-        blocks, ok = [], np.ones(len(s), bool)
-        for d in designs:
-            local, good = pinv_batch(d[s])
-            blocks.append(local)
-            ok &= good
-        if not ok.any():
-            continue
-        s = s[ok]
+    for s, blocks in determined_blocks(designs, subsets):
         for j, (acc, local) in enumerate(zip(sums, blocks)):
-            _scatter_add(acc, s, local[ok])
+            _scatter_add(acc, s, local)
             if sampled and data is not None:
-                solutions[j].append(np.einsum("cpn,cn->cp", local[ok], np.asarray(data[j], float)[s]))
+                solutions[j].append(np.einsum("cpn,cn->cp", local, np.asarray(data[j], float)[s]))
         count += len(s)
     maps = [acc / count if count else acc for acc in sums]
     se = [np.zeros(d.shape[1]) for d in designs]
@@ -105,6 +96,20 @@ def subset_average_maps(designs: list, subsets: np.ndarray, total: int, sampled:
         fpc = math.sqrt(max(1.0 - len(subsets) / total, 0.0))
         se = [np.concatenate(sol).std(axis=0, ddof=1) / math.sqrt(count) * fpc for sol in solutions]
     return SubsetAverage(maps, count, total, sampled, se)
+
+
+def determined_blocks(designs: list, subsets: np.ndarray):
+    """The subsets (M, n) that determine every axis, a block of at most :data:`BLOCK` at a time: yields ``(s, locals)``,
+    ``s`` the block's determined subsets and ``locals`` per axis their pseudo-inverses (c, P_a, n)."""
+    for start in range(0, len(subsets), BLOCK):
+        s = subsets[start:start + BLOCK]
+        blocks, ok = [], np.ones(len(s), bool)
+        for d in designs:
+            local, good = pinv_batch(d[s])
+            blocks.append(local)
+            ok &= good
+        if ok.any():
+            yield s[ok], [local[ok] for local in blocks]
 
 
 def _scatter_add(acc: np.ndarray, subsets: np.ndarray, local: np.ndarray) -> None:
