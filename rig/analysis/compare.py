@@ -281,6 +281,11 @@ def details_hint(c: Comparison) -> str:
 SCALE_LIKE_RATIO = 3.0
 
 
+#: what a scale-like difference says to look for (the headline's and the --details verdict's words)
+SCALE_LIKE_WORDS = ("the difference is on the axes carrying gravity only (scale-like): look for a changed range or "
+                    "sensitivity setting, a different temperature, or a sensor that was damaged or replaced")
+
+
 def scale_like(c: Comparison) -> bool:
     """The differences sit on the axes carrying gravity, not on the others: a scale factor (or the range) changed,
     which no step in time or single event describes as well (a six-position run's loaded axes change with the pose,
@@ -312,8 +317,7 @@ def headline(c: Comparison) -> list[str]:
              else "overall, though no single step stands out")
     look = _structure_sentences(c)
     if scale_like(c):
-        look = ["the difference is on the axes carrying gravity only (scale-like): look for a changed range or "
-                "sensitivity setting, a different temperature, or a sensor that was damaged or replaced"]
+        look = [SCALE_LIKE_WORDS]
     first = f"A and B differ beyond the noise {where}" + (f": {look[0]}." if look else ".")
     return [first, "Re-run the procedure to see whether it repeats before acting on it."] + twin
 
@@ -391,6 +395,5 @@ def verdict_lines(c: Comparison) -> list[str]:
         lines += ["  " + s.replace("residual rms z", "difference rms z") for s in unexplained_lines(c.structure)
                   if not ((different or scaled) and ": look for " in s)]
         if scaled and not different:
-            lines.append("  scale-like: the difference is on the axes carrying gravity only: look for a changed range "
-                         "or sensitivity setting, a different temperature, or a sensor that was damaged or replaced")
+            lines.append(f"  {SCALE_LIKE_WORDS}")
     return lines
