@@ -55,10 +55,12 @@ def scale_counts(session_dir, factor: float) -> Path:
 #: the workers in collection order; collected alphabetically, tests/system came last and its long modules
 #: made a tail in which one worker ran alone (111 s of 594 idle on 2 workers). Scheduled first, the short
 #: modules fill the gaps at the end (issue 26).
-HEAVY_FIRST = ("system/test_discover.py", "system/test_adversarial_smoke.py", "system/test_discover_new_effects.py",
-               "system/test_golden.py", "system/test_twin_compare.py", "system/test_gyro_mag_rig.py",
-               "rig/importers/test_import_streaming.py", "system/test_twin_sensors.py", "system/test_hardware_path.py",
-               "calib/test_gyro_mag_uncertainty.py", "system/test_discover_propose.py")
+#: Longest first (measured with --durations=0), so that the two workers finish together; xdist's own reordering
+#: (by number of tests per module) is switched off in :func:`pytest_configure`, or it would undo this order.
+HEAVY_FIRST = ("system/test_discover.py", "rig/importers/test_import_streaming.py", "system/test_adversarial_smoke.py",
+               "calib/test_gyro_mag_uncertainty.py", "system/test_gyro_mag_rig.py", "system/test_discover_new_effects.py",
+               "system/test_twin_compare.py", "system/test_golden.py", "system/test_twin_sensors.py",
+               "system/test_hardware_path.py", "system/test_discover_propose.py")
 
 
 def pytest_collection_modifyitems(config, items):
@@ -81,6 +83,10 @@ def pytest_configure(config):
     the pseudo-terminal say ``transport: pty`` or start emulators themselves."""
     os.environ["RIG_HISTORY"] = str(Path(tempfile.mkdtemp(prefix="rig-test-history-")) / "history.sqlite")
     os.environ["RIG_SIM_TRANSPORT"] = "memory"
+    # --dist loadscope hands out modules in the order pytest_collection_modifyitems left them (heavy first), not
+    # re-sorted by their number of tests (pytest-xdist's default since 3.6; the option's own name for this)
+    if hasattr(config.option, "loadscopereorder"):
+        config.option.loadscopereorder = False
 
 
 @pytest.fixture(scope="session")

@@ -14,7 +14,11 @@ from .workspace import check_session, read_state
 FAMILY = "process"
 
 
-def concurrent_resume_trial(root: Path, k: int, ref: dict, *, step: int | None = None, into_s: float = 0.0) -> Case:
+def concurrent_resume_trial(root: Path, k: int, ref: dict, *, step: int | None = None, into_s: float = 0.0,
+                            resume_time_scale: str = "4") -> Case:
+    """Kill -9 a run mid-step, then start two ``rig run --resume`` of its session at once (at
+    ``resume_time_scale``): one proceeds and completes the session, the other is refused in one line naming the
+    holder's pid."""
     out = root / f"conc{k}"
     where = "the first step" if step is None else f"step {step + 1}"
     case = Case(FAMILY, f"two concurrent --resume (killed {into_s:.1f} s into {where})", [], "valid")
@@ -26,9 +30,9 @@ def concurrent_resume_trial(root: Path, k: int, ref: dict, *, step: int | None =
         case.result.update(category="not tried", why=why, code=None, first="")
         return case
     before = read_state(d)
-    case.args = ["run", "--resume", d, "--time-scale", "4", "--quiet", "&", "rig", "run", "--resume", d]
-    a = start_run(out, resume=d)
-    b = start_run(out, resume=d)
+    case.args = ["run", "--resume", d, "--time-scale", resume_time_scale, "--quiet", "&", "rig", "run", "--resume", d]
+    a = start_run(out, resume=d, time_scale=resume_time_scale)
+    b = start_run(out, resume=d, time_scale=resume_time_scale)
     ra = a.communicate(timeout=300)
     rb = b.communicate(timeout=300)
     codes = sorted([a.returncode, b.returncode])

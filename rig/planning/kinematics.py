@@ -15,17 +15,23 @@ import numpy as np
 STAGE_AXES: tuple[str, str, str] = ("a1", "a2", "a3")
 
 
+#: (row, column) of cos, -sin, sin and 1 in a rotation about each axis
+_LAYOUT = {"x": ((1, 1), (2, 2), (1, 2), (2, 1), (0, 0)),
+           "y": ((0, 0), (2, 2), (2, 0), (0, 2), (1, 1)),
+           "z": ((0, 0), (1, 1), (0, 1), (1, 0), (2, 2))}
+
+
 def _stack(c, s, kind):
     c = np.atleast_1d(np.asarray(c, float))
     s = np.atleast_1d(np.asarray(s, float))
-    o, z = np.ones_like(c), np.zeros_like(c)
-    if kind == "x":
-        rows = [[o, z, z], [z, c, -s], [z, s, c]]
-    elif kind == "y":
-        rows = [[c, z, s], [z, o, z], [-s, z, c]]
-    else:
-        rows = [[c, -s, z], [s, c, z], [z, z, o]]
-    return np.moveaxis(np.array(rows), (0, 1), (-2, -1))
+    (c1, c2, neg, pos, one) = _LAYOUT[kind]
+    out = np.zeros(c.shape + (3, 3))
+    out[..., c1[0], c1[1]] = c
+    out[..., c2[0], c2[1]] = c
+    out[..., neg[0], neg[1]] = -s
+    out[..., pos[0], pos[1]] = s
+    out[..., one[0], one[1]] = 1.0
+    return out
 
 
 def rot_x(angle_rad):

@@ -54,6 +54,7 @@ class SimChamber:
         # segments: (start time s, temperature at start C, setpoint at start C, setpoint rate C/s)
         self._segments: list[tuple[float, float, float, float]] = [
             (-np.inf, config.initial_c, config.initial_c, 0.0)]
+        self._table: tuple[np.ndarray, np.ndarray] | None = None  # (starts, segments) as arrays: :meth:`_seg`
 
     @property
     def setpoint_c(self) -> float:
@@ -80,6 +81,7 @@ class SimChamber:
         self._start(start_c, rate)
         end_t = t + duration_s
         self._segments.append((end_t, float(self.temp_at(np.array([end_t]))[0]), float(to_c), 0.0))
+        self._table = None
         return duration_s
 
     def _start(self, setpoint_c: float, rate_c_per_s: float) -> None:
@@ -87,15 +89,24 @@ class SimChamber:
         now_c = float(self.temp_at(np.array([t]))[0])
         self._segments = [s for s in self._segments if s[0] <= t]  # a new command replaces what was planned
         self._segments.append((t, now_c, setpoint_c, rate_c_per_s))
+        self._table = None
+
+    def _seg(self) -> np.ndarray:
+        """The segments (start s, 0 for the first; temperature C; setpoint C; rate C/s) as an (S, 4) array, built
+        again only when the segment list changes (a thermal wait reads the thermometer thousands of times)."""
+        if self._table is None:
+            self._table = (np.array([s[0] for s in self._segments]),
+                           np.array([(s[0] if np.isfinite(s[0]) else 0.0, s[1], s[2], s[3]) for s in self._segments]))
+        return self._table[1]
 
     def _index(self, t: np.ndarray) -> np.ndarray:
-        starts = np.array([s[0] for s in self._segments])
-        return np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self._segments) - 1)
+        self._seg()
+        return np.clip(np.searchsorted(self._table[0], t, side="right") - 1, 0, len(self._segments) - 1)
 
     def setpoint_at(self, t_s: np.ndarray) -> np.ndarray:
         """The setpoint at clock times ``t_s``, C."""
         t = np.atleast_1d(np.asarray(t_s, float))
-        seg = np.array([(s[0] if np.isfinite(s[0]) else 0.0, s[1], s[2], s[3]) for s in self._segments])
+        seg = self._seg()
         i = self._index(t)
         return seg[i, 2] + seg[i, 3] * np.maximum(t - seg[i, 0], 0.0)
 
@@ -103,7 +114,7 @@ class SimChamber:
         """Sensor temperature at clock times ``t_s``, C: per segment, with setpoint ``S0 + r dt``,
         ``T = S0 + r dt - r tau + (T0 - S0 + r tau) exp(-dt / tau)``."""
         t = np.atleast_1d(np.asarray(t_s, float))
-        seg = np.array([(s[0] if np.isfinite(s[0]) else 0.0, s[1], s[2], s[3]) for s in self._segments])
+        seg = self._seg()
         i = self._index(t)
         t0, c0, s0, r = seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3]
         tau = self.config.tau_s
@@ -182,6 +193,7 @@ class WorldModel:
     geometry: TableGeometry | None = None  # the turntable's own errors (None: a perfect table)
     pose_error_deg: float = 0.0  # each pose placed off its nominal one by up to this (the pose_error effect)
     _last_moving_t: float = -np.inf
+    _tilt: tuple | None = None  # (table_tilt_deg, its matrix)
 
     def angles_deg_at(self, t_s: np.ndarray) -> np.ndarray:
         """Kinematic angles (a1, a2, a3) at clock times ``t_s``: (N, 3), deg."""
@@ -206,8 +218,11 @@ class WorldModel:
         return np.stack(cols, axis=1)
 
     def tilt_matrix(self) -> np.ndarray:
-        tx, ty = np.radians(self.table_tilt_deg)
-        return rot_x(np.array([tx]))[0] @ rot_y(np.array([ty]))[0]
+        key = tuple(self.table_tilt_deg)
+        if self._tilt is None or self._tilt[0] != key:
+            tx, ty = np.radians(key)
+            self._tilt = (key, rot_x(np.array([tx]))[0] @ rot_y(np.array([ty]))[0])
+        return self._tilt[1]
 
     def placement(self, angles_deg: np.ndarray) -> np.ndarray:
         """The ``pose_error`` effect: (N, 3, 3) world rotations that put each pose off its nominal one, as a hand
@@ -242,10 +257,46 @@ class WorldModel:
         w += np.array([0.0, 1.0, 0.0]) * rates[:, 2:3]
         return r, f, w
 
+    def temp_c_at(self, t_s: np.ndarray) -> np.ndarray:
+        """The sensor's temperature at clock times ``t_s`` (N,), C: the ``temp_c`` of :meth:`__call__` alone."""
+        return self.chamber.temp_at(t_s)
+
+    def advance(self, t_s: np.ndarray) -> np.ndarray:
+        """Go through clock times ``t_s`` whose samples nobody sees: the ringing's state follows the stages' motion
+        there (as in :meth:`__call__`); returns the sensor temperature at those times (N,), C."""
+        t = np.atleast_1d(np.asarray(t_s, float))
+        self._note_motion(t, np.any(np.abs(np.radians(self.rates_deg_s_at(t))) > 1e-9, axis=1))
+        return self.chamber.temp_at(t)
+
+    def _note_motion(self, t: np.ndarray, moving: np.ndarray) -> np.ndarray:
+        """The time of the most recent moving sample at or before each of ``t`` (-inf before any), remembered
+        for the next call."""
+        last = np.where(moving, t, -np.inf)
+        last = np.maximum.accumulate(np.concatenate(([self._last_moving_t], last)))[1:]
+        if len(t):
+            self._last_moving_t = float(last[-1])
+        return last
+
+    def _static(self, t: np.ndarray, rates: np.ndarray) -> bool:
+        """Whether the sensor's attitude is the same at every time of ``t`` (no stage turning at any of them,
+        the same angles and, with a geometry, the same last directions at the first and every other time)."""
+        if len(t) < 2 or rates.any():
+            return False
+        deg = self.angles_deg_at(t)
+        if not (deg == deg[0]).all():
+            return False
+        if self.geometry is None:
+            return True
+        d = self.directions_at(t)
+        return bool((d == d[0]).all())
+
     def __call__(self, t_s: np.ndarray) -> PhysicsBatch:
         t = np.atleast_1d(np.asarray(t_s, float))
         rates = np.radians(self.rates_deg_s_at(t))
-        r, f, w = self._attitude(t, rates)
+        if self._static(t, rates):  # the table at rest: one attitude for the whole block
+            r, f, w = (np.repeat(x, len(t), axis=0) for x in self._attitude(t[:1], rates[:1]))
+        else:
+            r, f, w = self._attitude(t, rates)
         rt = np.transpose(r, (0, 2, 1))
         f = f + self._ringing(t, np.any(np.abs(rates) > 1e-9, axis=1))
         m = rt @ self.magnetic_field.world_vector_ut()
@@ -257,11 +308,7 @@ class WorldModel:
         cfg = self.ringing
         if cfg.amplitude_g <= 0:
             return out
-        # time of the most recent moving sample at or before each sample
-        last = np.where(moving, t, -np.inf)
-        last = np.maximum.accumulate(np.concatenate(([self._last_moving_t], last)))[1:]
-        if len(t):
-            self._last_moving_t = float(last[-1])
+        last = self._note_motion(t, moving)  # time of the most recent moving sample at or before each sample
         dt = t - last
         ok = np.isfinite(dt) & ~moving
         amp = np.zeros(len(t))

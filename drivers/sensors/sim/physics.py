@@ -24,6 +24,25 @@ class PhysicsBatch:
 PhysicsSource = Callable[[np.ndarray], PhysicsBatch]
 
 
+def temperature_at(physics: PhysicsSource, t_s) -> np.ndarray:
+    """The sensor temperature (N,), C, at times ``t_s``: the source's ``temp_c_at`` where it has one (the
+    temperature alone, without the attitude a full batch computes), else the ``temp_c`` of its batch."""
+    temp_c_at = getattr(physics, "temp_c_at", None)
+    if temp_c_at is not None:
+        return np.asarray(temp_c_at(t_s), float)
+    return np.asarray(physics(t_s).temp_c, float)
+
+
+def advance(physics: PhysicsSource, t_s) -> np.ndarray:
+    """Take ``physics`` through times ``t_s`` whose samples nobody sees (a chip only counts them) and return the
+    sensor temperature there (N,), C: the source's ``advance`` where it has one (a stateful source moves its state
+    through those times without computing what is not seen), else its full batch."""
+    step = getattr(physics, "advance", None)
+    if step is not None:
+        return np.asarray(step(t_s), float)
+    return np.asarray(physics(t_s).temp_c, float)
+
+
 @dataclass
 class StaticPhysics:
     """A constant physical state (a sensor lying still)."""
@@ -32,6 +51,9 @@ class StaticPhysics:
     angular_rate_dps: tuple = (0.0, 0.0, 0.0)
     magnetic_field_ut: tuple = (20.0, 0.0, -45.0)
     temp_c: float = 25.0
+
+    def temp_c_at(self, t_s) -> np.ndarray:
+        return np.full(len(np.atleast_1d(t_s)), float(self.temp_c))
 
     def __call__(self, t_s) -> PhysicsBatch:
         n = len(np.atleast_1d(t_s))

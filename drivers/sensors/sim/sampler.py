@@ -13,6 +13,7 @@ import numpy as np
 from drivers.clock import ElasticClock
 from drivers.sensors.sim.error_model import AccelErrorModel, HysteresisState
 from drivers.sensors.sim.noise import NoiseConfig, NoiseProcess, own_stream
+from drivers.sensors.sim.physics import advance, temperature_at
 
 #: own random streams of the dlpf noise model (the sampler's generator keeps today's draws)
 ACCEL_NOISE_STREAM, GYRO_NOISE_STREAM = 0xD1F0, 0xD1F1
@@ -79,7 +80,7 @@ class LazySampler:
 
     def _temp_rate(self, t: np.ndarray, h: float = 0.5) -> np.ndarray:
         """True dT/dt (C/s) of the physics' sensor temperature (central difference over +-h s)."""
-        return (np.asarray(self.physics(t + h).temp_c, float) - np.asarray(self.physics(t - h).temp_c, float)) / (2 * h)
+        return (temperature_at(self.physics, t + h) - temperature_at(self.physics, t - h)) / (2 * h)
 
     def catch_up(self, keep_last: int):
         """Samples due since the last call: dict of arrays (t_s, accel_g, temp_c, gyro_dps, skipped).
@@ -98,8 +99,7 @@ class LazySampler:
         skipped = max(0, n - keep_last)
         if skipped:
             ts_skip = self.t_start + np.arange(self.next_k, self.next_k + skipped, max(1, int(self.rate_hz * 0.05))) / self.rate_hz
-            ph = self.physics(ts_skip)
-            self.hyst.update(ph.temp_c)
+            self.hyst.update(advance(self.physics, ts_skip))
         k = np.arange(self.next_k + skipped, last_k + 1)
         self.next_k = last_k + 1
         t = self.t_start + k / self.rate_hz

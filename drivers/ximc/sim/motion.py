@@ -29,20 +29,23 @@ class Profile:
 
     def __init__(self, phases: list[Phase]) -> None:
         self.phases = phases
-        self._t = np.array([ph.t for ph in phases])
+        # (t, p, v, a) per phase, built once: a simulated read evaluates the profile of every axis
+        self._table = np.array([(ph.t, ph.p, ph.v, ph.a) for ph in phases], float).reshape(-1, 4)
+        self._t = self._table[:, 0]
 
     @classmethod
     def rest(cls, t: float, p: float) -> "Profile":
         return cls([Phase(t, p, 0.0, 0.0)])
 
     def _idx(self, t):
-        return np.clip(np.searchsorted(self._t, t, side="right") - 1, 0, len(self.phases) - 1)
+        i = np.searchsorted(self._t, t, side="right") - 1
+        return np.maximum(i, 0)  # searchsorted - 1 never exceeds the last phase
 
     def position(self, t):
         """Position at clock time(s) ``t``, usteps."""
         t = np.asarray(t, float)
         i = self._idx(t)
-        ph = np.array([(p.t, p.p, p.v, p.a) for p in self.phases])[i]
+        ph = self._table[i]
         dt = np.maximum(t - ph[..., 0], 0.0)
         return ph[..., 1] + ph[..., 2] * dt + 0.5 * ph[..., 3] * dt * dt
 
@@ -50,9 +53,9 @@ class Profile:
         """Speed at clock time(s) ``t``, usteps/s."""
         t = np.asarray(t, float)
         i = self._idx(t)
-        ph = np.array([(p.t, p.v, p.a) for p in self.phases])[i]
+        ph = self._table[i]
         dt = np.maximum(t - ph[..., 0], 0.0)
-        return ph[..., 1] + ph[..., 2] * dt
+        return ph[..., 2] + ph[..., 3] * dt
 
     @property
     def end_time(self) -> float:
