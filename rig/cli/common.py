@@ -12,6 +12,7 @@ from calib.gyro.result import NONORTHOGONALITY_NAMES
 from calib.mag import MagCalibration
 from rig.cli.codes import EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, UsageError  # noqa: F401 - the commands use them
 from rig.lab.acceptance import as_lines
+from rig.lab.units import GYRO_G_SENSITIVITY_UNIT, GYRO_NONORTHOGONALITY_UNIT, gyro_g_sensitivity_terms
 
 
 def present(command: str, conclusion, *, quiet: bool = False) -> int:
@@ -216,18 +217,19 @@ def _effect_lines(effects) -> list[str]:
 def gyroscope_lines(section) -> list[str]:
     """The gyroscope's result in the calibration file's units, as ``rig history`` and ``rig report`` show it (issue
     33 item 4: one unit per quantity, every parameter with its sigma): bias (counts), scale (counts/(deg/s)), the
-    six nonorthogonalities (-) and, when determined, the g-sensitivity (counts/g)."""
+    six nonorthogonalities (ratio M_ij/M_ii) and, when determined, the g-sensitivity terms (counts/g; ``xz``: gyro x
+    per g along z), named and labelled as the report's parameters table names them (:mod:`rig.lab.units`)."""
     g = section if isinstance(section, GyroCalibration) else GyroCalibration.from_dict(section)
     sig = g.sigma
     out = [f"  gyroscope: {g.n_steps} rate steps, residual {g.residual_rms_dps:.4f} deg/s rms",
            "    bias " + " ".join(f"{x} {v:+.2f}+-{sig[f'b_{x}']:.2f}" for x, v in zip("xyz", g.bias_counts)) + " counts",
            "    scale " + " ".join(f"{x} {v:.3f}+-{sig[f'k_{x}']:.3f}" for x, v in zip("xyz", g.scale_counts_per_dps))
            + " counts/(deg/s)",
-           "    nonorthogonality " + " ".join(f"{n[2:]} {g.nonorthogonality[n]:+.6f}+-{sig[n]:.6f}"
-                                             for n in NONORTHOGONALITY_NAMES)]
+           f"    nonorthogonality ({GYRO_NONORTHOGONALITY_UNIT}): " + " ".join(
+               f"{n[2:]} {g.nonorthogonality[n]:+.6f}+-{sig[n]:.6f}" for n in NONORTHOGONALITY_NAMES)]
     if g.g_sensitivity:
-        m = np.asarray(g.g_sensitivity["matrix_counts_per_g"], float)
-        s = np.asarray(g.g_sensitivity["sigma_counts_per_g"], float)
-        out.append("    g-sensitivity (counts/g, rows x y z): " + "; ".join(
-            " ".join(f"{v:+.3g}+-{e:.2g}" for v, e in zip(mr, sr)) for mr, sr in zip(m, s)))
+        terms = gyro_g_sensitivity_terms(g.g_sensitivity)
+        out.append(f"    g-sensitivity ({GYRO_G_SENSITIVITY_UNIT}; gyro axis, g axis): " + " ".join(
+            f"{n} {v:+.2f}+-{e:.2f}" for n, v, e in terms) if terms else
+            "    g-sensitivity: no column determined by these rate steps (not estimated)")
     return out

@@ -31,7 +31,8 @@ from rig.lab.bias_temperature import reference_view
 from rig.lab.drift import CalibrationRecord, drift, flagged_names, history_notes, sensor_history
 from rig.lab.history import HistoryError, default_path, open_history
 from rig.lab.identity import sensor_identity
-from rig.lab.units import shown, shown_scale
+from rig.lab.units import (GYRO_G_SENSITIVITY_UNIT, GYRO_NONORTHOGONALITY_UNIT, gyro_g_sensitivity_terms, shown,
+                            shown_scale)
 from rig.session import Session, load_session, step_means
 
 #: the seed paper's verification procedure (an independent roll/pitch check)
@@ -330,7 +331,10 @@ def parameters(cal) -> list[Parameter]:
         _vector(out, "gyroscope", "gyro.scale", g.scale_counts_per_dps, [g.sigma.get(f"k_{x}") for x in "xyz"],
                 "counts/(deg/s)")
         for n in NONORTHOGONALITY_NAMES:
-            out.append(Parameter("gyroscope", f"gyro.{n}", float(g.nonorthogonality[n]), _num(g.sigma.get(n)), "-"))
+            out.append(Parameter("gyroscope", f"gyro.{n}", float(g.nonorthogonality[n]), _num(g.sigma.get(n)),
+                                 GYRO_NONORTHOGONALITY_UNIT))
+        for n, v, s in gyro_g_sensitivity_terms(g.g_sensitivity):  # the determined columns only, as rig run prints
+            out.append(Parameter("gyroscope", f"gyro.g_sensitivity_{n}", v, _num(s), GYRO_G_SENSITIVITY_UNIT))
     m = cal.magnetometer
     if m is not None:
         _vector(out, "magnetometer", "mag.hard_iron", m.hard_iron_ut, [m.sigma.get(f"hard_iron_{x}") for x in "xyz"],
