@@ -21,7 +21,7 @@ from calib.accel.solve import check_poses
 from calib.errors import CalibError
 from rig.config.procedure_model import (ACCEL_RANGES_G, ADXL345_RATES_HZ, FORMAT, GYRO_RANGES_DPS, METHODS, AcceptSpec,
                                          MAX_STEPS, MIN_DWELL_SAMPLES, MODELS, RATE_MAX_DEG_S, STEPS_LIMIT,
-                                         AnglesStep, Dwell,
+                                         AnglesStep, Dwell, Mount,
                                          ProcedureDoc, PoseStep, RampStep, RateStep, RepeatStep, SensorSpec, Settle,
                                          SolveSpec, TargetSpec, TemperatureStep, TemperatureTarget, PromptStep)
 from rig.config.validate import validate_document
@@ -84,6 +84,9 @@ class PlannedStep:
     dwell_rule: str = "fixed"
     #: steps of a thermal ramp (the step starting it, kind thermal, and its poses): where in the ramp
     ramp: RampPlan | None = None
+    #: in a procedure whose prompts turn the sensor in its fixture (``mount:``): a prompt's turn, and every other
+    #: step's mounting in force (the reference, ``x+z+``, before the first such prompt); None in other procedures
+    mount: Mount | None = None
 
     @property
     def executor(self) -> str:
@@ -108,6 +111,8 @@ class PlannedStep:
                      rate_nominal_dps=[round(float(x), 12) for x in self.rate_nominal_dps])
         if self.ramp is not None:
             d["ramp"] = self.ramp.to_manifest()
+        if self.mount is not None:
+            d["mount"] = self.mount.to_manifest()
         return d
 
 
@@ -168,7 +173,7 @@ class _Expander:
         self.check_dwell(spec.dwell, doc, "dwell", "dwell")
         self.check_settle(spec.settle, doc, "settle", "settle")
         self.steps(spec.steps, doc["steps"], "steps", prefix="", depth=0)
-        steps = list(self.out)
+        steps = with_mountings(self.out)
         if spec.order != "as_written" and self.ramps:
             self.fail(doc, "order", "order", f"order: {spec.order} would regroup the poses a ramp cycles (temperature "
                       "would follow the pose); list a ramp's poses in the order to cycle them and use as_written")
@@ -259,7 +264,7 @@ class _Expander:
             elif isinstance(model, RampStep):
                 self.ramp_step(model, item, w, line, prefix)
             elif isinstance(model, PromptStep):
-                self.add(model.name or f"{prefix}prompt", "prompt", line, prompt=model.prompt)
+                self.add(model.name or f"{prefix}prompt", "prompt", line, prompt=model.prompt, mount=model.mount)
             elif isinstance(model, RateStep):
                 self.rate_step(model, item, w, line, prefix)
             else:
@@ -341,6 +346,20 @@ class _Expander:
         self.add(f"{prefix}{nm}", "rate", line, angles_deg=angles, f_nominal=None, dwell=Dwell(seconds=seconds),
                  settle=Settle(min_s=r.spin_up_s), rate_axis=r.axis, rate_deg_s=float(r.rate_deg_s),
                  rate_nominal_dps=tuple(float(x) for x in w_body))
+
+
+def with_mountings(steps: list[PlannedStep]) -> list[PlannedStep]:
+    """``steps`` with each one's mounting in force, when a prompt turns the sensor in its fixture (``mount:``):
+    the reference (``x+z+``, as placed) until the first such prompt, then the last prompt's turn. A procedure
+    without ``mount:`` is returned as it is (its steps say nothing of the mounting)."""
+    if not any(s.kind == "prompt" and s.mount is not None for s in steps):
+        return list(steps)
+    current, out = Mount.of(np.eye(3)), []
+    for s in steps:
+        if s.kind == "prompt" and s.mount is not None:
+            current = s.mount
+        out.append(s if s.mount is not None or s.kind == "prompt" else replace(s, mount=current))
+    return out
 
 
 def body_rate_dps(angles_deg, axis: str, rate_deg_s: float) -> np.ndarray:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import fnmatch
 import math
+from dataclasses import dataclass
 from typing import Annotated, Any, ClassVar, Optional, Union
 
 from pydantic import (
@@ -26,6 +27,7 @@ from calib.acceptance import AcceptanceLimits, known_pattern
 from calib.file.fields import Strict, choice, did_you_mean, fail, flag, label, number, text
 from drivers.sensors.chips import CHIPS, SENSOR_MODELS
 from drivers.ximc.stage_spec import MR191
+from rig.config.rotations import AXIS_NAMES, CUBE_ROTATIONS, about_axis, describe, name_of
 from rig.planning.kinematics import f_nominal
 from rig.planning.poses import POSE_NAMES
 
@@ -329,9 +331,67 @@ class TemperatureStep(Strict):
     name: StepName = None
 
 
+@dataclass(frozen=True)
+class Mount:
+    """The sensor's turn in its fixture relative to the reference mounting (a prompt step's ``mount:``):
+    ``turn`` (rows of the 3x3 rotation, sensor frame -> fixture frame, as :mod:`rig.config.rotations`), its
+    cube-rotation ``name`` (None for another turn)."""
+
+    name: Optional[str]
+    turn: tuple[tuple[float, float, float], ...]
+
+    @classmethod
+    def of(cls, matrix) -> "Mount":
+        m = [[float(x) for x in row] for row in matrix]
+        return cls(name_of(m), tuple(tuple(row) for row in m))
+
+    def words(self) -> str:
+        """``180 deg about z (x-z+)``: the turn as the technician is told it."""
+        text = describe(self.turn)
+        return f"{text} ({self.name})" if self.name and self.name != "x+z+" else text
+
+    def to_manifest(self) -> dict:
+        return {"name": self.name, "turn": [list(row) for row in self.turn]}
+
+
+MOUNT_HINT = ("expected a cube-rotation name such as x+z+ (as placed), x-z+ (180 deg about z), x+z- (180 deg about "
+              "x), or {axis: x|y|z, deg: N}")
+
+
+def _mount(v):
+    if isinstance(v, Mount):
+        return v
+    if isinstance(v, str):
+        if v in CUBE_ROTATIONS:
+            return Mount.of(CUBE_ROTATIONS[v])
+        raise fail(f"{MOUNT_HINT}, got {v!r}{did_you_mean(v, CUBE_ROTATIONS)}")
+    if not isinstance(v, dict):
+        raise fail(f"{MOUNT_HINT}, got {v!r}")
+    unknown = [k for k in v if k not in ("axis", "deg")]
+    if unknown:
+        raise fail(f"unknown key {unknown[0]!r} (expected axis and deg){did_you_mean(unknown[0], ('axis', 'deg'))}",
+                   at=(unknown[0],))
+    if v.get("axis") not in AXIS_NAMES:
+        raise fail(f"expected x, y or z (the fixture's axis the sensor turns about), got {v.get('axis')!r}",
+                   at=("axis",))
+    deg = v.get("deg")
+    if isinstance(deg, bool) or not isinstance(deg, (int, float)) or not math.isfinite(deg) or abs(deg) > 360:
+        raise fail(f"expected the turn in degrees, -360..360, got {deg!r}", at=("deg",))
+    return Mount.of(about_axis(v["axis"], deg))
+
+
+MountField = Annotated[Any, BeforeValidator(_mount), WithJsonSchema({"anyOf": [
+    {"enum": list(CUBE_ROTATIONS), "type": "string"},
+    {"type": "object", "additionalProperties": False, "required": ["axis", "deg"],
+     "properties": {"axis": {"enum": list(AXIS_NAMES)}, "deg": {"type": "number", "minimum": -360, "maximum": 360}}}],
+    "description": "the sensor's turn in its fixture relative to the reference mounting (the steps before the "
+                   "first mount:): a cube-rotation name (where its +x and +z point; x+z+ as placed) or axis and deg"})]
+
+
 class PromptStep(Strict):
     prompt: text()
     name: StepName = None
+    mount: Optional[MountField] = None  # the operator turns the sensor in its fixture (docs/procedures.md)
 
 
 RAMP_MAX_C_PER_MIN = 20.0  # climate chambers ramp at 1-15 C/min

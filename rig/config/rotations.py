@@ -84,3 +84,38 @@ def angle_deg(matrix) -> float:
     """The rotation angle of ``matrix`` about its axis, deg (0 .. 180)."""
     c = (float(np.trace(np.asarray(matrix, dtype=float))) - 1.0) / 2.0
     return math.degrees(math.acos(max(-1.0, min(1.0, c))))
+
+
+#: axis name -> index, for :func:`about_axis`
+AXIS_NAMES = tuple(_AXES)
+
+
+def about_axis(axis: str, deg: float) -> np.ndarray:
+    """The rotation by ``deg`` (right-handed) about the frame's ``axis`` ("x", "y" or "z"): 3x3, its columns the
+    turned frame's axes in the unturned frame (as a cube rotation's; entries within 1e-15 of 0 or +-1 rounded)."""
+    a = math.radians(float(deg))
+    c, s = math.cos(a), math.sin(a)
+    i = _AXES[axis]
+    j, k = (i + 1) % 3, (i + 2) % 3
+    r = np.eye(3)
+    r[j, j], r[j, k], r[k, j], r[k, k] = c, -s, s, c
+    return np.where(np.abs(r - np.round(r)) < 1e-15, np.round(r), r) + 0.0
+
+
+def describe(matrix) -> str:
+    """A turn in words: ``as placed`` (the identity), ``180 deg about z`` (a turn about a frame axis), else the
+    angle and its axis to 3 digits."""
+    r = np.asarray(matrix, dtype=float)
+    angle = angle_deg(r)
+    if angle < 1e-9:
+        return "as placed"
+    if angle > 180.0 - 1e-9:  # the axis: the column of (R + I) / 2 of largest norm
+        axis = (r + np.eye(3))[:, int(np.argmax(np.linalg.norm(r + np.eye(3), axis=0)))]
+    else:
+        axis = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+    axis = axis / np.linalg.norm(axis)
+    for name, i in _AXES.items():
+        if abs(abs(axis[i]) - 1.0) < 1e-9:
+            sign = "" if axis[i] > 0 or angle > 180.0 - 1e-9 else "-"
+            return f"{sign}{angle:.4g} deg about {name}"
+    return f"{angle:.4g} deg about [{axis[0]:.3f}, {axis[1]:.3f}, {axis[2]:.3f}]"

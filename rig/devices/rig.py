@@ -112,6 +112,10 @@ class Rig:
     fixture : rig.devices.fixture.Fixture | None
         The slots of a rig file's ``fixture:`` section, opened (None: the rig has its one ``sensor``);
         ``sensor`` is then the first slot's, for the checks made before anything moves.
+    remount : callable | None
+        Called with the sensor's turn in its fixture (3x3, sensor frame -> fixture frame, relative to the
+        reference mounting) once the operator has confirmed a prompt step with ``mount:``: a simulated rig turns
+        its simulated sensor; None on hardware (the technician turned it).
     """
 
     kind: str
@@ -131,6 +135,7 @@ class Rig:
     closers: list[Callable[[], None]] = field(default_factory=list)
     closed: bool = False
     fixture: Any | None = None  # rig.devices.fixture.Fixture
+    remount: Callable[[Any], None] | None = None
 
     @property
     def stages(self) -> dict[str, Any]:

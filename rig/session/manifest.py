@@ -224,6 +224,22 @@ class StepStats(_Section):
     stage_rate_deg_s: list[Number] | None = None
 
 
+def _turn(v):
+    if not (isinstance(v, (list, tuple)) and len(v) == 3 and all(isinstance(r, (list, tuple)) and len(r) == 3 and all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in r) for r in v)):
+        raise fail("expected a 3x3 list of finite numbers (rows of the turn, sensor frame -> fixture frame)")
+    return [[float(x) for x in r] for r in v]
+
+
+class MountRecord(_Section):
+    """``steps[].mount``: the sensor's turn in its fixture relative to the reference mounting (a prompt's, or the
+    one in force at a step) in a procedure whose prompts turn it (``mount:``, docs/procedures.md): its cube-rotation
+    ``name`` (null for another turn) and ``turn`` (rows, sensor frame -> fixture frame)."""
+
+    name: str | None = None
+    turn: Annotated[list[list[float]], BeforeValidator(_turn)]
+
+
 class StepRecord(_Section):
     """``steps[i]``: one step, planned (``status: pending``) then recorded."""
 
@@ -240,6 +256,7 @@ class StepRecord(_Section):
     rate_deg_s: Number = None
     rate_nominal_dps: Vec3 = None
     pose_group: int | None = None
+    mount: MountRecord | None = None
 
     @model_validator(mode="after")
     def _always_written(self):

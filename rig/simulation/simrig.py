@@ -27,6 +27,7 @@ from drivers.sensors.sim.unit_noise import draw_unit_noise
 from drivers.ximc.sim.emulator import ControllerEmulator, XimcFaults
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
+from rig.simulation.mounting import MountedPhysics
 from rig.simulation.settings import EFFECT_FIELDS, EFFECT_PARAMS, SimSettings
 from rig.simulation.world import AxisLink, SimChamber, WorldModel
 
@@ -99,6 +100,8 @@ class SimulatedRig:
             geometry=self.geometry,
             pose_error_deg=float(np.ravel(self.settings.effects.get("pose_error", 0.0))[0]),
         )
+        #: what the chip feels: the world through the sensor's turn in its fixture (:meth:`remount`)
+        self.physics = MountedPhysics(self.world)
         self.bus = SimulatedI2CBus(1)
         self.sensor_address = sensor_address
         self.chip = self._make_chip(sensor_faults)
@@ -134,6 +137,11 @@ class SimulatedRig:
         spec = chip_spec(self.sensor_model)
         self.sensor_address = self.sensor_address or spec.default_address
         return SIM_CHIPS[spec.model](self, faults)
+
+    def remount(self, turn) -> None:
+        """The simulated operator turns the sensor in its fixture, now: ``turn`` (3x3, sensor frame -> fixture
+        frame) relative to the reference mounting (a prompt step's ``mount:``; ``Rig.remount``)."""
+        self.physics.turn_at(self.clock.now(), turn)
 
     # -- lifecycle ----------------------------------------------------------------------
     def start(self) -> dict[str, str]:
@@ -204,14 +212,14 @@ def _plain(v):
 
 def _mpu9150(sim: "SimulatedRig", faults):
     """The MPU-9150 attaches itself and the AK8975 behind its I2C bypass."""
-    chip = Mpu9150Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.noise_seed, gyro_errors=sim.gyro_errors,
+    chip = Mpu9150Model(sim.physics, sim.accel_errors, clock=sim.clock, seed=sim.noise_seed, gyro_errors=sim.gyro_errors,
                         mag_errors=sim.mag_errors, faults=faults, noise=sim.noise, unit_seed=sim.seed)
     chip.attach(sim.bus, sim.sensor_address)
     return chip
 
 
 def _adxl345(sim: "SimulatedRig", faults):
-    chip = Adxl345Model(sim.world, sim.accel_errors, clock=sim.clock, seed=sim.noise_seed, faults=faults,
+    chip = Adxl345Model(sim.physics, sim.accel_errors, clock=sim.clock, seed=sim.noise_seed, faults=faults,
                         noise=sim.noise)
     sim.bus.add_device(sim.sensor_address, chip)
     return chip

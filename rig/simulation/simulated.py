@@ -207,6 +207,7 @@ def open_simulated_rig(rig_file, *, seed: int | None = None, time_scale: float |
             attach_simulated_fixture(rig, sim, rig_file)
         else:
             attach_sensors(rig, rig_file.sensor.model, sim.bus, sim.sensor_address)
+            rig.remount = sim.remount  # the simulated operator turns the sensor at a prompt's mount:
     except Exception:
         rig.close()
         raise
@@ -284,4 +285,5 @@ def open_in_process_rig(sim: SimulatedRig, name: str = "mem") -> Rig:
               turntable="sim:8smc5-controller-in-memory", chamber=sim.chamber, seed=sim.seed)
     rig.closers.extend(lambda n=n: detach(f"{name}-{n}") for n in STAGE_AXES)
     attach_sensors(rig, sim.sensor_model, sim.bus, sim.sensor_address)
+    rig.remount = sim.remount
     return rig

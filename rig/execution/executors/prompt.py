@@ -1,4 +1,7 @@
-"""A prompt step: ask the operator to do something (mount the sensor, open the chamber) and confirm."""
+"""A prompt step: ask the operator to do something (mount the sensor, open the chamber) and confirm.
+
+A prompt with ``mount:`` (docs/procedures.md, "Re-mounting the sensor") also tells the operator how to turn the
+sensor in its fixture; once confirmed, the rig is told (``Rig.remount``: the simulated rig turns its sensor)."""
 
 from __future__ import annotations
 
@@ -6,10 +9,20 @@ from rig.config.procedure import PlannedStep
 from rig.execution.context import RunAborted, RunContext
 
 
+def question(step: PlannedStep) -> str:
+    """What the operator is asked: the prompt's text, and with ``mount:`` the turn from the reference mounting."""
+    if step.mount is None:
+        return step.prompt
+    return f"{step.prompt} [sensor in its fixture: {step.mount.words()} from the reference mounting]"
+
+
 def execute(ctx: RunContext, step: PlannedStep) -> None:
     ctx.progress(step, "prompt")
-    ok = ctx.operator.confirm(step.prompt)
-    ctx.event("prompt", step=step.index, text=step.prompt, answer="yes" if ok else "abort")
+    text = question(step)
+    ok = ctx.operator.confirm(text)
+    ctx.event("prompt", step=step.index, text=text, answer="yes" if ok else "abort")
     if not ok:
         raise RunAborted(f"operator aborted at step {step.index + 1} ({step.name})")
+    if step.mount is not None and ctx.rig.remount is not None:
+        ctx.rig.remount(step.mount.turn)
     ctx.recorder.complete_step(step.index, {"t_end_s": ctx.session_time()})
