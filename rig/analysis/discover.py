@@ -19,6 +19,7 @@ from calib.discovery.search import Discovery, StepContext, discover
 from calib.discovery.effects import LIBRARY, heating_state
 from calib.errors import CalibError
 from rig.analysis import plots
+from rig.analysis.effect_units import shown_effect_unit
 from rig.analysis.solve import SOFTWARE, sensor_section
 from rig.errors import RigInputError
 from rig.planning.kinematics import sensor_to_world
@@ -186,8 +187,7 @@ def format_report(session: Session, d: Discovery, *, details: bool = True) -> st
     if d.effects:
         lines.append(f"effects named (false-alarm rate {d.false_alarm:g} per session):")
         for e in d.effects:
-            est = ", ".join(f"{a} {_fmt(v)} +- {_fmt(s)}" for a, v, s in zip(e.axes, e.estimate, e.sigma))
-            lines.append(f"  + {e.name:<24} [{e.unit}] {est}")
+            lines.append(effect_line(e, session.lsb_per_g))
             lines.append(f"    residual after: {e.rms_after_g * 1e6:.1f} ug rms (p = {e.p_value:.2g})")
     else:
         lines.append("effects named: none (nothing significant beyond the baseline)")
@@ -204,7 +204,7 @@ def format_report(session: Session, d: Discovery, *, details: bool = True) -> st
     if d.observability:
         lines.append(f"smallest detectable magnitude per candidate (false-alarm rate {d.false_alarm:g}, power "
                      f"{next(iter(d.observability.values()))['power']:.0%}, given the final model):")
-        lines += ["  " + mdm_line(n, o) for n, o in d.observability.items()]
+        lines += ["  " + mdm_line(n, o, session.lsb_per_g) for n, o in d.observability.items()]
     if d.unobservable:
         lines.append("unobservable in this session (never named):")
         for n in d.unobservable:
@@ -226,9 +226,7 @@ def format_report(session: Session, d: Discovery, *, details: bool = True) -> st
 def _short_report(session: Session, d: Discovery) -> list[str]:
     """The console's report without ``--details``: what to act on, and where the statistics are."""
     lines = headline_lines(session, d) + [""]
-    for e in d.effects:
-        est = ", ".join(f"{a} {_fmt(v)} +- {_fmt(s)}" for a, v, s in zip(e.axes, e.estimate, e.sigma))
-        lines.append(f"  + {e.name:<24} [{e.unit}] {est}")
+    lines += [effect_line(e, session.lsb_per_g) for e in d.effects]
     lines += selection_lines(session, d)
     lines.append(f"gap: {d.rms_before_g * 1e6:.1f} -> {d.rms_after_g * 1e6:.1f} ug rms "
                  f"(noise {d.noise_rms_g * 1e6:.1f} ug), chi2/dof {d.chi2_per_dof_before:.2f} -> "
@@ -264,11 +262,25 @@ def selection_lines(session: Session, d: Discovery) -> list[str]:
     return lines
 
 
-def mdm_line(name: str, o: dict) -> str:
-    """One candidate's minimum detectable magnitude per parameter and its worst variance inflation."""
-    mdm = ", ".join(_fmt(x) for x in o["mdm"])
+def effect_line(e, lsb_per_g: float | None) -> str:
+    """One named effect with its estimates and sigmas, the bias tempcos in counts/C^s as ``rig run`` prints them
+    (:mod:`rig.analysis.effect_units`; the ``--json`` keeps the library's g/C^s)."""
+    unit, k = shown_effect_unit(e.unit, lsb_per_g)
+    est = ", ".join(f"{a} {_fmt(_times(v, k))} +- {_fmt(_times(s, k))}" for a, v, s in zip(e.axes, e.estimate, e.sigma))
+    return f"  + {e.name:<24} [{unit}] {est}"
+
+
+def mdm_line(name: str, o: dict, lsb_per_g: float | None = None) -> str:
+    """One candidate's minimum detectable magnitude per parameter and its worst variance inflation (the bias
+    tempcos' in counts/C^s, as :func:`effect_line`)."""
+    unit, k = shown_effect_unit(o["unit"], lsb_per_g)
+    mdm = ", ".join(_fmt(_times(x, k)) for x in o["mdm"])
     vif = f", variance inflation {o['max_vif']:.3g}" if o.get("max_vif") else ""
-    return f"{name:<24} [{o['unit']}] {mdm}{vif}"
+    return f"{name:<24} [{unit}] {mdm}{vif}"
+
+
+def _times(v, k: float):
+    return v if v is None else v * k
 
 
 def verdict_lines(d: Discovery) -> list[str]:

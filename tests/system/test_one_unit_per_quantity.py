@@ -5,6 +5,7 @@ run in this process (``rig.cli.main``) on sessions recorded by the simulated rig
 from __future__ import annotations
 
 import contextlib
+import json
 import io
 import re
 from pathlib import Path
@@ -12,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from rig.cli import main
+from rig.session import load_session
 
 from conftest import PROCEDURES
 from html_page import Page
@@ -88,3 +90,45 @@ def test_the_report_shows_the_gyro_nonorthogonalities_and_g_sensitivity_as_run_a
                 assert shown_unit == unit, n
                 assert float(shown) == pytest.approx(value, abs=0.1 * sigma), n  # both rounded to the sigma
                 assert float(shown_sigma) == pytest.approx(sigma, rel=0.05), n
+
+
+@pytest.fixture(scope="module")
+def ramp(tmp_path_factory) -> dict:
+    """``rig run procedures/thermal_ramp.yaml`` (seed 2, virtual time): {"session", "printed"}."""
+    root = tmp_path_factory.mktemp("ramp")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("RIG_HISTORY", str(root / "h.sqlite"))
+        code, printed = rig("run", PROCEDURES / "thermal_ramp.yaml", "--seed", 2, "--time-scale", 0, "--out",
+                            root / "s", "--quiet")
+    assert code == 0
+    return {"session": next((root / "s").iterdir()), "printed": printed}
+
+
+def test_discover_states_the_bias_tempco_in_counts_per_c_as_run_does_and_its_json_keeps_g_per_c(ramp, history):
+    """rig discover printed the bias tempco in g/C (x -9.481e-05 +- 4.57e-06) where rig run, solve, history and
+    the report state counts/C (x -0.7783 +- 0.038): the same quantity in two units, 8192 apart."""
+    session = ramp["session"]
+    (run_line,) = [x for x in ramp["printed"].splitlines() if x.startswith("  bias tempco (counts/C): ")]
+    by_run = {a: (float(v), float(s)) for a, v, s in re.findall(r"([xyz]) ([+-][\d.]+) \+- ([\d.]+)", run_line)}
+    code, details = rig("discover", session, "--details")
+    assert code == 0
+    (line,) = [x for x in details.splitlines() if x.startswith("  + bias_tempco ")]
+    assert "[counts/C]" in line and "g/C" not in line
+    found = {a: (float(v), float(s)) for a, v, s in re.findall(r"([xyz]) ([+-]?[\d.]+) \+- ([\d.]+)", line)}
+    for a in "xyz":  # two fits of one session (run's thermal model, discover's search): the same tempco, same unit
+        assert found[a][0] == pytest.approx(by_run[a][0], abs=by_run[a][1])
+        assert found[a][1] == pytest.approx(by_run[a][1], rel=0.1)
+    for name, unit in (("bias_tempco", "counts/C"), ("bias_tempco_quadratic", "counts/C^2")):  # detectable sizes
+        (mdm,) = [x for x in details.splitlines() if x.startswith(f"  {name} ") and "variance inflation" in x]
+        assert f"[{unit}]" in mdm
+    code, text = rig("discover", session, "--json")  # the documented contract keeps the library's unit
+    doc = json.loads(text)
+    (effect,) = [e for e in doc["effects"] if e["name"] == "bias_tempco"]
+    assert effect["unit"] == "g/C"
+    lsb_per_g = load_session(session).lsb_per_g  # the sensor's nominal counts per g
+    assert [v * lsb_per_g for v in effect["estimate"]] == pytest.approx([found[a][0] for a in "xyz"], rel=1e-3)
+    (session / "discover.json").write_text(text)  # the report's discrepancy table, beside its parameters table
+    assert rig("report", session, "-o", session.parent / "report.html")[0] == 0
+    rows = Page((session.parent / "report.html").read_text()).rows["discover-effects"]
+    (row,) = [r for r in rows if r[0] == "bias_tempco"]
+    assert row[2] == "counts/C"

@@ -97,6 +97,7 @@ class DiscoverSummary:
     calibrations: list[tuple[Path, list[dict]]] = field(default_factory=list)
     note: str = ""
     problems: list[str] = field(default_factory=list)  # damaged documents and calibration files, left out
+    lsb_per_g: float | None = None  # the sensor's nominal sensitivity, counts/g: the bias tempcos shown in counts/C^s
 
 
 @dataclass
@@ -542,7 +543,8 @@ def discover_outputs(session: Session, others: list[tuple[Path, object]],
     note = "" if docs or cals or problems else (
         "rig discover has not been run on this session, or its output was not saved in the session folder; "
         f"to include it: rig discover {session.path} --json > {session.path}/discover.json")
-    return DiscoverSummary(documents=docs, calibrations=cals, note=note, problems=problems)
+    return DiscoverSummary(documents=docs, calibrations=cals, note=note, problems=problems,
+                           lsb_per_g=_num(session.lsb_per_g))
 
 
 # ---------------------------------------------------------------------------------------------- history
