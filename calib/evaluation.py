@@ -57,14 +57,17 @@ class Evaluation:
                 "max_abs_norm_error_g": self.max_abs("norm_error_g")}
 
     def format_table(self) -> str:
-        head = f"{'step':<22} {'roll/pitch, deg':>16} {'error roll/pitch, deg':>23} {'angle err, deg':>15} {'|f|-1, g':>11}"
+        """The seed paper's table as a person reads it: angles in deg, ``|f| - 1`` in ug (as every residual the
+        tool prints; ``to_dict`` keeps g)."""
+        head = f"{'step':<22} {'roll/pitch, deg':>16} {'error roll/pitch, deg':>23} {'angle err, deg':>15} {'|f|-1, ug':>11}"
         lines = [head, "-" * len(head)]
         for r in self.rows:
             re = "   n/a" if r.roll_error_deg is None else f"{r.roll_error_deg:+7.3f}"
             lines.append(f"{r.name[:22]:<22} {r.roll_deg:7.1f}/{r.pitch_deg:<7.1f}  {re:>10}/{r.pitch_error_deg:<+9.3f}"
-                         f"   {r.angle_error_deg:12.4f} {r.norm_error_g:+11.2e}")
+                         f"   {r.angle_error_deg:12.4f} {r.norm_error_g * 1e6:+11.1f}")
         lines.append(f"max |error|: roll {self.max_abs('roll_error_deg'):.3f} deg, pitch "
-                     f"{self.max_abs('pitch_error_deg'):.3f} deg, angle {self.max_abs('angle_error_deg'):.4f} deg")
+                     f"{self.max_abs('pitch_error_deg'):.3f} deg, angle {self.max_abs('angle_error_deg'):.4f} deg, "
+                     f"||f| - 1| {self.max_abs('norm_error_g') * 1e6:.1f} ug")
         return "\n".join(lines)
 
 

@@ -132,3 +132,28 @@ def test_discover_states_the_bias_tempco_in_counts_per_c_as_run_does_and_its_jso
     rows = Page((session.parent / "report.html").read_text()).rows["discover-effects"]
     (row,) = [r for r in rows if r[0] == "bias_tempco"]
     assert row[2] == "counts/C"
+
+
+def test_evaluate_prints_the_magnitude_residual_in_ug_as_every_residual_and_its_json_keeps_g(lab, history):
+    """rig evaluate printed |f| - 1 in g (+2.02e-05) with the poses and in mg without them, where rig run, solve,
+    discover and the report print residuals in ug: both tables now state ug, the JSON keeps its g."""
+    six = lab["six"]
+    code, text = rig("evaluate", six / "calibration.yaml", six, "--json")
+    assert code == 0
+    by_step = {s["name"]: s["norm_error_g"] * 1e6 for s in json.loads(text)["steps"]}
+    code, table = rig("evaluate", six / "calibration.yaml", six)
+    assert code == 0
+    head, _, *rows, last = table.splitlines()
+    assert head.rstrip().endswith("|f|-1, ug") and " g" not in head.split("deg")[-1]
+    for row in rows:
+        name, value = re.match(r"(\S+ up) .* ([+-]\d+\.\d)$", row).groups()
+        assert float(value) == pytest.approx(by_step[name], abs=0.06), row
+    assert last.endswith(f"||f| - 1| {max(map(abs, by_step.values())):.1f} ug")
+    code, text = rig("evaluate", six / "calibration.yaml", six, "--method", "magnitude")
+    assert code == 0
+    head, *rows, last = text.splitlines()
+    assert head.split()[1:] == ["|f|", "-", "1", "(ug)", "sigma", "(ug)"]
+    for row in rows:
+        name, value, sigma = re.fullmatch(r"(\S+ up) +([+-]\d+\.\d) +(\d+\.\d)", row).groups()
+        assert float(value) == pytest.approx(by_step[name], abs=0.06) and 10 < float(sigma) < 1000  # ug, not mg
+    assert re.fullmatch(r"6 static steps, \|f\| - 1 rms \d+\.\d ug .*", last)

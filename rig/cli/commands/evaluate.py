@@ -96,8 +96,8 @@ def evaluate_magnitude(accel, session, as_json: bool) -> int:
             {"name": str(n), "norm_error_g": float(e), "sigma_g": float(s)}
             for n, e, s in zip(steps.names, err, sigma)]}, indent=2, default=json_default))
         return EXIT_OK
-    print(f"{'step':<24} {'|f| - 1 (mg)':>13} {'sigma (mg)':>11}")
+    print(f"{'step':<24} {'|f| - 1 (ug)':>13} {'sigma (ug)':>11}")  # ug, as every residual rig prints
     for n, e, s in zip(steps.names, err, sigma):
-        print(f"{str(n)[:24]:<24} {e * 1e3:>13.3f} {s * 1e3:>11.3f}")
-    print(f"{len(err)} static steps, |f| - 1 rms {rms * 1e3:.3f} mg (pose-free: the poses are not used)")
+        print(f"{str(n)[:24]:<24} {e * 1e6:>+13.1f} {s * 1e6:>11.1f}")
+    print(f"{len(err)} static steps, |f| - 1 rms {rms * 1e6:.1f} ug (pose-free: the poses are not used)")
     return EXIT_OK

@@ -81,8 +81,8 @@ def test_evaluate_names_the_placement_and_its_magnitude_method_needs_no_poses(tm
     assert main(["evaluate", cal, placed, "--method", "magnitude"]) == 0
     out = capsys.readouterr().out
     assert "6 static steps, |f| - 1 rms" in out and "pose-free" in out
-    rms_mg = float(out.split("rms ")[1].split(" mg")[0])
-    assert rms_mg < 0.5  # the calibration is right: the faces were misplaced, the sensor was not
+    rms_ug = float(out.split("rms ")[1].split(" ug")[0])  # ug, as every residual rig prints
+    assert rms_ug < 500  # the calibration is right: the faces were misplaced, the sensor was not
 
 
 def test_trust_poses_solves_on_the_nominal_poses_anyway(tmp_path, capsys):
