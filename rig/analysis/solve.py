@@ -14,11 +14,13 @@ from calib.errors import CalibError, ObservabilityError
 from calib.gyro import solve_gyro
 from calib.gyro.static_bias import StaticGyroBias, static_gyro_bias
 from calib.mag import solve_mag_ellipsoid, solve_mag_positions
+from calib.mag.continuous import solve_mag_ellipsoid_samples
 from rig import __version__
 from rig.analysis.coverage import session_coverage
 from rig.analysis.target import calibration_record
 from rig.analysis.uncertainty import session_rig_errors, with_budget
 from rig.session import Session, load_session, mag_step_means, rate_step_means, step_means
+from rig.session.adapter import mag_turning_samples
 
 SOFTWARE = {"name": "rig-calibration", "version": __version__}
 
@@ -180,9 +182,21 @@ def solve_gyro_section(session: Session, accel=None) -> dict | None:
     return None
 
 
+#: fewer rests than this, with turning steps beside them: the magnetometer is fitted on the turning samples (the
+#: ellipsoid fit on rests needs 10, calib.numerics.magnitude)
+MIN_MAG_RESTS = 10
+
+
 def solve_mag_section(session: Session, spec: dict) -> dict | None:
     """The magnetometer section (None without magnetometer readings)."""
     mag_steps = mag_step_means(session)
+    turning = mag_turning_samples(session)
+    site = session.info.rig.site
+    field_ut = float(site.field_ut if site is not None else 1.0)
+    if turning is not None and (mag_steps is None or len(mag_steps) < MIN_MAG_RESTS) \
+            and spec.get("magnetometer") in (None, "ellipsoid"):
+        # a magnetometer turned without (enough) rests: the ellipsoid on its samples, never on block means
+        return solve_mag_ellipsoid_samples(turning[0], field_ut, n_steps=turning[1]).to_dict()
     if mag_steps is None:
         return None
     method = spec.get("magnetometer") or ("positions" if mag_steps.field_nominal_ut is not None else "ellipsoid")
@@ -191,8 +205,7 @@ def solve_mag_section(session: Session, spec: dict) -> dict | None:
             raise ObservabilityError("the magnetometer position method needs the local field: add a site: "
                                      "section to the rig file, or use solve: {magnetometer: ellipsoid}")
         return solve_mag_positions(mag_steps).to_dict()
-    site = session.info.rig.site
-    return solve_mag_ellipsoid(mag_steps, float(site.field_ut if site is not None else 1.0)).to_dict()
+    return solve_mag_ellipsoid(mag_steps, field_ut).to_dict()
 
 
 # -- the sensors a session has ---------------------------------------------------------------------

@@ -25,6 +25,7 @@ from rig.importers.columns import (COUNTS_PER_G_EQUIVALENT, PREAMBLE_RATE, Colum
 from rig.importers.quasi_static import DEFAULT_FACTOR, DEFAULT_MIN_S, detect_rests
 from rig.importers.common import (G_MS2, ImportedStep, Increasing, Recording, Runs, Spool, Spools, Table, diffs,
                                   exact_median, open_text, read_line)
+from rig.errors import RigInputError
 from rig.planning.kinematics import f_nominal
 from rig.planning.poses import POSE_NAMES, pose_angles_deg
 
@@ -61,9 +62,11 @@ def _head(path: Path, fh) -> tuple[dict[str, str], float | None, str, int]:
 
 def read_csv(path: Path, spools: Spools, g_ms2: float = G_MS2, rate_hz: float | None = None,
              column_map: str | None = None, static_factor: float = DEFAULT_FACTOR, static_min_s: float = DEFAULT_MIN_S,
-             **_) -> Recording:
+             continuous: bool = False, **_) -> Recording:
     """Generic CSV: comment lines (and a rate preamble), then a header with any of the sensors' columns, a
-    time column or a rate, optional ``temp_c`` and ``label`` (:mod:`rig.importers.columns`)."""
+    time column or a rate, optional ``temp_c`` and ``label`` (:mod:`rig.importers.columns`). ``continuous``: the
+    whole recording is one step in which the sensor turns (a magnetometer turned by hand without rests), no
+    static detection."""
     with open_text(path) as fh:
         meta, preamble, line, header_at = _head(path, fh)
         table = Table(path, fh, line, header_at, [], ",", splitlines=True)
@@ -76,14 +79,20 @@ def read_csv(path: Path, spools: Spools, g_ms2: float = G_MS2, rate_hz: float | 
         spool, runs = _read_rows(path, table, plan, spools)
     n = spool.n_rows
     dt = exact_median(diffs(spool), n - 1) if n > 1 else float("nan")
+    if continuous and plan.has_label:
+        raise RigInputError(str(path), header_at, "label", "--continuous takes the whole recording as one turning "
+                            "step; this file's label column gives its steps: import it without --continuous")
+    steps_from = "labels" if plan.has_label else "one turning step (--continuous)" if continuous else "static detection"
     rec = Recording("csv", meta.get("sensor", "generic CSV"), _lsb(plan), round(float(1.0 / dt), 4), _units(plan),
-                    "labels" if plan.has_label else "static detection", spool=spool, columns=plan.summary())
+                    steps_from, spool=spool, columns=plan.summary())
     if "gyro" in plan.sensors:
         rec.gyro_lsb_per_dps = plan.sensors["gyro"].lsb
     if "mag" in plan.sensors:
         rec.mag_lsb_per_ut, rec.mag_units = plan.sensors["mag"].lsb, plan.sensors["mag"].units
     if plan.has_label:  # a label column gives the steps, even empty labels ("segment N")
         rec.steps += labelled_steps(runs, poses="acc" in plan.sensors)
+    elif continuous:
+        rec.steps.append(ImportedStep("turning", "rotation", [(0, n)], first_line=header_at + 1))
     elif n > 1:
         key = next(k for k in ("acc", "mag", "gyro") if k in plan.sensors)
         steps, report = detect_rests(spool, dt, key, static_factor, static_min_s)

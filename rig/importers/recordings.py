@@ -54,18 +54,29 @@ __all__ = ["SOURCES", "READERS", "G_MS2", "COUNTS_PER_G_EQUIVALENT", "ImportedSt
            "read_csv"]
 
 
+def _no_steps_hint(source: str, rec: Recording) -> str:
+    """What a recording without steps can do: the detector's finding, and ``--continuous`` for a generic CSV whose
+    sensor turned without rests."""
+    if source != "csv" or rec.steps_from != "static detection":
+        return ""
+    found = f" ({rec.notes[-1]})" if rec.notes else ""
+    return (f"{found}: a sensor turned without rests (a magnetometer turned by hand) is imported with --continuous "
+            "(one turning step, the ellipsoid fitted on its samples)")
+
+
 def import_recording(source: str, src, sessions_root, session_id: str | None = None, *, g_ms2: float = G_MS2,
                      window_s: float = 120.0, notify: Callable[[str], None] | None = None,
                      rate_hz: float | None = None, column_map: str | None = None,
                      static_factor: float = DEFAULT_FACTOR, static_min_s: float = DEFAULT_MIN_S,
-                     progress: Callable[[int, int], None] | None = None) -> Path:
+                     progress: Callable[[int, int], None] | None = None, continuous: bool = False) -> Path:
     """Import ``src`` (a file of kind ``source``) as a complete session under ``sessions_root``.
 
     Returns the session directory. ``notify`` is told (one line each) of the partial directories of
     killed imports that were removed. ``rate_hz`` (Hz) and ``column_map`` (``ours=theirs,...``): the
     generic CSV's sample rate when it has no time column, and its other column names; ``static_factor`` and
     ``static_min_s`` (s): its quasi-static detector's settings (:mod:`rig.importers.quasi_static`).
-    ``progress`` is told (steps written, steps) after each step.
+    ``progress`` is told (steps written, steps) after each step. ``continuous`` (generic CSV): the recording is
+    one step in which the sensor turns (no static detection; its magnetometer is fitted on the samples).
     """
     check_settings(static_factor, static_min_s)
     path = _checked_source(source, src, g_ms2)
@@ -83,9 +94,10 @@ def import_recording(source: str, src, sessions_root, session_id: str | None = N
     done = False
     try:
         rec = READERS[source](path, work.spools, g_ms2=g_ms2, window_s=window_s, rate_hz=rate_hz,
-                              column_map=column_map, static_factor=static_factor, static_min_s=static_min_s)
+                              column_map=column_map, static_factor=static_factor, static_min_s=static_min_s,
+                              continuous=continuous)
         if not rec.steps:
-            raise RigInputError(str(path), None, None, "no steps found in the recording")
+            raise RigInputError(str(path), None, None, "no steps found in the recording" + _no_steps_hint(source, rec))
         if len(rec.steps) > MAX_STEPS:
             raise RigInputError(str(path), None, None, f"{len(rec.steps)} steps found; a session holds at most "
                                                        f"{MAX_STEPS}")

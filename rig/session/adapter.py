@@ -267,6 +267,27 @@ def site_field_world(site: SiteInfo | None) -> np.ndarray | None:
     return np.array([hor * np.cos(dec), hor * np.sin(dec), -site.field_ut * np.sin(inc)])
 
 
+def mag_turning_samples(session: Session) -> tuple[np.ndarray, int] | None:
+    """The magnetometer's samples (N, 3), uT, in recording order, of the complete steps in which the sensor turns
+    (kind ``rotation``: a recording turned by hand without rests, ``rig import --continuous``), and how many such
+    steps; None when there are none with at least 2 finite readings."""
+    if "mag_counts" not in session.samples:
+        return None
+    mag_info = session.info.rig.sensor.magnetometer
+    lsb = float((mag_info.mag_lsb_per_ut if mag_info is not None else None) or MAG_COUNTS_PER_UT)
+    blocks = []
+    for st in session.info.steps:
+        if st.kind != "rotation" or st.status != "complete":
+            continue
+        m = session.samples["mag_counts"][session.samples["step"] == st.index]
+        m = m[np.all(np.isfinite(m), axis=1)]
+        if len(m) >= 2:
+            blocks.append(m / lsb)
+    if not blocks:
+        return None
+    return np.concatenate(blocks), len(blocks)
+
+
 def mag_step_means(session: Session, known_field: bool = True) -> MagStepMeans | None:
     """Per-step magnetometer means of the complete static steps that have readings; with
     ``known_field`` the nominal field in the sensor frame from the site field and the step's stage

@@ -39,12 +39,15 @@ def add_parser(sub) -> None:
                     help="csv without labels: quasi-static threshold, times the noise floor (4..10, default 6)")
     im.add_argument("--static-min-s", type=float, default=1.0,
                     help="csv without labels: shortest rest kept, s (0.5..1, default 1)")
+    im.add_argument("--continuous", action="store_true",
+                    help="csv: the sensor turns all the time (a magnetometer turned by hand without rests): one "
+                         "turning step, the ellipsoid fitted on its samples (docs/import.md)")
 
 
 def run(args) -> int:
     if not args.window_s > 0:
         raise UsageError(f"--window-s: expected a positive number of seconds, got {args.window_s:g}")
-    for option, value in (("--rate", args.rate), ("--columns", args.columns)):
+    for option, value in (("--rate", args.rate), ("--columns", args.columns), ("--continuous", args.continuous or None)):
         if value is not None and args.source != "csv":
             raise UsageError(f"{option} applies to --from csv only (the {args.source} format states its own)")
     outputs.OutputPolicy(inputs=[args.src]).directory(args.out, what="the session")
@@ -52,7 +55,7 @@ def run(args) -> int:
         path = import_recording(args.source, args.src, args.out, args.id, g_ms2=args.g, window_s=args.window_s,
                                 notify=lambda message: print(f"note: {message}"), rate_hz=args.rate,
                                 column_map=args.columns, static_factor=args.static_factor,
-                                static_min_s=args.static_min_s, progress=Progress())
+                                static_min_s=args.static_min_s, progress=Progress(), continuous=args.continuous)
     except FileExistsError as exc:
         raise UsageError(f"{exc.filename}: a session with this id exists already; give another with --id ID "
                          "(or another sessions directory with -o)") from None
