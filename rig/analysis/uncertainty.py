@@ -4,7 +4,11 @@ made by :func:`calib.accel.budget.uncertainty_section` with the solve the sessio
 
 ``rig.analysis.solve.calibrate_session`` attaches it to every pose-method solve (pinv, combinations):
 :func:`session_budget`. A session whose rig file is not there unchanged (an import, a rig file edited since)
-gets the turntable's datasheet classes and the budget's rig terms say so (their ``source``).
+gets the turntable's datasheet classes and the budget's rig terms say so (their ``source``). A rig characterised
+by reversal (``rig characterize-rig``: ``<rig file stem>.characterisation.yaml`` next to the rig file, made on a
+rig file of the session's sha256) gives its estimated table errors: the session's poses are put where the
+characterised table puts them and the estimates' standard uncertainties replace their classes
+(:class:`CharacterisedRig`); a record made on another digest is ignored, and the rig terms say so.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration
 from calib.numerics.budget import DEFAULT_K, RigErrors, TableClass
 from calib.numerics.gravity import G0_M_S2, Gravity, standard_gravity
+from rig.analysis.characterisation_record import CharacterisationRecord, find_record
 from rig.config.rigfile import GravityConfig, RigFile, load_rig_file
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
@@ -97,7 +102,7 @@ def session_rig_errors(session) -> RigErrors:
     why (an imported session has no rig file; a recorded one's may have changed or gone)."""
     rig_file = session_rig_facts(session)
     if rig_file is not None:
-        return rig_errors(rig_file)
+        return characterised(rig_errors(rig_file), rig_file.path, session.info.rig.rig_file_sha256)
     info = session.info
     rig = info.rig
     if info.import_ is not None or rig.kind == "import":
@@ -129,6 +134,34 @@ def rig_errors(rig_file: RigFile | RigFacts | None) -> RigErrors:
     return dataclasses.replace(rig, source=source + ", no characterisation")
 
 
+@dataclass(frozen=True)
+class CharacterisedRig(RigErrors):
+    """A rig's Type B inputs with its characterisation by reversal (``record``): ``known`` holds the estimated
+    table errors' standard uncertainties (their aliases 0), and :func:`with_budget` moves the session's poses
+    where the characterised table puts them before it solves."""
+
+    record: CharacterisationRecord | None = None
+
+
+def characterised(rig: RigErrors, rig_file, digest: str | None) -> RigErrors:
+    """``rig`` with the characterisation stored next to ``rig_file`` when it was made on a rig file of sha256
+    ``digest`` (:class:`CharacterisedRig`, its source naming the record and its date); a record of another digest,
+    or one that cannot be read, is ignored and the source says so in one line; no record: ``rig`` as it is."""
+    try:
+        record = find_record(rig_file)
+    except (OSError, RigInputError) as exc:
+        return dataclasses.replace(rig, source=f"{rig.source}; its characterisation is ignored: {exc}")
+    if record is None:
+        return rig
+    if record.rig_file_sha256 != digest:
+        return dataclasses.replace(rig, source=(
+            f"{rig.source}; characterisation {record.path.name} ({record.date[:10]}) ignored: made on rig file "
+            f"sha256 {record.rig_file_sha256[:12]}.., this session's is {str(digest)[:12]}.."))
+    source = rig.source.replace(", no characterisation", "") + f", {record.label}"
+    known = record.characterisation.rig_errors(rig, source)
+    return CharacterisedRig(**{f.name: getattr(known, f.name) for f in dataclasses.fields(RigErrors)}, record=record)
+
+
 def resolver(accel: AccelCalibration, model: str, method: str):
     """A solve of perturbed steps the same way ``accel`` was solved (its thermal order and t0 fixed)."""
     thermal = accel.temperature.order if accel.temperature is not None else "off"
@@ -138,12 +171,18 @@ def resolver(accel: AccelCalibration, model: str, method: str):
 
 def with_budget(accel: AccelCalibration, steps: StepMeans, model: str, method: str, rig: RigErrors,
                 k: float = DEFAULT_K) -> AccelCalibration:
-    """``accel`` with its ``uncertainty`` (U = k u_c, k, the budget); ``sigma`` unchanged. Where the rig file
+    """``accel`` with its ``uncertainty`` (U = k u_c, k, the budget); ``sigma`` unchanged. On a characterised rig
+    (:class:`CharacterisedRig`) the session is first solved again at the poses the characterised table puts it
+    (``Characterisation.corrected``), which is what the budget's characterised terms assume. Where the rig file
     states a local g other than g0, the session is first solved again at that g (``at_local_gravity``: the
     scale factors in g0 of the file), which is what the budget's gravity term assumes."""
     resolve = resolver(accel, model, method)
+    record = getattr(rig, "record", None)
+    if record is not None:  # the poses where the characterised table puts them (docs/uncertainty.md)
+        steps = record.characterisation.corrected(steps, rig)
     if rig.gravity.g_m_s2 != G0_M_S2:
         steps = at_local_gravity(steps, rig.gravity)
+    if record is not None or rig.gravity.g_m_s2 != G0_M_S2:
         accel = resolve(steps)
     linear = linear_solve(accel, steps) if accel.fit.method.split("(")[0] in LINEAR_METHODS else None
     section = uncertainty_section(accel, steps, resolve, rig, k, linear=linear)

@@ -350,15 +350,22 @@ class _Expander:
 
 def with_mountings(steps: list[PlannedStep]) -> list[PlannedStep]:
     """``steps`` with each one's mounting in force, when a prompt turns the sensor in its fixture (``mount:``):
-    the reference (``x+z+``, as placed) until the first such prompt, then the last prompt's turn. A procedure
-    without ``mount:`` is returned as it is (its steps say nothing of the mounting)."""
+    the reference (``x+z+``, as placed) until the first such prompt, then the last prompt's turn. A step's
+    ``f_nominal`` (and a rate step's ``rate_nominal_dps``) is then what the turned sensor feels, in its own frame
+    (``Q^T f`` of the table's pose ``f``; its name and angles stay the table's). A procedure without ``mount:`` is
+    returned as it is (its steps say nothing of the mounting)."""
     if not any(s.kind == "prompt" and s.mount is not None for s in steps):
         return list(steps)
     current, out = Mount.of(np.eye(3)), []
     for s in steps:
-        if s.kind == "prompt" and s.mount is not None:
-            current = s.mount
-        out.append(s if s.mount is not None or s.kind == "prompt" else replace(s, mount=current))
+        if s.kind == "prompt":
+            current = s.mount if s.mount is not None else current
+            out.append(s)
+            continue
+        q = np.array(current.turn, float)
+        turned = {k: tuple(float(x) for x in np.asarray(getattr(s, k), float) @ q)
+                  for k in ("f_nominal", "rate_nominal_dps") if getattr(s, k) is not None}
+        out.append(replace(s, mount=current, **turned))
     return out
 
 

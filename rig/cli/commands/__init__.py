@@ -32,6 +32,8 @@ COMMANDS: dict[str, str] = {
     "verify": "check a session against its seal: the recording as made, or where it differs",
     "characterize": "Allan deviation of a static recording: each axis's noise terms (white noise, bias instability, "
                     "random walk) with uncertainties",
+    "characterize-rig": "the turntable's own errors by reversal (one sensor in several mountings); stored as the "
+                        "rig's characterisation",
 }
 
 
@@ -73,6 +75,8 @@ def load(name: str) -> ModuleType:
         from rig.cli.commands import verify as module
     elif name == "characterize":
         from rig.cli.commands import characterize as module
+    elif name == "characterize-rig":
+        from rig.cli.commands import characterize_rig as module
     else:
         raise KeyError(f"no rig command {name!r}")
     return module
