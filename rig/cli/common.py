@@ -127,6 +127,8 @@ def _accelerometer_lines(a) -> list[str]:
         sm = sig.get("misalignment") or {}
         lines.append("  misalignment (mrad): " + "  ".join(
             f"{k} {m[k] * 1e3:.3f} +- {sm.get(k, float('nan')) * 1e3:.3f}" for k in ("alpha_yz", "alpha_zy", "alpha_zx")))
+    elif a.model == "full":  # the six cross-axis terms M_ij, named as the history and the report name them (accel.m_xy)
+        lines.append(cross_axis_line(a.matrix_counts_per_g, sig.get("matrix_counts_per_g")))
     if a.temperature:
         lines += _tempco_lines(a.temperature, (sig.get("temperature") or {}).get("coefficients"))
     if a.uncertainty:
@@ -134,6 +136,14 @@ def _accelerometer_lines(a) -> list[str]:
     if a.effects:
         lines += _effect_lines(a.effects)
     return lines
+
+
+def cross_axis_line(matrix, sigma) -> str:
+    """The full model's six cross-axis terms ``M_ij`` (i != j, counts/g) with their 1-sigma, on one line."""
+    m = np.asarray(matrix, float)
+    s = np.asarray(sigma, float) if sigma is not None else np.full((3, 3), np.nan)
+    return "  cross-axis (counts/g): " + "  ".join(f"{'xyz'[i]}{'xyz'[j]} {m[i, j]:+.2f} +- {s[i, j]:.2f}"
+                                                  for i in range(3) for j in range(3) if i != j)
 
 
 #: the budget's quantity groups as the printout shows them: (key in the section, label, unit, factor, axis names)

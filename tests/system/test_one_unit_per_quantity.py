@@ -157,3 +157,23 @@ def test_evaluate_prints_the_magnitude_residual_in_ug_as_every_residual_and_its_
         name, value, sigma = re.fullmatch(r"(\S+ up) +([+-]\d+\.\d) +(\d+\.\d)", row).groups()
         assert float(value) == pytest.approx(by_step[name], abs=0.06) and 10 < float(sigma) < 1000  # ug, not mg
     assert re.fullmatch(r"6 static steps, \|f\| - 1 rms \d+\.\d ug .*", last)
+
+
+def test_solve_with_the_full_model_prints_every_cross_axis_term_with_its_sigma(lab, history):
+    """rig solve --model full printed only the cross-axis terms' expanded uncertainty U, not the terms: every
+    estimated parameter is now printed with its sigma, in counts/g as the file, the history and the report."""
+    from calib.file import calibration as calfile
+
+    out = lab["root"] / "full.yaml"
+    code, printed = rig("solve", lab["six"], "--model", "full", "-o", out)
+    assert code == 0
+    a = calfile.read(out).accelerometer
+    (line,) = [x for x in printed.splitlines() if x.startswith("  cross-axis (counts/g): ")]
+    terms = {n: (float(v), float(s)) for n, v, s in re.findall(r"(\w\w) ([+-][\d.]+) \+- ([\d.]+)", line)}
+    assert sorted(terms) == ["xy", "xz", "yx", "yz", "zx", "zy"]
+    for n, (value, sigma) in terms.items():
+        i, j = "xyz".index(n[0]), "xyz".index(n[1])
+        assert value == pytest.approx(a.matrix_counts_per_g[i][j], abs=0.006)
+        assert sigma == pytest.approx(a.sigma["matrix_counts_per_g"][i][j], abs=0.006)
+    (u_line,) = [x for x in printed.splitlines() if x.startswith("    cross-axis U: ")]
+    assert u_line.split(" counts/g")[0].split()[2::2] == list(terms)  # the same terms, the same order, as U
