@@ -9,7 +9,8 @@ its own samples, as the one-sensor capture would. Each slot's step is then check
 own session by the static executor's recorder.
 
 **Isolation.** A slot whose sensor fails (a :class:`~drivers.sensors.base.SensorError`: no answer, a
-multiplexer channel that does not take) is *faulted*: its reason is kept, ``on_fault`` is told (the workflow
+multiplexer channel that does not take; or a step whose outputs are on a rail or frozen, :data:`CHIP_FAILURES`) is
+*faulted*: its reason is kept, ``on_fault`` is told (the workflow
 marks its session aborted) and the motion goes on for the others. Its reads cost the others no clock time (the
 drivers retry without sleeping), so the others' data are what they would be without it. Anything else (the
 turntable, an interrupt) stops the motors and leaves the engine, as in the one-sensor engine.
@@ -40,6 +41,11 @@ from rig.execution.settle import SettleDetector, SettleRule
 
 #: the step executors a fixture runs (PlannedStep.executor)
 FIXTURE_EXECUTORS = ("static",)
+
+
+#: a step check's problems that say the chip itself failed (its outputs on a rail, or frozen): a slot that shows
+#: one is quarantined (FAULT) for the rest of the batch, not calibrated from its other steps
+CHIP_FAILURES = ("saturated on", "stuck reading on")
 
 
 def check_fixture_procedure(procedure: Procedure) -> None:
@@ -177,13 +183,17 @@ class FixtureEngine:
                            ctx.options.limits)
         problems += check.problems
         status = "complete" if not problems else "flagged"
-        if problems:
+        broken = [p for p in check.problems if p.startswith(CHIP_FAILURES)]
+        if problems and not broken:
             ctx.warn(step, f"slot {cap.run.slot.index}: step {step.index + 1} ({step.name}) flagged and left out of "
                            "the solve: " + "; ".join(problems))
         try:
             static._record(ctx, step, Capture(samples, cap.settle_s, problems), 1, problems, status)
         except SensorError as exc:  # its magnetometer did not answer
             self._fault(cap.run, step, exc)
+            return
+        if broken:  # the chip's outputs are on a rail or frozen: this unit is quarantined, the motion goes on
+            self._fault(cap.run, step, SensorError("; ".join(broken) + ": the sensor's outputs failed"))
 
 
 def capture_slots(ctx: RunContext, step: PlannedStep, runs: list[SlotRun],

@@ -146,6 +146,29 @@ def test_a_slot_that_stops_answering_is_fault_and_the_others_are_unchanged(batch
         assert np.array_equal(got.scale_counts_per_g, want.scale_counts_per_g), s["slot"]
 
 
+def test_slots_whose_outputs_saturate_or_freeze_are_quarantined_and_the_others_are_unchanged(batch, tmp_path, capsys):
+    rig = yaml.safe_load((RIGS / "sim-fixture.yaml").read_text())
+    rig["faults"] = {"slots": {2: {"saturate_after_s": 55.0}, 6: {"stuck_after_s": 55.0}}}
+    (tmp_path / "rig.yaml").write_text(yaml.safe_dump(rig))
+    code, printed, batches = _run(tmp_path / "out", tmp_path / "rig.yaml", capsys)
+    assert code == 3, printed
+    assert "6 PASS, 0 FAIL, 2 FAULT" in printed
+    record = json.loads((batches[0] / "batch.json").read_text())
+    saturated, stuck = record["slots"][2], record["slots"][6]
+    assert saturated["outcome"] == "FAULT" and "step 4 (-X up): saturated on" in saturated["reason"], saturated
+    assert stuck["outcome"] == "FAULT" and "step 4 (-X up): stuck reading on" in stuck["reason"], stuck
+    for bad in (saturated, stuck):  # not calibrated from the steps before: the unit failed
+        assert bad.get("calibration") is None
+        assert yaml.safe_load((batches[0] / bad["session"] / "session.yaml").read_text())["status"] == "aborted"
+    clean = _slot_dirs(batch[0])
+    for s in record["slots"]:
+        if s["slot"] in (2, 6):
+            continue
+        got = calfile.read(batches[0] / s["calibration"]).accelerometer
+        want = calfile.read(clean[s["slot"]] / "calibration.yaml").accelerometer
+        assert s["outcome"] == "PASS" and np.array_equal(got.bias_counts, want.bias_counts), s["slot"]
+
+
 @pytest.mark.parametrize("change, expect", [
     (lambda r: r["fixture"]["slots"][1].update(channel=0), "fixture.slots[1].address"),
     (lambda r: r["fixture"]["slots"][2].update(rotation="x+x+"), "fixture.slots[2].rotation"),
