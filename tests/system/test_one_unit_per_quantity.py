@@ -177,3 +177,21 @@ def test_solve_with_the_full_model_prints_every_cross_axis_term_with_its_sigma(l
         assert sigma == pytest.approx(a.sigma["matrix_counts_per_g"][i][j], abs=0.006)
     (u_line,) = [x for x in printed.splitlines() if x.startswith("    cross-axis U: ")]
     assert u_line.split(" counts/g")[0].split()[2::2] == list(terms)  # the same terms, the same order, as U
+
+
+def test_history_record_names_a_calibration_by_the_number_the_table_gives_it(lab, history):
+    """rig history --record printed the database's row id (`recorded: calibration 3 of sensor K`) while the
+    sensor's table numbers its calibrations #1, #2 oldest first: a user looked for a #3 that is not there."""
+    assert rig("history", "--record", lab["six"], "--sensor-id", "SN-OTHER")[0] == 0  # another sensor's row first
+    said = {}
+    for name in ("six", "gyro"):  # the newer calibration recorded first: the older one comes before it in the table
+        code, out = rig("history", "--record", lab[name])
+        assert code == 0
+        (said[lab[name].name], key), = re.findall(r"^recorded: calibration (#\d+) of sensor (\S+) in ", out, re.M)
+    code, table = rig("history", key)
+    assert code == 0
+    numbered = dict((sid, n) for n, sid in re.findall(r"^  (#\d+) .* session (\S+)", table, re.M))
+    assert numbered == {lab["gyro"].name: "#1", lab["six"].name: "#2"}
+    assert said[lab["gyro"].name] == numbered[lab["gyro"].name]  # as the table says when it was recorded
+    code, out = rig("history", "--record", lab["six"])  # recorded again: named by its number in today's table
+    assert out.startswith(f"already recorded: calibration {numbered[lab['six'].name]} of sensor {key} ")

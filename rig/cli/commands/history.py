@@ -56,11 +56,12 @@ def _run(args) -> int:
         calib_path = args.calibration or f"{args.record.rstrip('/')}/calibration.yaml"
         stored = store_calibration(args.record, calib_path, history=args.history, sensor_id=args.sensor_id)
         cid, key = stored
+        number = table_number(args.history, key, cid)
         if stored.already:  # the same calibration of the same session: recorded once (docs/history.md)
-            print(f"already recorded: calibration {cid} of sensor {key} in {default_path(args.history)} "
+            print(f"already recorded: calibration {number} of sensor {key} in {default_path(args.history)} "
                   "(nothing added)")
         else:
-            print(f"recorded: calibration {cid} of sensor {key} in {default_path(args.history)}")
+            print(f"recorded: calibration {number} of sensor {key} in {default_path(args.history)}")
         if args.sensor is None and not args.json and args.plot is None:
             return EXIT_OK
     with open_history(args.history, create=False) as h:
@@ -84,6 +85,18 @@ def _run(args) -> int:
         if plot is not None:
             print(f"plot: {plot}")
     return EXIT_OK
+
+
+def table_number(history, key: str, cid: int) -> str:
+    """The number the sensor's table (``rig history KEY``) gives calibration ``cid`` (its history row): ``#2``, its
+    column (oldest first), not the database's row id; ``#2 (rig history KEY --all)`` when the default view leaves
+    it out (a simulated record of a sensor with hardware calibrations)."""
+    with open_history(history, create=False) as h:
+        for view, where in ((None, ""), (True, f" (rig history {key} --all)")):
+            ids = [r.id for r in sensor_history(h, key, include_simulated=view)]
+            if cid in ids:
+                return f"#{ids.index(cid) + 1}{where}"
+    return f"(history row {cid})"  # not in the sensor's history as read back: say which row it is
 
 
 #: the resolution rig.lab.drift.plot_history draws at

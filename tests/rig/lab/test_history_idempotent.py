@@ -86,7 +86,7 @@ def test_rig_solve_twice_then_history_record_is_one_row(session, tmp_path, monke
     capsys.readouterr()
     assert main(["history", "--record", str(session), "--calibration", str(tmp_path / "b.yaml")]) == 0
     assert _rows(db) == 1
-    assert capsys.readouterr().out.startswith("already recorded: calibration 1 ")  # not "recorded": nothing added
+    assert capsys.readouterr().out.startswith("already recorded: calibration #1 ")  # not "recorded": nothing added
     assert main(["solve", str(session), "-o", str(tmp_path / "full.yaml"), "--model", "full"]) == 0
     capsys.readouterr()
     assert main(["history", "--json", "--all"]) == 0  # records of the simulated rig: listed with --all
