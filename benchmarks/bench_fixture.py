@@ -1,0 +1,160 @@
+"""Units per hour of a fixture on one turntable (issue 30 benchmark).
+
+    .venv/bin/python benchmarks/bench_fixture.py [--seeds 3]
+
+For N = 1, 2, 4, 8 slots of ``rigs/sim-fixture.yaml`` (its first N slots, each a different hidden MPU-9150 in its
+own mounting, behind one simulated TCA9548A on one bus) and the procedures ``six_position.yaml`` and
+``six_position_rapid.yaml``, ``rig run`` on the simulated rig in virtual time (in process): the batch's rig time
+(from the first slot session's start to its last step's end, s of the simulated clock: what a real rig would take,
+motion, settling and dwells), units per hour = N / rig time, and this machine's wall time. Then the bus-limited
+maximum N (``rig.config.bus_budget.max_slots``: MPU-9150 FIFO bursts behind one multiplexer at 400 kHz, at most
+:data:`~rig.config.bus_budget.MAX_BUS_SHARE` of the bus) at 100 Hz and 1 kHz; the accuracy of each slot against its
+hidden truth (bias and scale factor, error / sigma) over ``--seeds`` 8-slot runs, beside one-sensor runs
+(``rigs/sim.yaml``) of the same seeds; and a run where slot 3 dies at pose 4 (the other 7 calibrations equal
+the fault-free run's, bit for bit).
+
+Measured 2026-11-26 (2 cores shared with two other sessions' work, Python 3.11, --seeds 3, 53 s):
+
+    procedure                   N rig time s  units/h  wall s
+    six_position.yaml           1       96.4       37     1.5
+    six_position.yaml           2       96.4       75     1.9
+    six_position.yaml           4       96.4      149     4.3
+    six_position.yaml           8       96.4      299     6.9
+    six_position_rapid.yaml     refused: its dwells are targeted (sem_g), which a fixture does not run yet
+
+    bus-limited slots per bus behind one TCA9548A (at most 50 % of the bus):
+      400 kHz: MPU-9150 at 100 Hz 12, at 1 kHz 1; ADXL345 at 100 Hz 19, at 1 kHz 1
+      100 kHz: MPU-9150 at 100 Hz 3, at 1 kHz 0; ADXL345 at 100 Hz 4, at 1 kHz 0
+
+    accuracy, fixture slots (24 units): |error| / sigma of bias and scale: rms 0.93, largest 2.05, within 3 sigma 100 %
+    accuracy, one-sensor runs (3 units): rms 0.93, largest 1.92, within 3 sigma 100 %
+    slot 3 dead at pose 4: exit 3, 7 PASS 0 FAIL 1 FAULT; 7 of 7 other calibrations equal the fault-free run's
+
+The rig time does not grow with N (one motion serves every slot: the units per hour grow as N up to the bus's
+limit); the wall time of the simulation does (each slot is a simulated chip read over the simulated bus).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from calib.file import calibration as calfile  # noqa: E402
+from rig.cli import main  # noqa: E402
+from rig.config.bus_budget import MAX_BUS_SHARE, max_slots  # noqa: E402
+from rig.session import load_session  # noqa: E402
+
+LSB = 8192.0  # MPU-9150 at +-4 g, counts/g
+
+
+def _rig_file(tmp: Path, n: int, faults: dict | None = None) -> Path:
+    doc = yaml.safe_load((REPO / "rigs" / "sim-fixture.yaml").read_text())
+    doc["fixture"]["slots"] = doc["fixture"]["slots"][:n]
+    doc["sim"]["time_scale"] = 0
+    if faults:
+        doc["faults"] = faults
+    path = tmp / f"fixture-{n}-{len(faults or {})}.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    return path
+
+
+def _run(procedure: str, rig: Path, out: Path, seed: int) -> tuple[int, float, Path | str]:
+    """(exit code, wall s, the new batch or session directory; or the refusal's line when nothing ran)."""
+    t0 = time.perf_counter()
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        code = main(["run", str(REPO / "procedures" / procedure), "--rig", str(rig), "--out", str(out),
+                     "--seed", str(seed), "--time-scale", "0", "--quiet"])
+    wall = time.perf_counter() - t0
+    if not out.is_dir():
+        return code, wall, err.getvalue().strip().splitlines()[-1]
+    newest = max((p for p in out.iterdir() if p.is_dir()), key=lambda p: p.stat().st_mtime)
+    return code, wall, newest
+
+
+def _slot_dirs(batch: Path) -> list[Path]:
+    return sorted((d for d in batch.iterdir() if d.is_dir()), key=lambda d: int(d.name.rsplit("slot", 1)[1]))
+
+
+def rig_time_s(session: Path) -> float:
+    """The session's rig time: the last step's end on the session clock, s."""
+    steps = yaml.safe_load((session / "session.yaml").read_text())["steps"]
+    return max(float(s["stats"]["t_end_s"]) for s in steps if s.get("stats"))
+
+
+def z_scores(session: Path) -> np.ndarray:
+    """(estimate - truth) / sigma of the bias (3) and the scale factor (3) of a session's calibration."""
+    truth = yaml.safe_load((session / "sim_truth.yaml").read_text())["accelerometer"]
+    cal = calfile.read(session / "calibration.yaml").accelerometer
+    temp_c = float(np.mean(load_session(session).samples["temp_c"]))
+    true_b = (np.asarray(truth["bias_g"]) + np.asarray(truth["bias_tempco_g_per_c"]) * (temp_c - truth["t_ref_c"])) * LSB
+    true_k = np.diag(np.asarray(truth["matrix"])) * LSB
+    return np.concatenate([(np.asarray(cal.bias_counts) - true_b) / np.asarray(cal.sigma["bias_counts"]),
+                           (np.asarray(cal.scale_counts_per_g) - true_k) / np.asarray(cal.sigma["scale_counts_per_g"])])
+
+
+def main_(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=3)
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp_name:
+        tmp = Path(tmp_name)
+        print("units per hour (rig time of the simulated rig; wall: this machine, virtual time)")
+        print(f"{'procedure':<26} {'N':>2} {'rig time s':>10} {'units/h':>8} {'wall s':>7}")
+        for procedure in ("six_position.yaml", "six_position_rapid.yaml"):
+            for n in (1, 2, 4, 8):
+                code, wall, batch = _run(procedure, _rig_file(tmp, n), tmp / f"u-{procedure}-{n}", seed=3)
+                if isinstance(batch, str):
+                    print(f"{procedure:<26} {n:>2}  refused (exit {code}): {batch.split(': ', 2)[-1]}")
+                    break
+                t = max(rig_time_s(d) for d in _slot_dirs(batch))
+                print(f"{procedure:<26} {n:>2} {t:>10.1f} {n * 3600 / t:>8.0f} {wall:>7.1f}" + (
+                    "" if code == 0 else f"  (exit {code})"))
+        print(f"\nbus-limited slots per bus behind one TCA9548A (at most {MAX_BUS_SHARE:.0%} of the bus):")
+        for clock in (400_000, 100_000):
+            print(f"  {clock // 1000} kHz: MPU-9150 at 100 Hz {max_slots('MPU-9150', 100.0, clock_hz=clock)}, "
+                  f"at 1 kHz {max_slots('MPU-9150', 1000.0, clock_hz=clock)}; ADXL345 at 100 Hz "
+                  f"{max_slots('ADXL345', 100.0, clock_hz=clock)}, at 1 kHz {max_slots('ADXL345', 1000.0, clock_hz=clock)}")
+        fixture_z, single_z = [], []
+        for seed in range(1, args.seeds + 1):
+            _, _, batch = _run("six_position.yaml", _rig_file(tmp, 8), tmp / f"acc-{seed}", seed)
+            fixture_z += [z_scores(d) for d in _slot_dirs(batch)]
+            sim = yaml.safe_load((REPO / "rigs" / "sim.yaml").read_text())
+            sim["sim"]["time_scale"] = 0
+            (tmp / "sim.yaml").write_text(yaml.safe_dump(sim))
+            _, _, session = _run("six_position.yaml", tmp / "sim.yaml", tmp / f"single-{seed}", seed)
+            single_z.append(z_scores(session))
+        for name, z in (("fixture slots", np.array(fixture_z)), ("one-sensor runs", np.array(single_z))):
+            print(f"\naccuracy, {name} ({len(z)} units): |error| / sigma of bias and scale: rms {np.sqrt(np.mean(z**2)):.2f}"
+                  f", largest {np.abs(z).max():.2f}, within 3 sigma {np.mean(np.abs(z) < 3):.1%}")
+        _, _, clean = _run("six_position.yaml", _rig_file(tmp, 8), tmp / "clean", 3)
+        code, _, dead = _run("six_position.yaml", _rig_file(tmp, 8, {"slots": {3: {"dead_after_s": 55.0}}}),
+                             tmp / "dead", 3)
+        record = json.loads((dead / "batch.json").read_text())
+        same = 0
+        for s in record["slots"]:
+            if s["slot"] == 3 or s["calibration"] is None:
+                continue
+            got = calfile.read(dead / s["calibration"]).accelerometer
+            want = calfile.read(_slot_dirs(clean)[s["slot"]] / "calibration.yaml").accelerometer
+            same += bool(np.array_equal(got.bias_counts, want.bias_counts)
+                         and np.array_equal(got.scale_counts_per_g, want.scale_counts_per_g))
+        print(f"\nslot 3 dead at pose 4: exit {code}, {record['counts']}; {same} of 7 other calibrations equal the "
+              "fault-free run's bit for bit")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main_())
