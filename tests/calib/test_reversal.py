@@ -50,7 +50,9 @@ def test_three_mountings_recover_the_hidden_non_orthogonality_within_its_stated_
     for name, truth in TRUE.items():
         assert abs(result.estimate_deg[name] - truth) < 3 * result.u_deg[name], name
     for name in ("non_orthogonality.a1_a2", "non_orthogonality.a2_a3"):
-        assert result.u_deg[name] < 0.02 / np.sqrt(3) / 5  # far inside the class it replaces
+        # inside the class it replaces; not far inside: the stages' periodic and accumulated errors at the six
+        # faces' angles (their classes, kept) look the same in every mounting and stay in the estimates' u
+        assert result.u_deg[name] < 0.02 / np.sqrt(3) / 2
     assert 0.3 < result.chi2_per_dof < 2.0
 
 

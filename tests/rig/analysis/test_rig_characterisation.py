@@ -54,7 +54,10 @@ def hidden(geometry: dict) -> dict:
     holds minus a1_a3, mounting.y a3's zero)."""
     m, no, stages = geometry["mounting_deg"], geometry["non_orthogonality_deg"], geometry["stages"]
     return {"mounting.x": m["x"] - no["a1_a3"], "mounting.y": m["y"] + stages["a3"]["zero_offset_deg"],
-            "mounting.z": m["z"], "non_orthogonality.a1_a2": no["a1_a2"], "non_orthogonality.a2_a3": no["a2_a3"]}
+            "mounting.z": m["z"], "non_orthogonality.a1_a2": no["a1_a2"], "non_orthogonality.a2_a3": no["a2_a3"],
+            # a2's zero: its periodic and accumulated errors at the recorded a2 angles are a zero offset there, in
+            # every mounting; the fit's u carries their classes (calib.accel.reversal._aliased)
+            "zero_offset.a2": stages["a2"]["zero_offset_deg"]}
 
 
 def test_the_hidden_non_orthogonalities_and_mounting_are_recovered_within_3_u(reversal):
