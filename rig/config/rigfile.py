@@ -241,8 +241,10 @@ class RigFile:
         return self.kind == "sim"
 
 
-def load_rig_file(path) -> RigFile:
-    text = read_source(path, "rig", "no such rig file (use --rig sim for the simulated rig)")
+def load_rig_file(path, *, sim_hint: str = "--rig sim") -> RigFile:
+    """Load and validate a rig file; ``sim_hint`` is how the command at hand names the simulated rig, for the
+    one line when ``path`` does not exist (``--rig sim`` for rig run, ``rig check sim`` for rig check)."""
+    text = read_source(path, "rig", f"no such rig file (use {sim_hint} for the simulated rig)")
     return parse_rig_file(text, str(Path(path)))
 
 

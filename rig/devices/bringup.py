@@ -34,7 +34,7 @@ OPEN_HINTS = {
                               "(docs/hardware.md, 'Permissions')",
     ("serial", errno.EBUSY): "another program has the port (a rig run, a libximc program, ModemManager)",
     ("i2c", errno.ENOENT): "the I2C bus is not enabled, or has another number: `ls /dev/i2c-*` (docs/hardware.md, "
-                           "'Enabling I2C')",
+                           "'Enabling the I2C bus')",
     ("i2c", errno.EACCES): "join the i2c group and log in again (docs/hardware.md, 'Permissions')",
 }
 _ERRNO = re.compile(r"\[Errno (\d+)\] ([^:'\])]+)")

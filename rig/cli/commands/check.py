@@ -15,7 +15,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    rig_file = load_rig_file(rig_file_path(args.rig))
+    rig_file = load_rig_file(rig_file_path(args.rig), sim_hint="'rig check sim'")
     checks = CHECKS[rig_file.kind](rig_file)
     for check in checks:
         print(f"{'ok  ' if check.ok else 'FAIL'}  {check.line}", flush=True)

@@ -26,7 +26,7 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     check_step(args.deg)  # before anything is opened
-    rig_file = load_rig_file(rig_file_path(args.rig))
+    rig_file = load_rig_file(rig_file_path(args.rig), sim_hint=f"'rig jog sim {args.axis} {args.deg:g}'")
     config = rig_file.axes[args.axis]
     stage, close = open_axis(rig_file, args.axis)
     try:

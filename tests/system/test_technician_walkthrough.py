@@ -1,0 +1,54 @@
+"""What a technician's week without an engineer stumbled on (issue 33, the walkthrough on a fresh clone): every
+hint names the command as this command spells it, every number is counted the way the user counts, and nothing
+printed claims more than happened. The ``rig`` commands run in this process (``rig.cli.main``) on the simulated
+rig in virtual time."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import re
+
+import pytest
+
+from rig.cli import main
+
+from conftest import REPO
+
+
+def rig(*args) -> tuple[int, str, str]:
+    """``rig ARGS`` in this process: (exit code, stdout, stderr)."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in args])
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.fixture(autouse=True)
+def history(tmp_path, monkeypatch):
+    monkeypatch.setenv("RIG_HISTORY", str(tmp_path / "h.sqlite"))
+
+
+# -- item 1: the simulated rig as each command spells it -------------------------------------------------------
+@pytest.mark.parametrize("args, spelled", [
+    (("check", "nosuch.yaml"), "'rig check sim'"),
+    (("jog", "nosuch.yaml", "a1", "5"), "'rig jog sim a1 5'"),
+    (("run", REPO / "procedures" / "six_position.yaml", "--rig", "nosuch.yaml"), "--rig sim"),
+])
+def test_a_missing_rig_file_names_the_simulated_rig_as_the_command_takes_it(args, spelled):
+    """rig check and rig jog take the rig as their first argument (``rig check sim``), rig run as ``--rig``:
+    the one line of a missing rig file says the form the command at hand accepts."""
+    code, _, err = rig(*args)
+    assert code == 2
+    assert err.strip() == (f"rig {args[0]}: nosuch.yaml: no such rig file (use {spelled} for the simulated rig)")
+
+
+# -- item 8: the pointers into the documents ---------------------------------------------------------------------
+def test_every_hint_into_the_hardware_guide_names_one_of_its_headings():
+    """A hint "(docs/hardware.md, 'Heading')" names a heading the guide has, word for word."""
+    from rig.devices.bringup import OPEN_HINTS
+
+    headings = {line.lstrip("#").strip() for line in (REPO / "docs" / "hardware.md").read_text().splitlines()
+                if line.startswith("#")}
+    pointed = [m for hint in OPEN_HINTS.values() for m in re.findall(r"docs/hardware\.md, '([^']+)'", hint)]
+    assert pointed and set(pointed) <= headings, set(pointed) - headings
