@@ -214,13 +214,23 @@ def format_report(session: Session, d: Discovery, *, details: bool = True) -> st
                  f"{d.chi2_per_dof_after:.2f}")
     lines += verdict_lines(d)
     lines.append("per step (residual, ug; before -> after):")
-    lines.append(f"  {'step':<14} {'temp C':>7} {'leg':>4}   {'x':>17} {'y':>17} {'z':>17}")
+    lines.append(f"  {'step':<14} {'temp C':>7} {'leg':>7}   {'x':>17} {'y':>17} {'z':>17}")
     for s in d.steps:
-        leg = {1: "up", -1: "down", 0: "-"}.get(s.heating, "-")
         temp = f"{s.temp_c:7.2f}" if s.temp_c is not None else "      -"
         cells = " ".join(f"{b * 1e6:7.0f} -> {a * 1e6:5.0f}" for b, a in zip(s.residual_before_g, s.residual_after_g))
-        lines.append(f"  {s.name[:14]:<14} {temp} {leg:>4}   {cells}")
+        lines.append(f"  {s.name[:14]:<14} {temp} {leg_word(s.heating):>7}   {cells}")
     return "\n".join(lines)
+
+
+#: the words for a step's temperature leg (``StepRow.heating``: +1, -1, 0), as the localisation names them
+#: (``rms z by leg: heating ..., cooling ..., unknown ...``, :func:`calib.discovery.report.localise`)
+LEG_WORDS = {1: "heating", -1: "cooling", 0: "unknown"}
+
+
+def leg_word(heating) -> str:
+    """The per-step table's word for a step's leg: ``heating``, ``cooling``, ``unknown`` (before the temperature
+    first moved more than the band), ``-`` without a temperature record."""
+    return "-" if heating is None else LEG_WORDS.get(int(heating), "unknown")
 
 
 def _short_report(session: Session, d: Discovery) -> list[str]:
