@@ -77,3 +77,19 @@ def test_the_per_step_table_names_each_leg_in_the_words_of_the_localisation(sess
     assert legs == words, legs
 
 
+def test_discover_prints_the_tilt_and_the_mounting_rotation_in_mrad_and_the_json_keeps_the_librarys_units(
+        sessions):
+    code, out = rig("discover", sessions["tilted"])
+    assert code == 0
+    doc = json.loads(rig("discover", sessions["tilted"], "--json")[1])
+    effects = {e["name"]: e for e in doc["effects"]}
+    assert {"table_tilt", "full_misalignment"} <= set(effects)
+    to_mrad = {"rad": 1e3, "deg": math.pi / 180 * 1e3}
+    for name in ("table_tilt", "full_misalignment"):
+        (line,) = [x for x in out.splitlines() if x.strip().startswith(f"+ {name} ")]
+        assert "[mrad]" in line, line
+        printed = [float(v) for v in re.findall(r"\w ([+-]?[\d.]+(?:e[+-]?\d+)?) \+-", line)]
+        e = effects[name]
+        assert e["unit"] in to_mrad  # the JSON keeps the library's unit
+        shown = [v * to_mrad[e["unit"]] for v in e["estimate"] if v is not None]
+        assert printed == pytest.approx(shown, rel=1e-3), (line, shown)
