@@ -138,22 +138,51 @@ def already_modelled(session: Session) -> set[str]:
 
 def headline_lines(session: Session, d: Discovery) -> list[str]:
     """The verdict first, in words a technician can act on (issue 33 item 3); the statistics follow."""
+    return verdict_words(session, [(e.name, e.extra.get("t_jump_s")) for e in d.effects], d.gap_closed, d.aliases)
+
+
+def headline(session: Session, d: Discovery) -> str:
+    """:func:`headline_lines` as one text: the ``headline`` of the ``--json`` document (docs/discrepancy.md)."""
+    return " ".join(headline_lines(session, d))
+
+
+def document_headline(session: Session, doc: dict) -> str:
+    """The headline of a ``rig discover --json`` document of ``session``: its own ``headline`` when it has one,
+    else the same words made from its ``effects``, ``gap_closed`` and ``aliases`` (a document written before the
+    key existed)."""
+    if isinstance(doc.get("headline"), str) and doc["headline"].strip():
+        return doc["headline"]
+    effects = [(str(e.get("name")), e.get("t_jump_s") if isinstance(e.get("t_jump_s"), (int, float)) else None)
+               for e in doc.get("effects") or [] if isinstance(e, dict)]
+    aliases = [[str(n) for n in a] for a in doc.get("aliases") or [] if isinstance(a, list)]
+    return " ".join(verdict_words(session, effects, doc.get("gap_closed") is not False, aliases))
+
+
+def document(session: Session, d: Discovery) -> dict:
+    """The ``--json`` document: ``rig-discover/5`` (:meth:`Discovery.to_json`) and its ``headline``, the verdict in
+    words the console prints first (an additive key: readers ignore keys they do not know)."""
+    return {**d.to_json(), "headline": headline(session, d)}
+
+
+def verdict_words(session: Session, effects: list[tuple[str, float | None]], gap_closed: bool,
+                  aliases: list[list[str]]) -> list[str]:
+    """The headline's sentences from the effects named (``(name, jump time s or None)``), whether the gap closed
+    and the aliases left, the effects this session's calibration models already said as such."""
     known = already_modelled(session)
-    new = [e for e in d.effects if e.name not in known]
-    have = [e.name for e in d.effects if e.name in known]
+    new = [(n, t) for n, t in effects if n not in known]
+    have = [n for n, _ in effects if n in known]
     lines = []
-    if not new and d.gap_closed:
+    if not new and gap_closed:
         beyond = (f" beyond {', '.join(have)}, which this session's calibration already models (its thermal model)"
                   if have else "")
         lines.append(f"Nothing is missing{beyond}: the model explains this session to its noise level. Nothing to "
                      "act on.")
     elif new:
-        names = ", ".join(e.name + (f" at {e.extra['t_jump_s']:.0f} s" if e.extra.get("t_jump_s") is not None else "")
-                          for e in new)
-        rest = ("with it the model explains the data to the noise level" if d.gap_closed else
+        names = ", ".join(n + (f" at {t:.0f} s" if t is not None else "") for n, t in new)
+        rest = ("with it the model explains the data to the noise level" if gap_closed else
                 "something else remains beyond it (the verdict below)")
         lines.append(f"Missing from the model: {names}; {rest}.")
-        if any(e.name == "pose_error" for e in new):
+        if any(n == "pose_error" for n, _ in new):
             lines.append(f"The poses are not where the session says: solve without them: rig solve {session.path} "
                          "--method magnitude")
         else:
@@ -162,8 +191,8 @@ def headline_lines(session: Session, d: Discovery) -> list[str]:
     else:
         lines.append("Something remains that no effect in the library describes: the per-step table below shows "
                      "where; look for what changed in the rig or the session.")
-    if d.aliases:
-        lines.append(f"Cannot tell apart: {'; '.join(' / '.join(g) for g in d.aliases)}: rig discover {session.path} "
+    if aliases:
+        lines.append(f"Cannot tell apart: {'; '.join(' / '.join(g) for g in aliases)}: rig discover {session.path} "
                      "--propose OUT.yaml writes the experiment that does.")
     return lines
 

@@ -77,6 +77,18 @@ def test_the_per_step_table_names_each_leg_in_the_words_of_the_localisation(sess
     assert legs == words, legs
 
 
+def test_the_json_document_carries_the_headline_the_console_prints_first(sessions):
+    code, console = rig("discover", sessions["thermal"])
+    assert code == 0
+    first = console.split("\n\n", 1)[0].replace("\n", " ")
+    assert first.startswith(NOTHING_MISSING)
+    code, text = rig("discover", sessions["thermal"], "--json")
+    doc = json.loads(text)
+    assert doc["headline"] == first and doc["format"] == "rig-discover/5"  # additive: the format stays
+    jsonschema = pytest.importorskip("jsonschema")
+    assert not list(jsonschema.Draft202012Validator(SCHEMA).iter_errors(doc))
+
+
 def test_discover_prints_the_tilt_and_the_mounting_rotation_in_mrad_and_the_json_keeps_the_librarys_units(
         sessions):
     code, out = rig("discover", sessions["tilted"])

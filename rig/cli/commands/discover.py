@@ -75,7 +75,7 @@ def run(args) -> int:
         with outputs.writing(proposal):
             extra.update(prop.write_proposal(session, d, proposal.path))
     if args.json:
-        print(json.dumps({**d.to_json(), **extra}, indent=2, default=json_default))
+        print(json.dumps({**dsc.document(session, d), **extra}, indent=2, default=json_default))
     else:
         print(dsc.format_report(session, d, details=args.details))
         for k, v in extra.items():
