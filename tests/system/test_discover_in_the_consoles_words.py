@@ -89,6 +89,37 @@ def test_the_json_document_carries_the_headline_the_console_prints_first(session
     assert not list(jsonschema.Draft202012Validator(SCHEMA).iter_errors(doc))
 
 
+def test_the_reports_discrepancy_verdict_is_the_consoles_headline(sessions, tmp_path):
+    """The report said "verdict: the model with the named effects explains the data" and listed bias_tempco as
+    an effect named; it now opens the section with the console's headline and marks the effect as modelled."""
+    session = sessions["thermal"]
+    code, text = rig("discover", session, "--json")
+    (session / "discover.json").write_text(text)
+    try:
+        assert rig("report", session, "-o", tmp_path / "r.html")[0] == 0
+    finally:
+        (session / "discover.json").unlink()
+    page = Page((tmp_path / "r.html").read_text())
+    assert page.text("discover-headline") == json.loads(text)["headline"]
+    assert "named effects explains" not in page.text("discover")
+    (row,) = [r for r in page.rows["discover-effects"] if r[0].startswith("bias_tempco")]
+    assert "already in this session's calibration" in row[0]
+
+
+def test_a_document_without_a_headline_gets_the_same_words_in_the_report(sessions, tmp_path):
+    """A discover document written before the key existed: the report makes the headline from its effects."""
+    session = sessions["thermal"]
+    code, text = rig("discover", session, "--json")
+    doc = json.loads(text)
+    headline = doc.pop("headline")
+    (session / "discover.json").write_text(json.dumps(doc))
+    try:
+        assert rig("report", session, "-o", tmp_path / "r.html")[0] == 0
+    finally:
+        (session / "discover.json").unlink()
+    assert Page((tmp_path / "r.html").read_text()).text("discover-headline") == headline
+
+
 def test_discover_prints_the_tilt_and_the_mounting_rotation_in_mrad_and_the_json_keeps_the_librarys_units(
         sessions):
     code, out = rig("discover", sessions["tilted"])

@@ -26,6 +26,7 @@ from calib.errors import CalibError
 from calib.gyro.result import NONORTHOGONALITY_NAMES
 from calib.mag.result import sigma_names as mag_sigma_names
 from calib.file.parameters import accel_parameters, sensor_parameters
+from rig.analysis.discover import already_modelled, document_headline
 from rig.errors import RigInputError
 from rig.lab.bias_temperature import reference_view
 from rig.lab.drift import CalibrationRecord, drift, flagged_names, history_notes, sensor_history
@@ -98,6 +99,8 @@ class DiscoverSummary:
     note: str = ""
     problems: list[str] = field(default_factory=list)  # damaged documents and calibration files, left out
     lsb_per_g: float | None = None  # the sensor's nominal sensitivity, counts/g: the bias tempcos shown in counts/C^s
+    headlines: list[str] = field(default_factory=list)  # per document: the verdict in words, as rig discover prints it
+    modelled: list[str] = field(default_factory=list)  # effects the session's own calibration models already
 
 
 @dataclass
@@ -467,6 +470,7 @@ def check_discover_document(doc) -> dict:
     for key in ("rms_before_g", "rms_after_g", "noise_rms_g", "chi2_per_dof_before", "chi2_per_dof_after"):
         _optional(doc, key, _is_number, "a number")
     _optional(doc, "gap_closed", lambda v: isinstance(v, bool), "true or false")
+    _optional(doc, "headline", lambda v: isinstance(v, str), "a text")
     _optional(doc, "unobservable", lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v),
               "a list of effect names")
     _optional(doc, "effects", lambda v: isinstance(v, list), "a list")
@@ -544,7 +548,9 @@ def discover_outputs(session: Session, others: list[tuple[Path, object]],
         "rig discover has not been run on this session, or its output was not saved in the session folder; "
         f"to include it: rig discover {session.path} --json > {session.path}/discover.json")
     return DiscoverSummary(documents=docs, calibrations=cals, note=note, problems=problems,
-                           lsb_per_g=_num(session.lsb_per_g))
+                           lsb_per_g=_num(session.lsb_per_g),
+                           headlines=[document_headline(session, d) for _, d in docs],
+                           modelled=sorted(already_modelled(session)) if docs else [])
 
 
 # ---------------------------------------------------------------------------------------------- history

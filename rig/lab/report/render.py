@@ -282,16 +282,17 @@ def _ug(doc: dict, key: str) -> float:
     return float("nan") if v is None else float(v) * 1e6
 
 
-def _effects_rows(doc: dict, lsb_per_g: float | None = None) -> list[list[str]]:
-    """The named effects, the bias tempcos in counts/C^s as the parameters table states them
-    (:mod:`rig.analysis.effect_units`)."""
+def _effects_rows(doc: dict, lsb_per_g: float | None = None, modelled=()) -> list[list[str]]:
+    """The named effects, the bias tempcos in counts/C^s as the parameters table states them, angles in mrad
+    (:mod:`rig.analysis.effect_units`); those in ``modelled`` (the session's calibration has them) say so."""
     rows = []
     for e in doc.get("effects") or []:
         unit, k = shown_effect_unit(str(e.get("unit", "")), lsb_per_g)
         est = ", ".join(f"{a} {fmt_value(v * k, _times(s, k))[0]} ± {fmt_value(v * k, _times(s, k))[1]}"
                         if v is not None else f"{a} n/a"
                         for a, v, s in zip(e.get("axes") or [], e.get("estimate") or [], e.get("sigma") or []))
-        rows.append([f"<code>{escape(str(e.get('name')))}</code>", escape(est), escape(unit),
+        had = " (already in this session's calibration)" if e.get("name") in modelled else ""
+        rows.append([f"<code>{escape(str(e.get('name')))}</code>{escape(had)}", escape(est), escape(unit),
                      _num(e.get("p_value"), ".2g"), _num(_ug(e, "rms_after_g"), ".1f")])
     return rows
 
@@ -313,15 +314,16 @@ def _discover_figure(doc: dict, session_id: str):
                                   [str(s.get("name")) for s in steps], [s.get("temp_c") for s in steps], series)
 
 
-def _discover_document_html(path: Path, doc: dict, session_id: str, lsb_per_g: float | None = None) -> str:
+def _discover_document_html(path: Path, doc: dict, session_id: str, lsb_per_g: float | None = None,
+                            headline: str = "", modelled=()) -> str:
+    """One rig discover document: its headline (the verdict in words, as the console prints it first), the gap,
+    the effects named, the plot."""
     gap = (f"gap: {_num(_ug(doc, 'rms_before_g'), '.1f')} → {_num(_ug(doc, 'rms_after_g'), '.1f')} µg rms (noise "
            f"{_num(_ug(doc, 'noise_rms_g'), '.1f')} µg), chi2/dof "
            f"{_num(doc.get('chi2_per_dof_before'), '.2f')} → {_num(doc.get('chi2_per_dof_after'), '.2f')}")
-    closed = doc.get("gap_closed")
-    verdict = ("" if closed is None else "the model with the named effects explains the data to the noise level"
-               if closed else "something remains that no effect in the library describes")
-    parts = [f'<p class="summary">{escape(gap)}</p>', note(verdict and f"verdict: {verdict}", "muted")]
-    rows = _effects_rows(doc, lsb_per_g)
+    parts = [f'<p id="discover-headline" class="summary">{escape(headline)}</p>' if headline else "",
+             f'<p class="summary">{escape(gap)}</p>']
+    rows = _effects_rows(doc, lsb_per_g, modelled)
     parts.append(table(["effect named", "estimate ± 1σ", "unit", "p-value", "residual after, µg"], rows,
                        id_="discover-effects", numeric=(3, 4)) if rows else note("effects named: none"))
     if doc.get("unobservable"):
@@ -336,7 +338,8 @@ def _discover_document_html(path: Path, doc: dict, session_id: str, lsb_per_g: f
 def discover_html(d: DiscoverSummary, session_id: str) -> str:
     if d.note:
         return section("discover", "Discrepancy (rig discover)", note(d.note))
-    parts = [_discover_document_html(p, doc, session_id, d.lsb_per_g) for p, doc in d.documents[-1:]]
+    parts = [_discover_document_html(p, doc, session_id, d.lsb_per_g, h, d.modelled)
+             for (p, doc), h in list(zip(d.documents, d.headlines or [""] * len(d.documents)))[-1:]]
     for p, effects in d.calibrations:
         parts.append(note(f"augmented calibration {p} (rig discover -o): effects "
                           + ", ".join(str(e.get("name")) for e in effects), "muted"))
