@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import math
+import re
 
 import numpy as np
 
@@ -148,9 +149,26 @@ def load_procedure(path) -> Procedure:
 
 def load_procedure_text(text: str, path: str = "<procedure>") -> Procedure:
     """Validate procedure YAML text (``path`` only names it in errors)."""
-    doc, loc, spec = validate_document(ProcedureDoc, text, path,
-                                       "expected a mapping with format, name, steps, ...")
-    return _Expander(path, loc, spec).procedure(doc, text)
+    try:
+        doc, loc, spec = validate_document(ProcedureDoc, text, path,
+                                           "expected a mapping with format, name, steps, ...")
+        return _Expander(path, loc, spec).procedure(doc, text)
+    except RigInputError as exc:
+        if exc.key is None or not _STEP_INDEX.search(exc.key):
+            raise
+        raise type(exc)(exc.path, exc.line, counted_steps(exc.key), exc.message) from None
+
+
+#: the key path of a top-level step: ``steps[4]`` at its start
+_STEP_INDEX = re.compile(r"^steps\[(\d+)\]")
+
+
+def counted_steps(key: str) -> str:
+    """A key path with its step also named as people count it: ``steps[4].pose`` -> ``steps[4] (step 5).pose``
+    (the progress line, the report and ``rig compare`` number steps from 1; the key path keeps the file's
+    0-based list index). Only the procedure's own list is counted: a repeat's or a ramp's steps keep their
+    index (``steps[2] (step 3).steps[0]``: the first of step 3's steps)."""
+    return _STEP_INDEX.sub(lambda m: f"{m.group(0)} (step {int(m.group(1)) + 1})", key, count=1)
 
 
 class _Expander:

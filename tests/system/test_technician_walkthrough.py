@@ -52,3 +52,16 @@ def test_every_hint_into_the_hardware_guide_names_one_of_its_headings():
                 if line.startswith("#")}
     pointed = [m for hint in OPEN_HINTS.values() for m in re.findall(r"docs/hardware\.md, '([^']+)'", hint)]
     assert pointed and set(pointed) <= headings, set(pointed) - headings
+
+
+# -- item 2: a step named as the user counts it -----------------------------------------------------------------
+def test_a_misspelt_pose_names_its_step_as_the_progress_line_counts_it(tmp_path):
+    """The 5th pose of six_position misspelt: the line names ``steps[4]`` (the file's list index) and step 5, the
+    number the progress line (``[5/6] +Y up``), the report and rig compare give that step."""
+    bad = tmp_path / "bad.yaml"
+    bad.write_text((REPO / "procedures" / "six_position.yaml").read_text().replace('"+Y up"', '"+Y upp"'))
+    code, _, err = rig("run", bad, "--time-scale", 0, "--out", tmp_path / "s")
+    assert code == 2
+    assert re.fullmatch(rf"rig run: {re.escape(str(bad))}:\d+: steps\[4\] \(step 5\)\.pose: unknown pose '\+Y upp' "
+                        r"\(allowed: .*\): did you mean '\+Y up'\?", err.strip()), err
+    assert not (tmp_path / "s").exists()  # refused before anything was recorded

@@ -159,16 +159,16 @@ def test_a_resume_between_two_legs_holds_the_first_leg_s_end_then_ramps_the_seco
 
 
 @pytest.mark.parametrize("ramp, key, expected", [
-    ("{to_c: 52.6, rate_c_per_min: 0}", "steps[1].ramp.rate_c_per_min", "expected a number > 0, got 0"),
-    ("{to_c: 52.6, rate_c_per_min: -2}", "steps[1].ramp.rate_c_per_min", "expected a number > 0, got -2"),
-    ("{to_c: 52.6, rate_c_per_min: 50}", "steps[1].ramp.rate_c_per_min", "expected <= 20, got 50"),
-    ("{to_c: 52.6, rate_c_per_min: fast}", "steps[1].ramp.rate_c_per_min", "expected a number, got 'fast'"),
-    ("{to_c: 200, rate_c_per_min: 2}", "steps[1].ramp.to_c", "expected <= 85, got 200"),
-    ("{rate_c_per_min: 2}", "steps[1].ramp.to_c", "missing required field"),
-    ("{to_c: 52.6, rate_c_per_min: 2, cycles: 0}", "steps[1].ramp.cycles", "expected a number > 0, got 0"),
-    ("{to_c: 52.6, rate_c_per_min: 2, speed: 3}", "steps[1].ramp.speed", "unknown key (allowed: cycles, from_c, "
+    ("{to_c: 52.6, rate_c_per_min: 0}", "steps[1] (step 2).ramp.rate_c_per_min", "expected a number > 0, got 0"),
+    ("{to_c: 52.6, rate_c_per_min: -2}", "steps[1] (step 2).ramp.rate_c_per_min", "expected a number > 0, got -2"),
+    ("{to_c: 52.6, rate_c_per_min: 50}", "steps[1] (step 2).ramp.rate_c_per_min", "expected <= 20, got 50"),
+    ("{to_c: 52.6, rate_c_per_min: fast}", "steps[1] (step 2).ramp.rate_c_per_min", "expected a number, got 'fast'"),
+    ("{to_c: 200, rate_c_per_min: 2}", "steps[1] (step 2).ramp.to_c", "expected <= 85, got 200"),
+    ("{rate_c_per_min: 2}", "steps[1] (step 2).ramp.to_c", "missing required field"),
+    ("{to_c: 52.6, rate_c_per_min: 2, cycles: 0}", "steps[1] (step 2).ramp.cycles", "expected a number > 0, got 0"),
+    ("{to_c: 52.6, rate_c_per_min: 2, speed: 3}", "steps[1] (step 2).ramp.speed", "unknown key (allowed: cycles, from_c, "
                                                                         "move_settle_s, rate_c_per_min, to_c)"),
-    ("{to_c: 27.6, rate_c_per_min: 2}", "steps[1].ramp.to_c", "leaves nothing to ramp"),
+    ("{to_c: 27.6, rate_c_per_min: 2}", "steps[1] (step 2).ramp.to_c", "leaves nothing to ramp"),
 ])
 def test_bad_ramp_values_are_refused_with_one_line(tmp_path, capsys, ramp, key, expected):
     text = SHIPPED.read_text().replace("  - ramp: {to_c: 52.6, rate_c_per_min: 4}", f"  - ramp: {ramp}")
@@ -183,11 +183,11 @@ def test_bad_ramp_values_are_refused_with_one_line(tmp_path, capsys, ramp, key, 
 
 @pytest.mark.parametrize("steps, key, expected", [
     ("  - ramp: {to_c: 52.6, rate_c_per_min: 2}\n    steps: [{pose: '+Z up'}]\n",
-     "steps[0].ramp", "a ramp needs a temperature to start from"),
+     "steps[0] (step 1).ramp", "a ramp needs a temperature to start from"),
     ("  - temperature: {target_c: 27.6}\n  - ramp: {to_c: 52.6, rate_c_per_min: 2}\n"
-     "    steps: [{pose: '+Z up'}, {prompt: 'hello'}]\n", "steps[1].steps[1]", "a ramp cycles pose steps"),
-    ("  - {pose: '+Z up', name: ''}\n", "steps[0].name", "expected a non-empty name, got ''"),
-    ("  - {pose: '+Z up', name: '   '}\n", "steps[0].name", "expected a non-empty name, got '   '"),
+     "    steps: [{pose: '+Z up'}, {prompt: 'hello'}]\n", "steps[1] (step 2).steps[1]", "a ramp cycles pose steps"),
+    ("  - {pose: '+Z up', name: ''}\n", "steps[0] (step 1).name", "expected a non-empty name, got ''"),
+    ("  - {pose: '+Z up', name: '   '}\n", "steps[0] (step 1).name", "expected a non-empty name, got '   '"),
     ("  - temperature: {target_c: 27.6}\n  - ramp: {to_c: 52.6, rate_c_per_min: 2}\n"
      "    steps: [{pose: '+Z up'}, {pose: '-Z up'}]\norder: fastest\n", "order", "would regroup the poses"),
 ])

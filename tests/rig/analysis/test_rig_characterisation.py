@@ -57,7 +57,7 @@ def hidden(geometry: dict) -> dict:
             "mounting.z": m["z"], "non_orthogonality.a1_a2": no["a1_a2"], "non_orthogonality.a2_a3": no["a2_a3"],
             # a2's zero: its periodic and accumulated errors at the recorded a2 angles are a zero offset there, in
             # every mounting; the fit's u carries their classes (calib.accel.reversal._aliased)
-            "zero_offset.a2": stages["a2"]["zero_offset_deg"]}
+            "zero_offset.a2": stages["a2"]["zero_offset_deg"] + no["a1_a3"]}
 
 
 def test_the_hidden_non_orthogonalities_and_mounting_are_recovered_within_3_u(reversal):
@@ -105,8 +105,8 @@ def test_a_turn_applies_from_its_instant_on_even_to_samples_read_later():
 
 
 @pytest.mark.parametrize("mount, message", [
-    ("x-z*", "steps[0].mount: expected a cube-rotation name such as x+z+"),
-    ("{axis: w, deg: 90}", "steps[0].mount.axis: expected x, y or z"),
+    ("x-z*", "steps[0] (step 1).mount: expected a cube-rotation name such as x+z+"),
+    ("{axis: w, deg: 90}", "steps[0] (step 1).mount.axis: expected x, y or z"),
     ("{axs: z, deg: 90}", "unknown key 'axs' (expected axis and deg): did you mean 'axis'?"),
 ])
 def test_a_bad_mount_is_one_line_naming_file_line_and_key(mount, message):

@@ -42,14 +42,14 @@ def test_every_shipped_procedure_loads():
 
 @pytest.mark.parametrize("text,expect", [
     (GOOD.replace("name: p", "name: p\ncolour: red"), "p.yaml:3: colour: unknown key"),
-    (GOOD.replace('"+Z up"', '"+W up"'), "p.yaml:6: steps[0].pose: unknown pose '+W up'"),
+    (GOOD.replace('"+Z up"', '"+W up"'), "p.yaml:6: steps[0] (step 1).pose: unknown pose '+W up'"),
     (GOOD.replace("seconds: 2", "seconds: -1"), "p.yaml:4: dwell.seconds: expected a number > 0"),
     (GOOD.replace("seconds: 2", "seconds: 2, samples: 5"), "dwell: give exactly one of seconds, samples, sem_g"),
     (GOOD.replace("accel_range_g: 4", "accel_range_g: 5"), "p.yaml:3: sensor.accel_range_g: expected one of 2, 4, 8, 16"),
     (GOOD.replace("sample_rate_hz: 100", "sample_rate_hz: 300"), "sensor.sample_rate_hz: the MPU-9150 runs at"),
     (GOOD.replace("model: triangular", "model: cubic"), "solve.model: expected one of triangular, full"),
     (GOOD.replace("rig-procedure/1", "rig-procedure/2"), "p.yaml:1: format: expected 'rig-procedure/1'"),
-    (GOOD.replace('  - pose: "-Z up"\n', '  - angles_deg: [0, 90]\n'), "p.yaml:7: steps[1].angles_deg: expected [a1, a2, a3]"),
+    (GOOD.replace('  - pose: "-Z up"\n', '  - angles_deg: [0, 90]\n'), "p.yaml:7: steps[1] (step 2).angles_deg: expected [a1, a2, a3]"),
     (GOOD.replace('  - pose: "-Z up"\n', '  - {pose: "+X up", angles_deg: [0, 0, 0]}\n'), "exactly one of pose"),
     (GOOD.replace('  - pose: "-Z up"\n', '  - temperature: {target_c: 200}\n'), "temperature.target_c: expected <= 85"),
     ("steps: [\n", "p.yaml:2: not valid YAML"),

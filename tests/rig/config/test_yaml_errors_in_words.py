@@ -111,9 +111,9 @@ def test_the_cli_says_it_in_one_line_exit_2(tmp_path, capsys):
 @pytest.mark.parametrize("bad, says, meant", [
     (GOOD.replace("dwell:", "dwel:"), "p.yaml:5: dwel: unknown key (allowed: accept, description, dwell, ", "dwell"),
     (GOOD.replace("dwell: {seconds: 2}", "dwell: {secnds: 2}"), "p.yaml:5: dwell.secnds: unknown key", "seconds"),
-    (GOOD.replace('"-Z up"', '"-Z upp"'), "p.yaml:8: steps[1].pose: unknown pose '-Z upp'", "-Z up"),
-    (GOOD.replace('"-Z up"', '"+x+y up"'), "p.yaml:8: steps[1].pose: unknown pose '+x+y up'", "+X+Y up"),
-    (GOOD.replace('  - pose: "-Z up"', '  - pos: "-Z up"'), "p.yaml:8: steps[1]: each step needs exactly one of",
+    (GOOD.replace('"-Z up"', '"-Z upp"'), "p.yaml:8: steps[1] (step 2).pose: unknown pose '-Z upp'", "-Z up"),
+    (GOOD.replace('"-Z up"', '"+x+y up"'), "p.yaml:8: steps[1] (step 2).pose: unknown pose '+x+y up'", "+X+Y up"),
+    (GOOD.replace('  - pose: "-Z up"', '  - pos: "-Z up"'), "p.yaml:8: steps[1] (step 2): each step needs exactly one of",
      "pose"),
 ])
 def test_a_misspelt_key_pose_or_step_kind_gets_a_did_you_mean(bad, says, meant):

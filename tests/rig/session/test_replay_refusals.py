@@ -38,7 +38,7 @@ def _replay_refusal(recorded, tmp_path, capsys, edit) -> tuple[str, str]:
     ('a: &a ["x","x","x","x","x","x","x","x","x"]\n' + "".join(
         f"{chr(98 + i)}: &{chr(98 + i)} [" + ",".join([f"*{chr(97 + i)}"] * 9) + "]\n" for i in range(9)),
      "aliases expand to more than"),
-    ("format: rig-procedure/1\nname: p\nsteps: [{pose: '+W up'}]\n", "steps[0].pose"),
+    ("format: rig-procedure/1\nname: p\nsteps: [{pose: '+W up'}]\n", "steps[0] (step 1).pose"),
 ])
 def test_a_recorded_procedure_that_does_not_validate_names_session_yaml(recorded, tmp_path, capsys, text, expect):
     line, manifest = _replay_refusal(recorded, tmp_path, capsys, lambda doc: doc["procedure"].update(text=text))
