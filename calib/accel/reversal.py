@@ -57,12 +57,18 @@ class Mounting:
 
 @dataclass(frozen=True)
 class Characterisation:
-    """The table's errors: ``estimate_deg`` and ``u_deg`` per parameter name, the fit's chi2/dof and dof."""
+    """The table's errors: ``estimate_deg`` and ``u_deg`` per parameter name, the fit's chi2/dof and dof.
+
+    ``u_deg`` is each estimate's standard uncertainty as the table's own error: the fit's (the sensor's noise) and
+    what the errors kept as classes put into it (:func:`_aliased`). ``u_correction_deg`` is the fit's alone: how
+    well the estimate corrects the poses of a later session, whose budget keeps those classes as terms of their
+    own (counted once there); None: as ``u_deg``."""
 
     estimate_deg: dict
     u_deg: dict
     chi2_per_dof: float
     dof: int
+    u_correction_deg: dict | None = None
 
     def corrected(self, steps: StepMeans, rig: RigErrors) -> StepMeans:
         """``steps`` with their nominal specific force where the characterised table puts it (f + sum g_j s_ij):
@@ -78,7 +84,8 @@ class Characterisation:
         """``rig`` with these parameters' residual standard uncertainties in place of their classes."""
         return RigErrors(table=rig.table, gravity=rig.gravity, one_direction=rig.one_direction,
                          thermometer_u_c=rig.thermometer_u_c,
-                         known={**rig.known, **dict.fromkeys(ALIASES, 0.0), **self.u_deg}, source=source)
+                         known={**rig.known, **dict.fromkeys(ALIASES, 0.0), **(self.u_correction_deg or self.u_deg)},
+                         source=source)
 
 
 def _check(mountings: list[Mounting]) -> np.ndarray:
@@ -165,11 +172,11 @@ def characterise(mountings: list[Mounting], rig: RigErrors) -> Characterisation:
     dof = len(y) - len(x)
     chi2 = float(resid @ resid / dof) if dof > 0 else float("nan")
     normal = (a * w[:, None]).T @ a
-    cov = np.linalg.inv(normal) * (max(chi2, 1.0) if np.isfinite(chi2) else 1.0)
-    cov = cov + _aliased(mountings, f, angles, m0, a, w, normal, rig)
-    g, u = x[12:], np.sqrt(np.diag(cov)[12:])
+    cov_fit = np.linalg.inv(normal) * (max(chi2, 1.0) if np.isfinite(chi2) else 1.0)
+    cov = cov_fit + _aliased(mountings, f, angles, m0, a, w, normal, rig)
+    g, u, u_fit = x[12:], np.sqrt(np.diag(cov)[12:]), np.sqrt(np.diag(cov_fit)[12:])
     return Characterisation(estimate_deg=dict(zip(names, map(float, g))), u_deg=dict(zip(names, map(float, u))),
-                            chi2_per_dof=chi2, dof=dof)
+                            chi2_per_dof=chi2, dof=dof, u_correction_deg=dict(zip(names, map(float, u_fit))))
 
 
 __all__ = ["CHARACTERISED", "Characterisation", "EPS_DEG", "Mounting", "characterise"]

@@ -30,6 +30,9 @@ from pathlib import Path
 import yaml
 
 from calib.accel.reversal import ALIASES, CHARACTERISED, Characterisation
+from calib.file import yamlsafe
+from calib.file.yamlsafe import HostileYaml
+from rig.config.yamlload import input_error, read_source
 from rig.errors import RigInputError
 
 FORMAT = "rig-characterisation/1"
@@ -56,7 +59,8 @@ class CharacterisationRecord:
         return {"format": FORMAT, "date": self.date,
                 "rig_file": {"path": self.rig_file, "sha256": self.rig_file_sha256},
                 "session": self.session, "method": "reversal", "mountings": [dict(m) for m in self.mountings],
-                "estimates": {n: {"estimate_deg": float(c.estimate_deg[n]), "u_deg": float(c.u_deg[n])}
+                "estimates": {n: {"estimate_deg": float(c.estimate_deg[n]), "u_deg": float(c.u_deg[n]),
+                                  **({"u_correction_deg": float(c.u_correction_deg[n])} if c.u_correction_deg else {})}
                               for n in c.estimate_deg},
                 "aliases": list(ALIASES),
                 "chi2_per_dof": float(c.chi2_per_dof), "dof": int(c.dof)}
@@ -83,11 +87,10 @@ def load_record(path) -> CharacterisationRecord:
     """Read and check a ``rig-characterisation/1`` file (RigInputError, one line naming the file and key)."""
     path = Path(path)
     where = str(path)
-    try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except yaml.YAMLError as exc:
-        raise RigInputError(where, getattr(getattr(exc, "problem_mark", None), "line", None), "",
-                            f"not valid YAML: {str(exc).splitlines()[0]}") from None
+    try:  # the one guarded loader: size, depth, aliases, tags, duplicate keys (a hand-edited record is input)
+        doc = yamlsafe.load(read_source(path, "rig characterisation", "no such characterisation file"))
+    except HostileYaml as exc:
+        raise input_error(exc, where) from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         got = doc.get("format") if isinstance(doc, dict) else type(doc).__name__
         raise RigInputError(where, None, "format", f"expected {FORMAT!r}, got {got!r}")
@@ -97,7 +100,7 @@ def load_record(path) -> CharacterisationRecord:
     estimates = doc.get("estimates")
     if not isinstance(estimates, dict) or not estimates:
         raise RigInputError(where, None, "estimates", "expected a mapping of table errors to {estimate_deg, u_deg}")
-    est, u = {}, {}
+    est, u, u_fix = {}, {}, {}
     for name, e in estimates.items():
         if name not in CHARACTERISED:
             raise RigInputError(where, None, f"estimates.{name}",
@@ -107,11 +110,16 @@ def load_record(path) -> CharacterisationRecord:
                 or values[1] < 0:
             raise RigInputError(where, None, f"estimates.{name}", "expected {estimate_deg: number, u_deg: number >= 0}")
         est[name], u[name] = float(values[0]), float(values[1])
+        uc = e.get("u_correction_deg")
+        if uc is not None:
+            if not (isinstance(uc, (int, float)) and not isinstance(uc, bool) and math.isfinite(uc) and uc >= 0):
+                raise RigInputError(where, None, f"estimates.{name}.u_correction_deg", "expected a number >= 0")
+            u_fix[name] = float(uc)
     chi2 = doc.get("chi2_per_dof")
     dof = doc.get("dof")
     return CharacterisationRecord(
         Characterisation(est, u, float(chi2) if isinstance(chi2, (int, float)) else float("nan"),
-                         int(dof) if isinstance(dof, int) else 0),
+                         int(dof) if isinstance(dof, int) else 0, u_correction_deg=u_fix if len(u_fix) == len(u) else None),
         date=str(doc.get("date", "")), rig_file=str(rig.get("path", "")), rig_file_sha256=rig["sha256"],
         session=str(doc.get("session", "")), mountings=tuple(doc.get("mountings") or ()), path=path)
 

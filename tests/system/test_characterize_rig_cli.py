@@ -43,7 +43,7 @@ def test_characterise_then_calibrate_on_the_characterised_rig(tmp_path):
     record = yaml.safe_load((tmp_path / "lab.characterisation.yaml").read_text())
     assert record["format"] == "rig-characterisation/1" and record["session"] == reversal.name
     assert record["rig_file"]["path"] == str(rig_file.resolve()) and len(record["rig_file"]["sha256"]) == 64
-    assert record["date"] and record["dof"] > 0 and set(record["estimates"]["mounting.z"]) == {"estimate_deg", "u_deg"}
+    assert record["date"] and record["dof"] > 0 and set(record["estimates"]["mounting.z"]) == {"estimate_deg", "u_deg", "u_correction_deg"}
 
     six, printed = run(PROCEDURES / "six_position.yaml", rig_file, tmp_path / "six")
     line = next(x for x in printed.splitlines() if "rig terms:" in x)
