@@ -20,13 +20,27 @@ from dataclasses import astuple, dataclass, fields
 # -- CRC ---------------------------------------------------------------------------------
 
 
-def crc16(data: bytes) -> int:
-    """CRC-16/MODBUS (reflected poly 0xA001, init 0xFFFF) of ``data``."""
-    crc = 0xFFFF
-    for byte in data:
-        crc ^= byte
+def _crc16_table() -> tuple[int, ...]:
+    """The CRC of each byte value alone (the bitwise definition, eight shifts), for the table-driven loop."""
+    table = []
+    for byte in range(256):
+        crc = byte
         for _ in range(8):
             crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
+        table.append(crc)
+    return tuple(table)
+
+
+_CRC16_TABLE = _crc16_table()
+
+
+def crc16(data: bytes) -> int:
+    """CRC-16/MODBUS (reflected poly 0xA001, init 0xFFFF) of ``data``: one table lookup per byte (the bitwise
+    loop, eight shifts per byte, was the controller link's largest cost in a simulated run)."""
+    crc = 0xFFFF
+    table = _CRC16_TABLE
+    for byte in data:
+        crc = (crc >> 8) ^ table[(crc ^ byte) & 0xFF]
     return crc
 
 
