@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from pathlib import Path
 
 from calib.errors import CalibError
@@ -35,6 +36,38 @@ def add_parser(sub) -> None:
                    help="replace SESSION/calibration.yaml (otherwise a re-solve is written beside it)")
 
 
+#: a session longer than this many steps, or with more than this many bytes of samples, is solved with its stages
+#: said on stderr as they start (docs/cli.md: a 10,000-step import solves in about 4 s, most of it reading)
+LONG_STEPS = 1000
+LONG_BYTES = 20 * 1024 * 1024
+
+
+class Stages:
+    """``rig solve: STAGE (T s so far)`` on stderr as each stage starts, for a long session only (a progress that
+    never depends on stdout: it goes where the errors go, and a closed stderr does not stop the solve)."""
+
+    def __init__(self, session_dir) -> None:
+        d = Path(session_dir)
+        try:
+            size = (d / "samples.csv").stat().st_size
+        except OSError:
+            size = 0
+        self.size_mb = size / 1e6
+        self.on = size > LONG_BYTES
+        self.start = time.monotonic()
+
+    def __call__(self, stage: str) -> None:
+        if self.on:
+            try:
+                print(f"rig solve: {stage} ({time.monotonic() - self.start:.1f} s)", file=sys.stderr, flush=True)
+            except (OSError, ValueError):
+                self.on = False
+
+    def steps(self, n_steps: int) -> None:
+        """The session's length is known: long by its steps as well as by its bytes."""
+        self.on = self.on or n_steps > LONG_STEPS
+
+
 #: option pairs that contradict each other: (option, value, other option, value or None for any, why)
 CONFLICTS = [
     ("method", "flip", "model", "full", "the flip method fits biases and scale factors only (no cross-axis terms)"),
@@ -49,7 +82,10 @@ def run(args) -> int:
         if getattr(args, key) == value and given is not None and (other_value is None or given == other_value):
             raise UsageError(f"--{key} {value} cannot be combined with --{other} {given}: {why}")
     out = output(args) if args.output is not None else None  # -o: checked before the session is read
+    stages = Stages(args.session)
+    stages(f"reading the session ({stages.size_mb:.0f} MB of samples)")
     session = load_session(args.session)
+    stages.steps(len(session.info.steps))
     if out is None:  # the default, in the session folder: checked once it is known to be a session
         out = output(args)
     report_warnings("solve", session)
@@ -62,9 +98,11 @@ def run(args) -> int:
         return solve_without_accelerometer(session, args.json)
     if not args.trust_poses:
         refuse_misplaced_poses(session, model=args.model, method=args.method, thermal=thermal)
+    stages(f"solving {len(session.info.steps)} steps")
     with outputs.writing(out):  # an error writing the file names the path given
         conclusion = conclude(session, out=out.path, model=args.model, method=args.method, thermal=thermal,
                               report=False)
+    stages("done: calibration written and recorded")
     verdict_code = present("solve", conclusion, quiet=args.json)
     cal, path = conclusion.calibration, conclusion.calibration_path
     if args.json:  # the file's content, the acceptance verdict included when the procedure has limits
