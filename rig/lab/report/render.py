@@ -282,17 +282,16 @@ def _ug(doc: dict, key: str) -> float:
     return float("nan") if v is None else float(v) * 1e6
 
 
-def _effects_rows(doc: dict, lsb_per_g: float | None = None, modelled=()) -> list[list[str]]:
+def _effects_rows(doc: dict, lsb_per_g: float | None = None) -> list[list[str]]:
     """The named effects, the bias tempcos in counts/C^s as the parameters table states them, angles in mrad
-    (:mod:`rig.analysis.effect_units`); those in ``modelled`` (the session's calibration has them) say so."""
+    (:mod:`rig.analysis.effect_units`)."""
     rows = []
     for e in doc.get("effects") or []:
         unit, k = shown_effect_unit(str(e.get("unit", "")), lsb_per_g)
         est = ", ".join(f"{a} {fmt_value(v * k, _times(s, k))[0]} ± {fmt_value(v * k, _times(s, k))[1]}"
                         if v is not None else f"{a} n/a"
                         for a, v, s in zip(e.get("axes") or [], e.get("estimate") or [], e.get("sigma") or []))
-        had = " (already in this session's calibration)" if e.get("name") in modelled else ""
-        rows.append([f"<code>{escape(str(e.get('name')))}</code>{escape(had)}", escape(est), escape(unit),
+        rows.append([f"<code>{escape(str(e.get('name')))}</code>", escape(est), escape(unit),
                      _num(e.get("p_value"), ".2g"), _num(_ug(e, "rms_after_g"), ".1f")])
     return rows
 
@@ -323,9 +322,13 @@ def _discover_document_html(path: Path, doc: dict, session_id: str, lsb_per_g: f
            f"{_num(doc.get('chi2_per_dof_before'), '.2f')} → {_num(doc.get('chi2_per_dof_after'), '.2f')}")
     parts = [f'<p id="discover-headline" class="summary">{escape(headline)}</p>' if headline else "",
              f'<p class="summary">{escape(gap)}</p>']
-    rows = _effects_rows(doc, lsb_per_g, modelled)
+    rows = _effects_rows(doc, lsb_per_g)
     parts.append(table(["effect named", "estimate ± 1σ", "unit", "p-value", "residual after, µg"], rows,
                        id_="discover-effects", numeric=(3, 4)) if rows else note("effects named: none"))
+    had = [str(e.get("name")) for e in doc.get("effects") or [] if isinstance(e, dict) and e.get("name") in modelled]
+    if had:
+        parts.append(f'<p id="discover-modelled" class="muted">{escape(", ".join(had))}: already in this session\'s '
+                     "calibration (its thermal model), not missing from it</p>")
     if doc.get("unobservable"):
         parts.append(note("not observable in this session: " + ", ".join(map(str, doc["unobservable"])), "muted"))
     fig = _discover_figure(doc, session_id)
