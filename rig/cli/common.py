@@ -12,6 +12,7 @@ from calib.gyro.result import NONORTHOGONALITY_NAMES
 from calib.mag import MagCalibration
 from rig.cli.codes import EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, UsageError  # noqa: F401 - the commands use them
 from rig.lab.acceptance import as_lines
+from rig.lab.fit import exactly_determined
 from rig.lab.units import GYRO_G_SENSITIVITY_UNIT, GYRO_NONORTHOGONALITY_UNIT, gyro_g_sensitivity_terms
 
 
@@ -94,8 +95,13 @@ def format_magnetometer(m: MagCalibration, unit: str) -> str:
     """The magnetometer's result with its sigmas (``unit``: uT, or counts for unknown units): hard iron and the
     soft-iron matrix A, each entry with its 1-sigma."""
     sig = m.sigma
-    lines = [f"  magnetometer ({m.method}): {m.n_steps} steps, residual {m.residual_rms_ut:.4g} {unit} rms, "
-             f"chi2/dof {m.chi2_per_dof:.2f}",
+    steps = f"{m.n_steps} step" + ("" if m.n_steps == 1 else "s")
+    if m.method == "ellipsoid" and m.field_ut == 1.0:  # no site: the field's magnitude is the unit of the fit
+        residual = (f"residual {m.residual_rms_ut:.4g} of the field's magnitude rms (unknown: A is up to that scale; "
+                    "a site: section in the rig file states it)")
+    else:
+        residual = f"residual {m.residual_rms_ut:.4g} {unit} rms"
+    lines = [f"  magnetometer ({m.method}): {steps}, {residual}, chi2/dof {m.chi2_per_dof:.2f}",
              "    hard iron " + "  ".join(f"{a} {v:+.4g} +- {sig[f'hard_iron_{a}']:.2g}"
                                          for a, v in zip("xyz", m.hard_iron_ut)) + f" {unit}"]
     for i, r in enumerate("xyz"):
@@ -104,15 +110,13 @@ def format_magnetometer(m: MagCalibration, unit: str) -> str:
     return "\n".join(lines)
 
 
-#: a residual below this is rounding: the fit was exactly determined, g (1 ng)
-EXACT_RESIDUAL_G = 1e-9
 #: an effect's estimate is printed as found when it is this many sigmas from zero on some axis
 EFFECT_Z = 3.0
 
 
 def _accelerometer_lines(a) -> list[str]:
     # exactly determined: no degrees of freedom, or a residual at rounding level (the flip method on one pose per face)
-    exact = a.degrees_of_freedom() <= 0 or abs(a.fit.residual_rms_g) < EXACT_RESIDUAL_G
+    exact = exactly_determined(a.fit.residual_rms_g, a.degrees_of_freedom())
     fit = (f"chi2/dof {a.fit.chi2_per_dof:.2f}" if not exact else
            "exactly determined (as many estimates as measurements: the residual is zero by construction and says "
            "nothing about the noise)")
