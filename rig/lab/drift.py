@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 from calib.file.parameters import at_common_temperature
 from rig.lab.bias_temperature import TEMP_MATCH_C, ReferenceView, compared_parameters, reference_view
+from rig.lab.fit import EXACTLY_DETERMINED, exactly_determined
 from rig.lab.history import History, HistoryCorrupt
 from rig.lab.history_plot import history_figure, save_history_figure
 from rig.lab.units import shown, shown_unit
@@ -265,12 +266,22 @@ def _own_mark(view: ReferenceView, i: int) -> str:
     return (" @?C" if t is None else f" @{t:.1f}C") if view.own_temperature(i) else ""
 
 
+def fit_text(info: dict, unit: str = "ug") -> str:
+    """The fit of a history row in words: ``residual 91.9 ug  chi2/dof 1.19``, or, for an exactly determined fit
+    (a residual at rounding level: the flip method on six faces), ``residual 0.0 ug, exactly determined (no
+    residual to judge the fit)`` as ``rig solve`` says it (``unit``: ``ug`` on the console, ``µg`` in the report)."""
+    res = info.get("residual_rms_g")
+    residual = f"residual {1e6 * (res if res is not None else float('nan')):.1f} {unit}"
+    if exactly_determined(res):
+        return f"{residual}, {EXACTLY_DETERMINED}"
+    chi2 = info.get("chi2_per_dof")
+    return f"{residual}  chi2/dof {chi2 if chi2 is not None else float('nan'):.2f}"
+
+
 def _heading(i: int, r: CalibrationRecord) -> str:
     t = r.info.get("temp_mean_c")
     return (f"  #{i} {r.info['calibrated_at']}  {r.info.get('procedure_name') or '-'}  session "
-            f"{r.info.get('session_id')}  {'' if t is None else f'{t:.1f} C  '}"
-            f"residual {1e6 * (r.info.get('residual_rms_g') or float('nan')):.1f} ug  "
-            f"chi2/dof {r.info.get('chi2_per_dof') or float('nan'):.2f}"
+            f"{r.info.get('session_id')}  {'' if t is None else f'{t:.1f} C  '}{fit_text(r.info)}"
             + (f"  {r.info['verdict']}" if r.info.get("verdict") else "")
             + ("  simulated" if r.info.get("simulated") else ""))
 

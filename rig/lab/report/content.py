@@ -30,6 +30,7 @@ from rig.analysis.discover import already_modelled, document_headline
 from rig.errors import RigInputError
 from rig.lab.bias_temperature import reference_view
 from rig.lab.drift import CalibrationRecord, drift, flagged_names, history_notes, sensor_history
+from rig.lab.fit import EXACTLY_DETERMINED, exactly_determined
 from rig.lab.history import HistoryError, default_path, open_history
 from rig.lab.identity import sensor_identity
 from rig.lab.units import (GYRO_G_SENSITIVITY_UNIT, GYRO_NONORTHOGONALITY_UNIT, gyro_g_sensitivity_terms, shown,
@@ -255,9 +256,11 @@ def fit_quality(cal) -> list[tuple[str, str]]:
     a = cal.accelerometer
     fit = a.fit
     chi2 = fit.chi2_per_dof
+    exact = exactly_determined(fit.residual_rms_g, a.degrees_of_freedom())
     lines = [("accelerometer", f"{a.model} model by {fit.method or 'pinv'}: {fit.steps} steps used "
-                               f"({fit.samples} samples), residual {fit.residual_rms_g * 1e6:.1f} µg rms, chi2/dof "
-                               + (f"{chi2:.2f}" if math.isfinite(chi2) else "n/a (no degrees of freedom)")
+                               f"({fit.samples} samples), residual {fit.residual_rms_g * 1e6:.1f} µg rms, "
+                               + (EXACTLY_DETERMINED if exact else "chi2/dof "
+                                  + (f"{chi2:.2f}" if math.isfinite(chi2) else "n/a (no degrees of freedom)"))
                                + (" (beyond what the noise explains: the model misses something; see rig discover)"
                                   if cal.accelerometer.misfit()[0] else ""))]
     g = cal.gyroscope

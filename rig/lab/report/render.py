@@ -20,6 +20,7 @@ from rig import __version__
 from rig.analysis import plots
 from rig.analysis.effect_units import shown_effect_unit
 from rig.lab.drift import plot_history
+from rig.lab.fit import EXACTLY_DETERMINED, exactly_determined
 from rig.lab.report.content import (DiscoverSummary, HistoryView, ReportContent, Residuals, SeedTable,
                                     UncertaintyView, Verdict)
 from rig.lab.report.style import CSS
@@ -360,7 +361,8 @@ def history_html(h: HistoryView) -> str:
         rows.append([f"#{i + 1}{mark}", escape(when(info.get("calibrated_at") or "–")),
                      escape(str(info.get("procedure_name") or "–")), f"<code>{escape(str(info.get('session_id')))}</code>",
                      _num(info.get("temp_mean_c"), ".1f"), _num((info.get("residual_rms_g") or float("nan")) * 1e6, ".1f"),
-                     _num(info.get("chi2_per_dof"), ".2f"), escape(str(info.get("verdict") or "–"))])
+                     escape(EXACTLY_DETERMINED) if exactly_determined(info.get("residual_rms_g"))
+                     else _num(info.get("chi2_per_dof"), ".2f"), escape(str(info.get("verdict") or "–"))])
     flagged = (f"drift beyond 3 combined sigma between consecutive calibrations: {', '.join(h.flagged)}"
                if h.flagged else "no drift beyond 3 combined sigma between consecutive calibrations")
     body = (note(f"sensor {h.key}: {len(h.records)} calibration(s) in {h.path}, oldest first", "muted")

@@ -1,0 +1,70 @@
+"""Re-solves of one session in the history and the report (issue 33, the walkthrough on a fresh clone): an exactly
+determined flip solve says so instead of ``residual 0.0 ug  chi2/dof nan``; each re-solve shows how it was
+fitted and is not counted as drift (the same data), and a later session is compared like with like. The ``rig``
+commands run in this process (``rig.cli.main``) on six-position sessions the simulated rig records in virtual
+time (seed 3: one simulated sensor)."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import re
+
+import pytest
+
+from rig.cli import main
+
+from conftest import PROCEDURES
+from html_page import Page
+
+EXACT = "exactly determined (no residual to judge the fit)"
+
+
+def rig(*args) -> tuple[int, str]:
+    """``rig ARGS`` in this process: (exit code, what it printed on stdout)."""
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        code = main([str(a) for a in args])
+    return code, out.getvalue()
+
+
+@pytest.fixture(scope="module")
+def resolved(tmp_path_factory) -> dict:
+    """A six-position session solved by the run (pinv, triangular), re-solved by flip and with the full model,
+    then a second six-position session of the same sensor, all in one history: {"first", "second", "db", "key"}."""
+    root = tmp_path_factory.mktemp("resolves")
+    db = root / "h.sqlite"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("RIG_HISTORY", str(db))
+        sessions = []
+        for name in ("first", "second"):
+            assert rig("run", PROCEDURES / "six_position.yaml", "--seed", 3, "--time-scale", 0, "--out", root / name,
+                       "--quiet")[0] == 0
+            sessions.append(next((root / name).iterdir()))
+            if name == "first":
+                s = sessions[0]
+                assert rig("solve", s, "--method", "flip", "-o", s / "calibration-flip.yaml")[0] == 0
+                assert rig("solve", s, "--model", "full", "-o", s / "calibration-full.yaml")[0] == 0
+        key = json.loads(rig("history", "--all", "--json")[1])["sensors"][0]["sensor_key"]
+    return {"first": sessions[0], "second": sessions[1], "db": db, "key": key}
+
+
+def _history(resolved, *args) -> str:
+    code, out = rig("history", resolved["key"], "--all", "--wide", "--history", resolved["db"], *args)
+    assert code == 0
+    return out
+
+
+def test_a_flip_solve_is_said_to_be_exactly_determined_in_the_history_and_the_report(resolved, tmp_path):
+    out = _history(resolved)
+    (flip,) = [x for x in out.splitlines() if x.startswith("  #2 ")]
+    assert EXACT in flip and "chi2/dof nan" not in flip and "chi2/dof" not in flip
+    assert rig("report", resolved["first"], "--calibration", resolved["first"] / "calibration-flip.yaml",
+               "--history", resolved["db"], "-o", tmp_path / "r.html")[0] == 0
+    page = Page((tmp_path / "r.html").read_text())
+    assert EXACT in page.text("verdict") and "chi2/dof 0.00" not in page.text("verdict")
+    row = next(r for r in page.rows["history-table"] if "this report" in r[0])
+    assert row[-2] == EXACT  # the chi2/dof column
+
+
