@@ -19,7 +19,7 @@ import numpy as np
 from calib.acceptance import Acceptance, Drift, evaluate, largest_drift
 from calib.evaluation import evaluate as evaluate_poses
 from calib.file.parameters import at_common_temperature
-from rig.lab.drift import sensor_history
+from rig.lab.drift import fit_label, like_previous, sensor_history
 from rig.lab.history import HistoryError, calibration_row, open_history
 from rig.lab.units import shown_scale
 from rig.session import Session
@@ -68,7 +68,9 @@ def largest_attitude_error_deg(session: Session, cal) -> float | None:
 
 
 def previous_calibration(session: Session, cal, calibration_path=None, history=None) -> Drift | None:
-    """How far this calibration moved from the sensor's latest one in the history (None: unreadable)."""
+    """How far this calibration moved from the sensor's latest one of another session in the history, fitted the
+    same way when that session has one (:func:`rig.lab.drift.like_previous`: a re-solve of this session is the same
+    data, not drift); None: the history is unreadable."""
     try:
         row = calibration_row(session.path, calibration_path or session.path / "calibration.yaml",
                               manifest=session.info.to_dict(), calibration=cal)
@@ -76,9 +78,11 @@ def previous_calibration(session: Session, cal, calibration_path=None, history=N
             records = sensor_history(h, row["sensor"]["key"])
     except HistoryError:
         return None
-    if not records:
+    c = row["calibration"]
+    j = like_previous(records, c["session_id"], fit_label(c))  # a re-solve of this session is the same data
+    if j is None:
         return Drift(None)
-    last = records[-1]
+    last = records[j]
     current = {name: (v, s, u) for name, v, s, u in row["parameters"]}
     previous, current, _ = at_common_temperature(last.parameters, last.info.get("temp_mean_c"), current,
                                                  row["calibration"]["temp_mean_c"])

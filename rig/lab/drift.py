@@ -177,17 +177,59 @@ def history_notes(records: list[CalibrationRecord]) -> list[str]:
     return [n for r in records for n in r.notes]
 
 
-def _pair(records: list[CalibrationRecord], view: ReferenceView, i: int) -> tuple[dict, dict, float | None, list | None]:
-    """Calibrations ``i - 1`` and ``i`` as the drift compares them: ``(previous, current, at_temp_c, across_c)``.
-    Both at the reference temperature: the view's values there. Otherwise the pair at its own common temperature
-    (:func:`calib.file.parameters.at_common_temperature`), and ``across_c`` the two temperatures when no model
-    brings the biases to one (both without temperature terms, more than ``TEMP_MATCH_C`` apart)."""
-    prev, cur = records[i - 1], records[i]
-    if view.at_reference(i - 1) and view.at_reference(i):
-        return compared_parameters(prev, view, i - 1), compared_parameters(cur, view, i), view.temp_c, None
+def resolve_of(records: list[CalibrationRecord], i: int) -> int | None:
+    """The first calibration (index) of the session calibration ``i`` was solved from, when that is an earlier one:
+    ``i`` is then a re-solve of the same data (another method or model, ``rig solve S --method flip``), not a new
+    measurement of the sensor; None otherwise (and for a calibration whose session is unknown)."""
+    sid = records[i].info.get("session_id")
+    if sid is None:
+        return None
+    return next((j for j in range(i) if records[j].info.get("session_id") == sid), None)
+
+
+def fit_label(info: dict) -> str:
+    """How a calibration was fitted: ``triangular by pinv``, ``diagonal by flip`` (the history's model, method)."""
+    model, method = info.get("model"), info.get("method")
+    return f"{model or '?'} by {method}" if method else str(model or "-")
+
+
+def previous_index(records: list[CalibrationRecord], i: int) -> int | None:
+    """The calibration (index) calibration ``i`` is compared with for drift, like with like: a calibration of the
+    newest earlier session other than ``i``'s (re-solves of one session share its data: their differences are the
+    methods', not the sensor's), the one fitted as ``i`` was (same model and method) when that session has one, else
+    its newest. None: nothing to compare with (the sensor's first session, or ``i`` is a re-solve)."""
+    if resolve_of(records, i) is not None:
+        return None
+    return like_previous(records[:i], records[i].info.get("session_id"), fit_label(records[i].info))
+
+
+def like_previous(records: list[CalibrationRecord], session_id: str | None, fit: str) -> int | None:
+    """Among ``records`` (oldest first), the one a calibration of session ``session_id`` fitted as ``fit``
+    (:func:`fit_label`) is compared with: of the newest session other than ``session_id``, its calibration fitted
+    the same way when it has one, else its newest. None when every record is of ``session_id``."""
+    newest = next((j for j in range(len(records) - 1, -1, -1)
+                   if session_id is None or records[j].info.get("session_id") != session_id), None)
+    if newest is None:
+        return None
+    other = records[newest].info.get("session_id")
+    same = [j for j in range(newest + 1) if records[j].info.get("session_id") == other
+            and fit_label(records[j].info) == fit] if other is not None else []
+    return same[-1] if same else newest
+
+
+def _pair(records: list[CalibrationRecord], view: ReferenceView, j: int,
+          i: int) -> tuple[dict, dict, float | None, list | None]:
+    """Calibrations ``j`` (the previous one, :func:`previous_index`) and ``i`` as the drift compares them:
+    ``(previous, current, at_temp_c, across_c)``. Both at the reference temperature: the view's values there.
+    Otherwise the pair at its own common temperature (:func:`calib.file.parameters.at_common_temperature`), and
+    ``across_c`` the two temperatures when no model brings the biases to one (both without temperature terms, more
+    than ``TEMP_MATCH_C`` apart)."""
+    prev, cur = records[j], records[i]
+    if view.at_reference(j) and view.at_reference(i):
+        return compared_parameters(prev, view, j), compared_parameters(cur, view, i), view.temp_c, None
     p0, p1, common = at_common_temperature(prev.parameters, prev.info.get("temp_mean_c"), cur.parameters,
                                            cur.info.get("temp_mean_c"))
-    t0, t1 = view.biases[i - 1].temp_c, view.biases[i].temp_c
+    t0, t1 = view.biases[j].temp_c, view.biases[i].temp_c
     across = None
     if common is None and (t0 is None or t1 is None or abs(t1 - t0) > TEMP_MATCH_C):
         across = [t0, t1]
@@ -196,27 +238,31 @@ def _pair(records: list[CalibrationRecord], view: ReferenceView, i: int) -> tupl
 
 def drift(records: list[CalibrationRecord], limit: float = DRIFT_LIMIT_SIGMA,
           view: ReferenceView | None = None) -> dict[str, list[dict | None]]:
-    """Per parameter, per calibration: None for the first (or when the parameter is new), else
-    ``{delta, combined_sigma, z, flagged}``. Accelerometer biases are compared at the sensor's reference
-    temperature (:mod:`rig.lab.bias_temperature`, ``at_temp_c``) where both calibrations' biases hold there,
-    else at the pair's common temperature (``at_temp_c``), or, when no model brings them to one, as stated
-    (``across_temp_c``: the two temperatures)."""
+    """Per parameter, per calibration: None for the first (or when the parameter is new, or the calibration is a
+    re-solve of an earlier one's session: :func:`resolve_of`), else ``{delta, combined_sigma, z, flagged,
+    compared_with}`` against the calibration :func:`previous_index` picks (``compared_with``: its number, 1 for
+    the first). Accelerometer biases are compared at the sensor's reference temperature
+    (:mod:`rig.lab.bias_temperature`, ``at_temp_c``) where both calibrations' biases hold there, else at the
+    pair's common temperature (``at_temp_c``), or, when no model brings them to one, as stated (``across_temp_c``:
+    the two temperatures)."""
     view = view if view is not None else reference_view(records)
     names = list(dict.fromkeys(n for r in records for n in r.parameters))
-    pairs = [_pair(records, view, i) for i in range(1, len(records))]
+    previous = [previous_index(records, i) for i in range(len(records))]
+    pairs = [None if j is None else (j, *_pair(records, view, j, i)) for i, j in enumerate(previous)]
     out: dict[str, list[dict | None]] = {}
     for name in names:
-        col: list[dict | None] = [None]
+        col: list[dict | None] = []
         bias = name.startswith("accel.bias")
-        for p0, p1, common_c, across in pairs:
-            if name not in p0 or name not in p1:
+        for pair in pairs:
+            if pair is None or name not in pair[1] or name not in pair[2]:
                 col.append(None)
                 continue
+            j, p0, p1, common_c, across = pair
             (v0, s0, _), (v1, s1, _) = p0[name], p1[name]
             comb = math.hypot(s0, s1) if s0 is not None and s1 is not None else float("nan")
             z = (v1 - v0) / comb if comb > 0 else float("nan")
             col.append({"delta": v1 - v0, "combined_sigma": comb, "z": z,
-                        "flagged": bool(math.isfinite(z) and abs(z) > limit),
+                        "flagged": bool(math.isfinite(z) and abs(z) > limit), "compared_with": j + 1,
                         **({"at_temp_c": common_c} if common_c is not None and bias else {}),
                         **({"across_temp_c": across} if across is not None and bias else {})})
         out[name] = col
@@ -278,12 +324,15 @@ def fit_text(info: dict, unit: str = "ug") -> str:
     return f"{residual}  chi2/dof {chi2 if chi2 is not None else float('nan'):.2f}"
 
 
-def _heading(i: int, r: CalibrationRecord) -> str:
+def _heading(i: int, r: CalibrationRecord, records: list[CalibrationRecord]) -> str:
     t = r.info.get("temp_mean_c")
+    again = resolve_of(records, i - 1)
     return (f"  #{i} {r.info['calibrated_at']}  {r.info.get('procedure_name') or '-'}  session "
-            f"{r.info.get('session_id')}  {'' if t is None else f'{t:.1f} C  '}{fit_text(r.info)}"
+            f"{r.info.get('session_id')}  {'' if t is None else f'{t:.1f} C  '}{fit_label(r.info)}  "
+            f"{fit_text(r.info)}"
             + (f"  {r.info['verdict']}" if r.info.get("verdict") else "")
-            + ("  simulated" if r.info.get("simulated") else ""))
+            + ("  simulated" if r.info.get("simulated") else "")
+            + (f"  (a re-solve of #{again + 1}'s session: not compared for drift)" if again is not None else ""))
 
 
 #: the width ``rig history``'s table keeps to unless asked for every column (``--wide``), characters
@@ -314,7 +363,8 @@ def format_history(key: str, records: list[CalibrationRecord], max_width: int | 
     out and how to see them); None: every column."""
     view = reference_view(records)
     d = drift(records, view=view)
-    head = [f"sensor {key}: {len(records)} calibration(s)"] + [_heading(i, r) for i, r in enumerate(records, 1)]
+    head = [f"sensor {key}: {len(records)} calibration(s)"] + [_heading(i, r, records)
+                                                               for i, r in enumerate(records, 1)]
     cells = {}
     for n in d:
         row = []
@@ -343,9 +393,31 @@ def format_history(key: str, records: list[CalibrationRecord], max_width: int | 
     flagged = flagged_names(d)
     foot = (f"drift beyond {DRIFT_LIMIT_SIGMA:g} combined sigma: " + ", ".join(flagged)) if flagged else \
         f"no drift beyond {DRIFT_LIMIT_SIGMA:g} combined sigma"
+    foot += "".join(f"\n{x}" for x in like_with_like_lines(records))
     foot += "\n" + _reference_lines(view, d.get("accel.bias_x", []))
     notes = [f"note: {n}" for n in history_notes(records)]
     return "\n".join(head + [""] + lines + ["", foot] + notes)
+
+
+def like_with_like_lines(records: list[CalibrationRecord]) -> list[str]:
+    """Under the table: the re-solves (compared with nothing: the same data) and the calibrations compared with
+    another than the one before them (:func:`previous_index`)."""
+    out = []
+    again: dict[int, list[int]] = {}
+    for i in range(len(records)):
+        j = resolve_of(records, i)
+        if j is not None:
+            again.setdefault(j, []).append(i)
+    for j, later in again.items():
+        out.append(f"re-solves of session {records[j].info.get('session_id')} (#{j + 1}): "
+                   + ", ".join(f"#{i + 1} {fit_label(records[i].info)}" for i in later)
+                   + " (the same data: their differences are the methods', not drift; not compared)")
+    other = [f"#{i + 1} with #{j + 1}" for i in range(1, len(records))
+             if (j := previous_index(records, i)) is not None and j != i - 1]
+    if other:
+        out.append("compared like with like (the previous session's calibration fitted the same way): "
+                   + ", ".join(other))
+    return out
 
 
 def _reference_lines(view: ReferenceView, col: list[dict | None]) -> str:
@@ -364,12 +436,12 @@ def _reference_lines(view: ReferenceView, col: list[dict | None]) -> str:
     own = [f"#{i + 1}" for i in range(len(view.biases)) if view.own_temperature(i)]
     if own:
         out.append("marked @T: stated at their own temperature, no temperature model moves them: " + ", ".join(own))
-    moved = [f"#{i + 1} compared with #{i} at {c['at_temp_c']:.1f} C" for i, c in enumerate(col)
-             if c and "at_temp_c" in c and (view.own_temperature(i) or view.own_temperature(i - 1))]
+    moved = [f"#{i + 1} compared with #{c['compared_with']} at {c['at_temp_c']:.1f} C" for i, c in enumerate(col)
+             if c and "at_temp_c" in c and (view.own_temperature(i) or view.own_temperature(c["compared_with"] - 1))]
     if moved:
         out.append("accelerometer biases with temperature terms are carried to the other calibration's "
                    "temperature before comparing: " + "; ".join(moved))
-    across = [f"#{i + 1} with #{i}" for i, c in enumerate(col) if c and "across_temp_c" in c]
+    across = [f"#{i + 1} with #{c['compared_with']}" for i, c in enumerate(col) if c and "across_temp_c" in c]
     if across:
         out.append("compared as stated across temperatures (no temperature model; the change includes the "
                    "temperature's): " + ", ".join(across))

@@ -50,7 +50,8 @@ def test_history_record_list_show_json_plot(session, tmp_path, capsys, monkeypat
     assert "MPU-9150@0x68#0x68/sim-seed-3" in listing and "MPU-9150:SN-42" in listing
     assert main(["history", "sim-seed-3", "--plot", str(tmp_path / "h.png")]) == 0
     table = capsys.readouterr().out
-    assert "2 calibration(s)" in table and "accel.bias_x (counts)" in table and "(+0.0s)" in table
+    assert "2 calibration(s)" in table and "accel.bias_x (counts)" in table
+    assert "full by pinv" in table and "(a re-solve of #1's session: not compared for drift)" in table  # same data
     assert (tmp_path / "h.png").stat().st_size > 10_000
     assert main(["history", "SN-42", "--json", "--history", str(db)]) == 0
     doc = json.loads(capsys.readouterr().out)

@@ -68,3 +68,37 @@ def test_a_flip_solve_is_said_to_be_exactly_determined_in_the_history_and_the_re
     assert row[-2] == EXACT  # the chi2/dof column
 
 
+def test_re_solves_show_how_they_were_fitted_and_are_not_counted_as_drift(resolved):
+    out = _history(resolved)
+    heads = {int(m.group(1)): x for x in out.splitlines() if (m := re.match(r"  #(\d) ", x))}
+    assert "triangular by pinv" in heads[1] and "diagonal by flip" in heads[2] and "full by pinv" in heads[3]
+    for i in (2, 3):
+        assert "re-solve of #1's session: not compared for drift" in heads[i]
+    assert f"re-solves of session {resolved['first'].name} (#1): #2 diagonal by flip, #3 full by pinv" in out
+    doc = json.loads(_history(resolved, "--json"))
+    cals = doc["calibrations"]
+    for i in (1, 2):  # the re-solves: no change against the data they share
+        assert not any("change" in p for p in cals[i]["parameters"].values())
+
+
+def test_the_next_session_is_compared_with_the_previous_session_fitted_the_same_way(resolved):
+    """Session 2 (pinv, triangular) after session 1's three solves: compared with session 1's pinv triangular
+    calibration (#1), not with its full-model re-solve (#3), which came last."""
+    out = _history(resolved)
+    assert "compared like with like (the previous session's calibration fitted the same way): #4 with #1" in out
+    doc = json.loads(_history(resolved, "--json"))
+    change = doc["calibrations"][3]["parameters"]["accel.alpha_yz"]["change"]
+    assert change["compared_with"] == 1 and abs(change["z"]) < 3
+    (fourth,) = [x for x in out.splitlines() if x.startswith("  #4 ")]
+    assert "re-solve" not in fourth
+
+
+def test_the_report_of_a_re_solve_says_it_shows_no_change(resolved, tmp_path):
+    assert rig("report", resolved["first"], "--calibration", resolved["first"] / "calibration-full.yaml",
+               "--history", resolved["db"], "-o", tmp_path / "r.html")[0] == 0
+    page = Page((tmp_path / "r.html").read_text())
+    assert f"re-solves session {resolved['first'].name} (history #1, triangular by pinv)" in page.text("parameters")
+    assert not any(re.fullmatch(r"[+-]\d+\.\dσ( !)?", r[-1]) for r in page.rows["parameter-table"] if len(r) == 5)
+    fits = [r[4] for r in page.rows["history-table"][1:]]
+    assert fits == ["triangular by pinv", "diagonal by flip (re-solve of #1's session)",
+                    "full by pinv (re-solve of #1's session)", "triangular by pinv"]

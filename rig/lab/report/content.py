@@ -29,7 +29,8 @@ from calib.file.parameters import accel_parameters, sensor_parameters
 from rig.analysis.discover import already_modelled, document_headline
 from rig.errors import RigInputError
 from rig.lab.bias_temperature import reference_view
-from rig.lab.drift import CalibrationRecord, drift, flagged_names, history_notes, sensor_history
+from rig.lab.drift import (CalibrationRecord, drift, flagged_names, history_notes, like_with_like_lines, resolve_of,
+                           sensor_history)
 from rig.lab.fit import EXACTLY_DETERMINED, exactly_determined
 from rig.lab.history import HistoryError, default_path, open_history
 from rig.lab.identity import sensor_identity
@@ -114,6 +115,8 @@ class HistoryView:
     note: str = ""
     notes: list[str] = field(default_factory=list)  # damaged rows of the history: what is missing or left out
     reference: str = ""  # the temperature the accelerometer biases are compared at (rig.lab.bias_temperature)
+    like_with_like: list[str] = field(default_factory=list)  # re-solves (not compared) and who is compared with whom
+    resolve_of: int | None = None  # this report's calibration re-solves the session of records[resolve_of]
 
 
 @dataclass
@@ -575,7 +578,9 @@ def history_view(session: Session, cal, cal_path: Path, history_db=None) -> Hist
     exact = [i for i in mine if _cal_path(records[i]) == str(cal_path.resolve())]
     current = (exact or mine or [None])[-1]
     return HistoryView(path=path, key=key, records=records, current=current, flagged=flagged_names(drift(records)),
-                       notes=history_notes(records), reference=reference_view(records).describe())
+                       notes=history_notes(records), reference=reference_view(records).describe(),
+                       like_with_like=like_with_like_lines(records),
+                       resolve_of=None if current is None else resolve_of(records, current))
 
 
 def _cal_path(record: CalibrationRecord) -> str:

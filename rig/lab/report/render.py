@@ -19,7 +19,7 @@ import numpy as np
 from rig import __version__
 from rig.analysis import plots
 from rig.analysis.effect_units import shown_effect_unit
-from rig.lab.drift import plot_history
+from rig.lab.drift import fit_label, plot_history, resolve_of
 from rig.lab.fit import EXACTLY_DETERMINED, exactly_determined
 from rig.lab.report.content import (DiscoverSummary, HistoryView, ReportContent, Residuals, SeedTable,
                                     UncertaintyView, Verdict)
@@ -208,6 +208,10 @@ def parameters_html(c: ReportContent) -> str:
                  "than 3. Accelerometer biases are compared at the sensor's usual temperature, a thermal "
                  "calibration's carried there by its own bias polynomial (docs/history.md); the values shown are "
                  "this calibration's own.")
+    if c.history.resolve_of is not None:
+        first = c.history.records[c.history.resolve_of].info
+        text += (f" This calibration re-solves session {first.get('session_id')} (history #{c.history.resolve_of + 1}, "
+                 f"{fit_label(first)}): the same data, so no change is shown (the methods differ, not the sensor).")
     return section("parameters", "Parameters", note(text, "muted") + f'<table id="parameter-table" class="data">'
                    f"<thead><tr>{head}</tr></thead>{bodies}</table>")
 
@@ -360,15 +364,19 @@ def history_html(h: HistoryView) -> str:
         mark = ' <span class="tag">this report</span>' if i == h.current else ""
         rows.append([f"#{i + 1}{mark}", escape(when(info.get("calibrated_at") or "–")),
                      escape(str(info.get("procedure_name") or "–")), f"<code>{escape(str(info.get('session_id')))}</code>",
+                     escape(fit_label(info)) + (f" (re-solve of #{again + 1}'s session)"
+                                                if (again := resolve_of(h.records, i)) is not None else ""),
                      _num(info.get("temp_mean_c"), ".1f"), _num((info.get("residual_rms_g") or float("nan")) * 1e6, ".1f"),
                      escape(EXACTLY_DETERMINED) if exactly_determined(info.get("residual_rms_g"))
                      else _num(info.get("chi2_per_dof"), ".2f"), escape(str(info.get("verdict") or "–"))])
-    flagged = (f"drift beyond 3 combined sigma between consecutive calibrations: {', '.join(h.flagged)}"
-               if h.flagged else "no drift beyond 3 combined sigma between consecutive calibrations")
+    between = "between each calibration and the previous session's (re-solves of one session are not compared)"
+    flagged = (f"drift beyond 3 combined sigma {between}: {', '.join(h.flagged)}" if h.flagged
+               else f"no drift beyond 3 combined sigma {between}")
     body = (note(f"sensor {h.key}: {len(h.records)} calibration(s) in {h.path}, oldest first", "muted")
-            + table(["#", "calibrated", "procedure", "session", "temperature, °C", "residual, µg", "chi2/dof",
-                     "verdict"], rows, id_="history-table", numeric=(4, 5, 6))
-            + f'<p class="summary">{escape(flagged)}</p>' + (note(h.reference, "muted") if h.reference else ""))
+            + table(["#", "calibrated", "procedure", "session", "fit", "temperature, °C", "residual, µg", "chi2/dof",
+                     "verdict"], rows, id_="history-table", numeric=(5, 6, 7))
+            + f'<p class="summary">{escape(flagged)}</p>' + "".join(note(x, "muted") for x in h.like_with_like)
+            + (note(h.reference, "muted") if h.reference else ""))
     if len(h.records) >= 2:
         body += figure(plot_history(h.key, h.records), f"parameters of sensor {h.key} over its calibrations",
                        "history-plot")

@@ -74,8 +74,8 @@ def test_calibrations_round_trip(seed3, tmp_path):
     assert info["software_version"] == cal.software["version"]
     assert 20 < info["temp_mean_c"] < 40
     assert info["residual_rms_g"] == a.fit.residual_rms_g and info["chi2_per_dof"] == a.fit.chi2_per_dof
-    d = drift(records)
-    assert all(c["z"] == 0 and not c["flagged"] for col in d.values() for c in col[1:])
+    d = drift(records)  # the second is a re-solve of the first's session (the same data): not compared
+    assert all(col == [None, None] for col in d.values())
 
 
 def test_drift_between_two_sensors_under_one_id_is_flagged(seed3, seed4, tmp_path):
