@@ -213,14 +213,15 @@ def integer(minimum: int = 0, maximum: int | None = None, description: str | Non
 
 def choice(values: tuple, message: str | None = None, description: str | None = None, *,
            json_type: str | None = None):
-    """One of ``values`` (bool never equals 1); ``message`` may use ``{got}``. ``json_type``: the JSON
+    """One of ``values`` (bool never equals 1); ``message`` may use ``{got}``; a misspelt text gets the
+    closest value after it (``: did you mean 'pinv'?``, :func:`did_you_mean`). ``json_type``: the JSON
     Schema's ``type`` beside the ``enum`` (``"string"``), when the published schema says it."""
     values = tuple(values)
 
     def check(v):
         if isinstance(v, bool) or isinstance(v, (list, dict)) or v not in values:
             default = f"expected one of {', '.join(map(str, values))}, got {{got}}"
-            raise fail((message or default).format(got=got(v)))
+            raise fail((message or default).format(got=got(v)) + did_you_mean(v, values))
         return values[values.index(v)]
 
     schema: dict[str, Any] = {"enum": list(values)}
@@ -429,7 +430,8 @@ def _message(err: dict) -> str:
         return f"expected {text_}{fmt(ctx[name])}, got {got(err.get('input'))}"
     if kind in ("literal_error", "enum"):  # ctx: "'a', 'b' or 'c'"
         allowed = str(ctx.get("expected", "")).replace(" or ", ", ").replace("'", "")
-        return f"expected one of {allowed}, got {got(err.get('input'))}"
+        return f"expected one of {allowed}, got {got(err.get('input'))}" + did_you_mean(err.get("input"),
+                                                                                         allowed.split(", "))
     if kind == "extra_forbidden":
         return "unknown key"
     if kind in ("too_short", "too_long"):

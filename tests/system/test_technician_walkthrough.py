@@ -65,3 +65,37 @@ def test_a_misspelt_pose_names_its_step_as_the_progress_line_counts_it(tmp_path)
     assert re.fullmatch(rf"rig run: {re.escape(str(bad))}:\d+: steps\[4\] \(step 5\)\.pose: unknown pose '\+Y upp' "
                         r"\(allowed: .*\): did you mean '\+Y up'\?", err.strip()), err
     assert not (tmp_path / "s").exists()  # refused before anything was recorded
+
+
+# -- item 3: a misspelt value of a list of choices gets a "did you mean" -------------------------------------------
+SIX = (REPO / "procedures" / "six_position.yaml").read_text()
+SIM_RIG = (REPO / "rigs" / "sim.yaml").read_text()
+
+
+@pytest.mark.parametrize("kind, text, key, meant", [
+    ("procedure", SIX.replace("method: pinv", "method: pinvv"), "solve.method", "pinv"),
+    ("procedure", SIX.replace("model: triangular", "model: triangulr"), "solve.model", "triangular"),
+    ("procedure", SIX.replace("solve:", "order: shortst\nsolve:"), "order", "shortest"),
+    ("procedure", SIX.replace("accel_range_g: 4", "model: MPU9150, accel_range_g: 4"), "sensor.model", "MPU-9150"),
+    ("rig", SIM_RIG.replace("kind: sim", "kind: simm"), "kind", "sim"),
+    ("rig", SIM_RIG.replace("home: zero", "home: zer"), "home", "zero"),
+    ("rig", SIM_RIG.replace("model: MPU-9150", "model: MPU-9105"), "sensor.model", "MPU-9150"),
+])
+def test_a_misspelt_choice_in_a_procedure_or_rig_file_says_which_one_was_meant(tmp_path, kind, text, key, meant):
+    """Every enumerated value of the procedure and rig-file formats, as unknown keys and poses already do: the
+    choices, what was given, and the closest choice (one place: the shared field dialect)."""
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    args = ("run", path) if kind == "procedure" else ("run", REPO / "procedures" / "six_position.yaml", "--rig", path)
+    code, _, err = rig(*args, "--time-scale", 0, "--out", tmp_path / "s")
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert re.search(rf"{re.escape(str(path))}:\d+: {re.escape(key)}: expected .*, got .*: did you mean "
+                     rf"'{re.escape(meant)}'\?$", err.strip()), err
+
+
+def test_a_number_outside_its_choices_gets_no_guess(tmp_path):
+    """A range of 5 g is not a misspelling of 4 or 8: the choices are named, no guess is made."""
+    path = tmp_path / "bad.yaml"
+    path.write_text(SIX.replace("accel_range_g: 4", "accel_range_g: 5"))
+    code, _, err = rig("run", path, "--time-scale", 0, "--out", tmp_path / "s")
+    assert code == 2 and err.strip().endswith("sensor.accel_range_g: expected one of 2, 4, 8, 16, got 5"), err
