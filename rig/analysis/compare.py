@@ -22,6 +22,7 @@ pose with :func:`calib.discovery.search.unexplained`.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 from scipy import linalg, stats
@@ -301,9 +302,23 @@ def _structure_sentences(c: Comparison) -> list[str]:
     return [s for s in unexplained_lines(c.structure) if ": look for " in s]
 
 
+def same_session(c: Comparison) -> str | None:
+    """None unless A and B are one recording (the same session id); then ``""`` for the same directory given
+    twice, or the words for a copy of it elsewhere (``"; B is a copy of A at another path"``)."""
+    a, b = c.a.session, c.b.session
+    if a.id != b.id:
+        return None
+    return "" if Path(a.path).resolve() == Path(b.path).resolve() else "; B is a copy of A at another path"
+
+
 def headline(c: Comparison) -> list[str]:
     """One or two sentences a technician can act on: two different units; agree; or where they differ and
     what to look for."""
+    same = same_session(c)
+    if same is not None:
+        return [f"A and B are the same session ({c.a.session.id}{same}): nothing to compare.",
+                "Compare it with another session of the procedure: this unit's earlier one (rig history) or the "
+                "session recorded on its digital twin (docs/twin.md)."]
     u = c.units
     if u is not None and u.different:
         return [f"These are two different units ({u.a} vs {u.b}; {u.why}): their differences are the units' own "
@@ -326,7 +341,8 @@ def format_report(c: Comparison, details: bool = False) -> str:
     """The headline (:func:`headline`); with ``details`` then what was compared, the per-step table, the verdict
     and where."""
     if not details:
-        return "\n".join(headline(c) + [details_hint(c)])
+        hint = [] if same_session(c) is not None else [details_hint(c)]  # one recording: no statistics to look at
+        return "\n".join(headline(c) + hint)
     return "\n".join(headline(c) + ["", _statistics(c)])
 
 

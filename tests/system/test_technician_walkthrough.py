@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import re
+import shutil
 
 import pytest
 
@@ -99,3 +101,36 @@ def test_a_number_outside_its_choices_gets_no_guess(tmp_path):
     path.write_text(SIX.replace("accel_range_g: 4", "accel_range_g: 5"))
     code, _, err = rig("run", path, "--time-scale", 0, "--out", tmp_path / "s")
     assert code == 2 and err.strip().endswith("sensor.accel_range_g: expected one of 2, 4, 8, 16, got 5"), err
+
+
+# -- items 5, 6, 7: sessions of two seeds -------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def two_units(tmp_path_factory) -> dict:
+    """six_position sessions of two simulated units (seeds 0 and 11), each with its calibration."""
+    root = tmp_path_factory.mktemp("units")
+    out = {"root": root}
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("RIG_HISTORY", str(root / "h.sqlite"))
+        for seed in (0, 11):
+            code, _, _ = rig("run", REPO / "procedures" / "six_position.yaml", "--seed", seed, "--time-scale", 0,
+                             "--quiet", "--out", root / f"s{seed}")
+            assert code == 0
+            out[seed] = next((root / f"s{seed}").iterdir())
+    return out
+
+
+def test_compare_of_a_session_with_itself_says_first_that_there_is_nothing_to_compare(two_units, tmp_path):
+    """rig compare S0 S0 said "A and B agree at the noise level": it is one recording, and said so first (a copy
+    of the session elsewhere too); the exit code stays 0 (a report)."""
+    s0 = two_units[0]
+    code, out, _ = rig("compare", s0, s0)
+    assert code == 0
+    first = out.splitlines()[0]
+    assert first == f"A and B are the same session ({s0.name}): nothing to compare.", out
+    assert "agree at the noise level" not in out
+    copy = tmp_path / "copy"
+    shutil.copytree(s0, copy)
+    code, out, _ = rig("compare", s0, copy, "--json")
+    headline = json.loads(out)["headline"]
+    assert code == 0 and headline[0] == (f"A and B are the same session ({s0.name}; B is a copy of A at another "
+                                         "path): nothing to compare."), headline
