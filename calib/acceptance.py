@@ -101,6 +101,10 @@ class Drift:
     z: float | None = None
 
 
+#: the unit the residual's line states it in (the fit line of rig run and rig solve: ``residual 91.9 ug rms``)
+RESIDUAL_LINE_UNIT = ("ug", 1e6)
+
+
 def _g(x: float) -> str:
     return f"{x:.4g}"
 
@@ -147,14 +151,18 @@ def _each(pattern: str, params: dict, kind: str, limit: str, judge) -> list[Limi
     return checks
 
 
-def _upper(name: str, value, top: float, what: str, unit: str, missing: str) -> LimitCheck:
-    """``value <= top``; a missing or non-finite value fails with ``missing``."""
+def _upper(name: str, value, top: float, what: str, unit: str, missing: str,
+           line_unit: tuple[str, float] | None = None) -> LimitCheck:
+    """``value <= top``; a missing or non-finite value fails with ``missing``. ``line_unit``: (unit, factor) the
+    line for people states value and limit in (the check's ``value`` and ``limit`` keep ``unit``)."""
     unit_s = f" {unit}" if unit else ""
     if value is None or not math.isfinite(float(value)):
         return LimitCheck(name, f"<= {_g(top)}{unit_s}", None, False, f"{what}: cannot be checked: {missing}")
     ok = float(value) <= top
+    to, k = line_unit or (unit, 1.0)
+    to_s = f" {to}" if to else ""
     return LimitCheck(name, f"<= {_g(top)}{unit_s}", float(value), ok,
-                      f"{what} {_g(float(value))}{unit_s} {'<=' if ok else '>'} {_g(top)}{unit_s}")
+                      f"{what} {_g(float(value) * k)}{to_s} {'<=' if ok else '>'} {_g(top * k)}{to_s}")
 
 
 def evaluate(cal, limits: AcceptanceLimits, *, attitude_error_deg: float | None = None,
@@ -178,7 +186,7 @@ def evaluate(cal, limits: AcceptanceLimits, *, attitude_error_deg: float | None 
                              "no degrees of freedom left (too few steps for the model)"))
     if limits.max_residual_g is not None:
         checks.append(_upper("max_residual_g", fit.residual_rms_g, limits.max_residual_g, "residual rms", "g",
-                             "no residual"))
+                             "no residual", line_unit=RESIDUAL_LINE_UNIT))
     if limits.max_attitude_error_deg is not None:
         checks.append(_upper("max_attitude_error_deg", attitude_error_deg, limits.max_attitude_error_deg,
                              "largest roll/pitch error over the session's poses", "deg",

@@ -216,17 +216,32 @@ def _first_line(exc: BaseException) -> str:
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 
+#: the checks that are not a parameter's: (unit the file states value and limit in, unit shown, factor)
+FIT_CHECK_UNITS = {"max_residual_g": ("g", "µg", 1e6), "max_attitude_error_deg": ("deg", "deg", 1.0)}
+
+
 def _shown_limit(e: dict, units: dict) -> dict:
-    """A parameter check's value and limit in the unit the report shows the parameter in (angles in mrad, as the
-    line and every printout state them; the file keeps the stored unit)."""
+    """A check's value and limit in the unit the report shows the quantity in, the unit named beside both (angles
+    in mrad, as the line and every printout state them; the residual in µg, as the fit line above it; the file
+    keeps the stored unit: rad, g). ``unit``: the unit shown ("" for a ratio such as chi2/dof or sigmas)."""
     kind, _, name = e["name"].partition(" ")
-    unit = units.get(name) if kind in ("range", "sigma") else None
-    to, k = shown_scale(unit)
-    if unit is None or k == 1.0:
-        return e
-    value = e["value"] * k if isinstance(e["value"], (int, float)) and not isinstance(e["value"], bool) else e["value"]
-    limit = _NUMBER.sub(lambda m: f"{float(m.group()) * k:.4g}", str(e["limit"])) + f" {to}"
-    return {**e, "value": value, "limit": limit}
+    if kind in ("range", "sigma"):
+        stored = units.get(name)
+        to, k = shown_scale(stored)
+    elif e["name"] in FIT_CHECK_UNITS:
+        stored, to, k = FIT_CHECK_UNITS[e["name"]]
+    else:
+        return {**e, "unit": ""}
+    if stored is None:
+        return {**e, "unit": ""}
+    value = e["value"] * k if _is_number(e["value"]) else e["value"]
+    limit = _NUMBER.sub(lambda m: f"{float(m.group()) * k:.4g}", str(e["limit"]).removesuffix(f" {stored}"))
+    out = {**e, "value": value, "limit": f"{limit} {to}", "unit": to}
+    if e["name"] == "max_residual_g" and _is_number(e["value"]):  # the file's line states g: said in µg here
+        top = _NUMBER.search(limit)
+        out["line"] = (f"residual rms {value:.1f} µg {'<=' if e['passed'] else '>'} {top.group()} µg" if top
+                       else out["line"])
+    return out
 
 
 def _field(obj, name, default=None):

@@ -129,7 +129,9 @@ def verdict_html(v: Verdict) -> str:
         parts.append('<div class="alert alert-warning"><ul>' + "".join(f"<li>{escape(x)}</li>" for x in v.warnings)
                      + "</ul></div>")
     if v.limits:
-        rows = [[escape(e["name"]), _value(e["value"]), f'<span class="nowrap">{escape(str(e["limit"]))}</span>',
+        rows = [[escape(e["name"]), _value(e["value"]) + (f" {escape(e['unit'])}" if e.get("unit") and
+                                                           _value(e["value"]) != "not evaluated" else ""),
+                 f'<span class="nowrap">{escape(str(e["limit"]))}</span>',
                  '<span class="ok">pass</span>' if e["passed"] else '<span class="bad">fail</span>', escape(e["line"])]
                 for e in v.limits]
         parts.append(table(["check", "value", "limit", "result", "explanation"], rows, id_="acceptance-table",
