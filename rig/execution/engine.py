@@ -125,6 +125,7 @@ class Engine:
                 rig.axes[name].stage.command_zero()
         if resuming:
             self._restore_temperature()
+            self._restore_mounting()
 
     def _restore_temperature(self) -> None:
         """A resume continues at the temperature of the last temperature step before it (a hold point, or
@@ -132,6 +133,15 @@ class Engine:
         before = [s for s in self.steps[:self.first_step] if s.kind == "thermal"]
         if before and self.first_step < len(self.steps) and self.steps[self.first_step].executor != "thermal":
             executor_for(before[-1]).restore(self.ctx, before[-1], self.steps[self.first_step])
+
+    def _restore_mounting(self) -> None:
+        """A resume continues with the sensor in the mounting of the last re-mounting prompt before it (its
+        executor's ``restore``: the operator confirms, the rig turns a simulated sensor), unless it resumes at a
+        re-mounting prompt (which sets its own)."""
+        before = [s for s in self.steps[:self.first_step] if s.kind == "prompt" and s.mount is not None]
+        resumes_at = self.steps[self.first_step] if self.first_step < len(self.steps) else None
+        if before and resumes_at is not None and not (resumes_at.kind == "prompt" and resumes_at.mount is not None):
+            executor_for(before[-1]).restore(self.ctx, before[-1], resumes_at)
 
     def run(self) -> list[StepOutcome]:
         """Execute the steps from ``first_step`` on; stop all motors on any error."""

@@ -58,7 +58,7 @@ EXECUTORS: dict[str, Executor] = {
     "static": StepExecutor(static.execute),
     "rate": StepExecutor(rate.execute, preflight=rate.preflight),
     "thermal": StepExecutor(temperature.execute, preflight=temperature.preflight, restore=temperature.restore),
-    "prompt": StepExecutor(prompt.execute),
+    "prompt": StepExecutor(prompt.execute, restore=prompt.restore),
     "targeted": StepExecutor(targeted.execute, preflight=targeted.preflight),
     "ramp": StepExecutor(ramp.execute, preflight=ramp.preflight, restore=ramp.restore),
 }

@@ -26,3 +26,19 @@ def execute(ctx: RunContext, step: PlannedStep) -> None:
     if step.mount is not None and ctx.rig.remount is not None:
         ctx.rig.remount(step.mount.turn)
     ctx.recorder.complete_step(step.index, {"t_end_s": ctx.session_time()})
+
+
+def restore(ctx: RunContext, step: PlannedStep, next_step: PlannedStep | None = None) -> None:
+    """On a resume after the re-mounting prompt ``step`` (``next_step``: where the run resumes): the sensor must be in
+    that mounting again before the next capture (a resumed rig starts as placed; a technician may have taken the
+    sensor out): the operator is asked to confirm it, then the rig is told (the simulated rig turns its sensor)."""
+    text = (f"The run resumes at step {next_step.index + 1} ({next_step.name}) with the sensor in its fixture as "
+            f"after step {step.index + 1}: {step.mount.words()} from the reference mounting. Confirm it is mounted so."
+            if next_step is not None else question(step))
+    ok = ctx.operator.confirm(text)
+    ctx.event("prompt", step=step.index, text=text, answer="yes" if ok else "abort", restored=True)
+    if not ok:
+        raise RunAborted(f"operator aborted the resume before step {next_step.index + 1 if next_step else '?'}: "
+                         "the sensor's mounting was not confirmed")
+    if ctx.rig.remount is not None:
+        ctx.rig.remount(step.mount.turn)

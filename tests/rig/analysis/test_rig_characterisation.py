@@ -122,3 +122,50 @@ def test_axis_and_degrees_name_the_same_turn_as_the_cube_rotation():
     assert a.steps[0].mount.name == "x+z-" and a.steps[1].f_nominal == (0.0, 0.0, -1.0)
     assert [s.mount.name for s in load_procedure(PROCEDURES / "characterize_reversal.yaml").steps[::7]] == \
         ["x+z+", "x-z+", "x+z-"]
+
+
+class _Technician:
+    """Confirms every prompt; with ``stop_at`` (a step index) stops the run, as Ctrl-C would, when that step starts."""
+
+    def __init__(self, stop_at: int | None = None) -> None:
+        self.stop_at = stop_at
+        self.asked: list[str] = []
+
+    def info(self, message: str) -> None:
+        pass
+
+    def warn(self, message: str) -> None:
+        pass
+
+    def progress(self, progress) -> None:
+        if progress.index == self.stop_at:
+            from rig.execution.context import RunAborted
+            raise RunAborted(f"stopped by the operator at {progress.name}")
+
+    def can_confirm(self) -> bool:
+        return True
+
+    def confirm(self, question: str) -> bool:
+        self.asked.append(question)
+        return True
+
+
+def test_a_run_resumed_after_a_turn_resumes_in_that_mounting_and_characterises_as_an_unbroken_one(reversal, tmp_path):
+    from rig.execution.context import RunAborted
+    from rig.workflow.run import run_procedure
+    steps = load_procedure(PROCEDURES / "characterize_reversal.yaml").expanded_steps()
+    turned = [s for s in steps if s.kind == "static" and s.mount is not None and s.mount.name == "x-z+"]
+    stop = turned[3].index  # the fourth face turned about z
+    with pytest.raises(RunAborted):
+        run_procedure(str(PROCEDURES / "characterize_reversal.yaml"), rig_spec=geometry_rig(tmp_path),
+                      out_dir=tmp_path / "s", seed=3, time_scale=0, ui=_Technician(stop_at=stop), solve=False)
+    session_dir = next((tmp_path / "s").iterdir())
+    resumed = _Technician()
+    run_procedure(None, resume_dir=session_dir, ui=resumed, time_scale=0, solve=False)
+    # asked first to confirm the sensor is still turned about z, as after the prompt before the stop
+    assert resumed.asked[0].startswith(f"The run resumes at step {turned[3].index + 1}") and "about z" in resumed.asked[0]
+    fit = characterise_session(load_session(session_dir)).characterisation
+    unbroken = characterise_session(reversal[0]).characterisation
+    for name in unbroken.estimate_deg:  # the same hidden table and sensor (seed 3): the same table errors
+        assert abs(fit.estimate_deg[name] - unbroken.estimate_deg[name]) < 2 * unbroken.u_correction_deg[name], name
+    assert fit.chi2_per_dof < 3
