@@ -7,6 +7,7 @@ import sys
 
 import numpy as np
 
+from calib.accel.rig_propagation import GROUPS as RIG_GROUPS
 from calib.gyro import GyroCalibration
 from calib.gyro.result import NONORTHOGONALITY_NAMES
 from calib.mag import MagCalibration
@@ -86,9 +87,41 @@ def warn_if_misfit(cal, command: str) -> None:
     significant, p = cal.accelerometer.misfit()
     if significant:
         print(f"rig {command}: warning: the model does not fit the data (chi2/dof {fit.chi2_per_dof:.2f}, p = {p:.2g}, "
-              f"residual {fit.residual_rms_g * 1e6:.0f} ug rms): poses not where the session says (hand-placed?), "
+              f"residual {fit.residual_rms_g * 1e6:.0f} ug rms): poses not where the session says (hand-placed?"
+              f"{UNCHARACTERISED_TABLE if uncharacterised_table(cal.accelerometer) else ''}), "
               "another sensor, or an effect the model lacks; see rig discover. The sigmas carry the misfit.",
               file=sys.stderr)
+
+
+#: what a misfit on a turntable whose own errors are only known by their classes may be, and what takes them out
+UNCHARACTERISED_TABLE = ("; or the turntable's own errors, which its budget holds only by their classes: characterise "
+                         "the rig by reversal, procedures/characterize_reversal.yaml then rig characterize-rig")
+
+
+def uncertainty_rig_terms(accel) -> float:
+    """The largest standard uncertainty the turntable's own errors put into any quantity of ``accel``'s budget (0
+    without a budget or without rig terms: a simulated table without its errors, an import)."""
+    budget = (getattr(accel, "uncertainty", None) or {}).get("budget") or []
+    largest = 0.0
+    for entry in budget:
+        if entry.get("name") not in RIG_GROUPS:
+            continue
+        stack = [v for k, v in entry.items() if k not in ("name", "type", "source", "distribution")]
+        while stack:
+            v = stack.pop()
+            if isinstance(v, dict):
+                stack.extend(v.values())
+            elif isinstance(v, (list, tuple)):
+                stack.extend(v)
+            elif isinstance(v, (int, float)) and v == v:
+                largest = max(largest, abs(float(v)))
+    return largest
+
+
+def uncharacterised_table(accel) -> bool:
+    """Whether ``accel``'s budget holds a turntable's own errors by their classes (not by a characterisation)."""
+    rig = str((getattr(accel, "uncertainty", None) or {}).get("rig") or "")
+    return "characterised by reversal" not in rig and uncertainty_rig_terms(accel) > 0
 
 
 def format_magnetometer(m: MagCalibration, unit: str) -> str:
