@@ -55,6 +55,7 @@ class Parameter:
     sigma: float | None
     unit: str
     change: dict | None = None  # since the previous calibration of this sensor: {delta, combined_sigma, z, flagged}
+    temp_c: float | None = None  # the temperature the value holds at, when the model states one (a bias at t0), C
 
 
 @dataclass
@@ -341,8 +342,14 @@ def _num(x) -> float | None:
 
 def parameters(cal) -> list[Parameter]:
     """Every parameter of the calibration file with its 1-sigma and unit (the history's names; angles in mrad, as
-    ``rig run`` prints them: :mod:`rig.lab.units`)."""
+    ``rig run`` prints them: :mod:`rig.lab.units`); the accelerometer biases of a thermal model with the
+    temperature they hold at (``temp_c``: its ``t0``)."""
     out = [Parameter("accelerometer", n, *shown(v, s, u)) for n, v, s, u in accel_parameters(cal.accelerometer)]
+    temperature = cal.accelerometer.temperature
+    if temperature is not None:  # a thermal model states its biases at its reference temperature t0
+        for p in out:
+            if p.name.startswith("accel.bias_"):
+                p.temp_c = _num(temperature.t0_c)
     for e in cal.accelerometer.effects:
         lib = LIBRARY.get(e["name"])
         names = lib.params if lib is not None else [str(i) for i in range(len(e.get("estimate") or []))]

@@ -19,6 +19,7 @@ import numpy as np
 from rig import __version__
 from rig.analysis import plots
 from rig.analysis.effect_units import shown_effect_unit
+from rig.lab.bias_temperature import TEMP_MATCH_C
 from rig.lab.drift import fit_label, plot_history, resolve_of
 from rig.lab.fit import EXACTLY_DETERMINED, exactly_determined
 from rig.lab.report.content import (DiscoverSummary, HistoryView, ReportContent, Residuals, SeedTable,
@@ -174,11 +175,21 @@ def identity_html(c: ReportContent) -> str:
     return section("identity", "Sensor, rig and session", f'<div class="cards">{body}</div>')
 
 
-def _change(ch) -> str:
+def _change(ch, temp_c: float | None = None) -> str:
+    """The change in combined sigmas; ``at T C`` when it was compared at another temperature than ``temp_c``, the
+    one the value shown holds at (a thermal calibration's bias at its t0, compared at the sensor's usual one)."""
     if not ch or not math.isfinite(ch.get("z", float("nan"))):
         return "–"
     text = f"{ch['z']:+.1f}σ"
+    at = ch.get("at_temp_c")
+    if temp_c is not None and at is not None and abs(at - temp_c) > TEMP_MATCH_C:
+        text += f" at {at:.1f} C"
     return f'<span class="bad">{text} !</span>' if ch["flagged"] else text
+
+
+def _unit_at(p) -> str:
+    """The unit cell: the unit, and ``at 40.0 C`` for a value that holds at one temperature (a thermal bias)."""
+    return escape(p.unit) + (f" at {p.temp_c:.1f} C" if p.temp_c is not None else "")
 
 
 def _stem(name: str) -> str:
@@ -197,7 +208,8 @@ def parameters_html(c: ReportContent) -> str:
             decimals[_stem(p.name)] = max(d, decimals.get(_stem(p.name), d))
     for p in c.parameters:
         v, s = fmt_value(p.value, p.sigma, decimals.get(_stem(p.name)) if sigma_digits(p.sigma) is not None else None)
-        cells = [f"<code>{escape(p.name)}</code>", v, s, escape(p.unit)] + ([_change(p.change)] if with_change else [])
+        cells = [f"<code>{escape(p.name)}</code>", v, s, _unit_at(p)] + ([_change(p.change, p.temp_c)]
+                                                                         if with_change else [])
         groups.setdefault(p.section, []).append(
             '<tr class="param">' + "".join(f'<td{" class=num" if i in (1, 2, 4) else ""}>{x}</td>'
                                            for i, x in enumerate(cells)) + "</tr>")
@@ -209,7 +221,8 @@ def parameters_html(c: ReportContent) -> str:
         text += (" The change is in combined sigmas of this and the previous calibration of the sensor; ! marks more "
                  "than 3. Accelerometer biases are compared at the sensor's usual temperature, a thermal "
                  "calibration's carried there by its own bias polynomial (docs/history.md); the values shown are "
-                 "this calibration's own.")
+                 "this calibration's own, at the temperature the unit column names (a thermal model's t0), and a "
+                 "change compared at another temperature names that one.")
     if c.history.resolve_of is not None:
         first = c.history.records[c.history.resolve_of].info
         text += (f" This calibration re-solves session {first.get('session_id')} (history #{c.history.resolve_of + 1}, "
