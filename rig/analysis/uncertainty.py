@@ -14,14 +14,15 @@ characterised table puts them and the estimates' standard uncertainties replace 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
 
-import yaml
 
 import calib
+from calib.file import yamlsafe
 from calib.accel.budget import LINEAR_METHODS, at_local_gravity, linear_solve, uncertainty_section
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration
@@ -53,12 +54,17 @@ class RigFacts:
 def session_rig_facts(session) -> RigFacts | None:
     """What the budget needs of the session's rig file, when that is still there and unchanged (its recorded
     sha256), else None. Read without validating it again: its bytes are those the run validated (the digest says
-    so), and a full parse would load the simulator's schemas into every ``rig solve`` of a simulated session."""
-    path = _unchanged_rig_file(session)
-    if path is None:
-        return None
+    so), and a full parse would load the simulator's schemas into every ``rig solve`` of a simulated session. The
+    facts of one file's bytes are parsed once per process (:func:`_rig_facts`, keyed by the digest just checked):
+    an archive re-solved in one process reads its few rig files once each."""
+    found = _unchanged_rig_file_bytes(session)
+    return None if found is None else _rig_facts(*found)
+
+
+@functools.lru_cache(maxsize=64)
+def _rig_facts(path: Path, digest: str, data: bytes) -> RigFacts | None:
     try:
-        doc = yaml.load(path.read_text(encoding="utf-8"), Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+        doc = yamlsafe.load(data.decode("utf-8"))  # the guarded loader's fast path (libyaml events)
         sim = doc.get("sim") or {}
         axes = (doc.get("turntable") or {}).get("axes") or {}
         stated = doc.get("gravity")
@@ -66,21 +72,28 @@ def session_rig_facts(session) -> RigFacts | None:
         return RigFacts(path, doc.get("kind") == "sim", sim if isinstance(sim, dict) else {},
                         {n: SimpleNamespace(approach=(axes.get(n) or {}).get("approach", "none")) for n in STAGE_AXES},
                         gravity)
-    except (OSError, ValueError, TypeError, AttributeError, yaml.YAMLError):
+    except (ValueError, TypeError, AttributeError, UnicodeDecodeError, yamlsafe.HostileYaml):
         return None
 
 
-def _unchanged_rig_file(session) -> Path | None:
-    """The session's rig file when it is still there with the sha256 the run recorded, else None."""
+def _unchanged_rig_file_bytes(session) -> tuple[Path, str, bytes] | None:
+    """The session's rig file (path, sha256, bytes) when it is still there with the sha256 the run recorded."""
     rig = session.info.rig
     path, digest = rig.rig_file, rig.rig_file_sha256
     if not path or not digest:
         return None
     p = Path(path) if Path(path).is_absolute() else Path.cwd() / path
     try:
-        return p if hashlib.sha256(p.read_bytes()).hexdigest() == digest else None
+        data = p.read_bytes()
     except OSError:
         return None
+    return (p, digest, data) if hashlib.sha256(data).hexdigest() == digest else None
+
+
+def _unchanged_rig_file(session) -> Path | None:
+    """The session's rig file when it is still there with the sha256 the run recorded, else None."""
+    found = _unchanged_rig_file_bytes(session)
+    return None if found is None else found[0]
 
 
 def session_rig_file(session) -> RigFile | None:
