@@ -134,3 +134,21 @@ def test_compare_of_a_session_with_itself_says_first_that_there_is_nothing_to_co
     headline = json.loads(out)["headline"]
     assert code == 0 and headline[0] == (f"A and B are the same session ({s0.name}; B is a copy of A at another "
                                          "path): nothing to compare."), headline
+
+
+@pytest.mark.parametrize("command", ["evaluate", "apply"])
+def test_a_calibration_of_another_unit_is_said_in_one_note_naming_both(two_units, command, tmp_path):
+    """Seed 0's calibration on seed 11's session: one note on stderr names both sensor identities and the evidence
+    (as rig compare decides two sessions are two units); the command's output and exit code are unchanged. Its
+    own session: no note."""
+    cal = two_units[0] / "calibration.yaml"
+    extra = ("-o", tmp_path / "out.csv") if command == "apply" else ()
+    code, _, err = rig(command, cal, two_units[11], *extra)
+    assert code == 0
+    notes = [ln for ln in err.splitlines() if "another unit" in ln]
+    assert len(notes) == 1, err
+    assert notes[0].startswith(f"rig {command}: note: {cal} is the calibration of another unit "
+                               "(MPU-9150@0x68#0x68/sim-seed-0) than the session recorded "
+                               "(MPU-9150@0x68#0x68/sim-seed-11; simulated sensors drawn from seeds 0 and 11)"), notes
+    code, _, err = rig(command, cal, two_units[0], *extra)
+    assert code == 0 and "another unit" not in err, err

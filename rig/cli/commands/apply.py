@@ -10,6 +10,7 @@ import pandas as pd
 from calib.file import calibration as calfile
 from rig.analysis.apply import recording_from_session
 from rig.cli import outputs
+from rig.cli.commands.evaluate import note_other_unit
 from rig.cli.common import EXIT_OK, report_warnings
 from rig.session import load_session
 
@@ -28,6 +29,7 @@ def run(args) -> int:
     cal = calfile.read(args.calibration)
     session = load_session(args.session)
     report_warnings("apply", session)
+    note_other_unit("apply", cal, args.calibration, session)
     # the one entry point: every section the session has data for, after the sensor/range/unit checks
     out = cal.apply(recording_from_session(session), source=str(args.calibration))
     f, temp = out.f_g, out.temp_c

@@ -12,6 +12,7 @@ import numpy as np
 import calib
 from calib.accel.placement import check_placement
 from calib.file import calibration as calfile
+from rig.analysis.same_unit import calibration_units, other_unit_note
 from rig.cli.common import EXIT_OK, UsageError, json_default, report_warnings
 from rig.session import load_session, step_means
 
@@ -24,6 +25,15 @@ def add_parser(sub) -> None:
     e.add_argument("--method", choices=["poses", "magnitude"], default="poses",
                    help="poses: errors against the nominal poses (default); magnitude: |f| - 1 g in every static "
                         "step, no poses needed (hand-placed or unknown poses)")
+
+
+def note_other_unit(command: str, cal, calibration_path, session) -> None:
+    """One note on stderr when the calibration is of another unit than the session recorded (the evidence
+    ``rig compare`` uses, :mod:`rig.analysis.same_unit`); the command goes on, its exit code unchanged."""
+    note = other_unit_note(calibration_units(cal, calibration_path, session.info.to_dict(), session.path),
+                           calibration_path)
+    if note is not None:
+        print(f"rig {command}: {note}", file=sys.stderr)
 
 
 def check_same_sensor(cal, session, path) -> None:
@@ -63,6 +73,7 @@ def run(args) -> int:
     report_warnings("evaluate", session)
     check_same_sensor(cal, session, args.calibration)
     check_calibration_fits(cal.accelerometer, session, args.calibration)
+    note_other_unit("evaluate", cal, args.calibration, session)
     if args.method == "magnitude":
         return evaluate_magnitude(cal.accelerometer, session, args.json)
     steps = session.step_means()
