@@ -102,12 +102,20 @@ def slot_rig(rig: Rig, slot: Slot) -> Rig:
 def slot_steps(procedure, slot: Slot) -> list[StepRecord]:
     """The procedure's planned steps for the slot's session: each pose's nominal specific force (g) and body
     rate (deg/s) taken from the turntable frame to the slot's frame through its mounting rotation (``R^T v``)."""
+    return steps_in_frame(procedure, slot.rotation)
+
+
+def steps_in_frame(procedure, rotation) -> list[StepRecord]:
+    """The procedure's planned steps seen by a sensor mounted by ``rotation`` (3x3, its frame -> the turntable's):
+    each pose's nominal specific force (g) and body rate (deg/s) as ``R^T v`` (a fixture slot's session, and the
+    replay of one)."""
+    r = np.asarray(rotation, float)
     out = []
     for step in procedure.expanded_steps():
         d = step.to_manifest()
         for key in ("f_nominal", "rate_nominal_dps"):
             if d.get(key) is not None:
-                d[key] = [round(x, 12) + 0.0 for x in slot.to_slot_frame(d[key])]
+                d[key] = [round(float(x), 12) + 0.0 for x in r.T @ np.asarray(d[key], float)]
         out.append(StepRecord.model_validate(d))
     return out
 

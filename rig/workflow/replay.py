@@ -11,6 +11,7 @@ from rig.errors import RigInputError
 from rig.execution.operator import Operator, SilentOperator
 from rig.session import load_session
 from rig.workflow import kinds  # noqa: F401 - registers the "replay" rig kind (the simulator loads when it opens)
+from rig.workflow.batch import steps_in_frame
 from rig.workflow.lifecycle import NewSession, RunResult, execute, finish, start_session
 
 
@@ -29,7 +30,11 @@ def replay_session(session_dir, *, out_dir=None, ui: Operator | None = None, his
         new = NewSession(Path(out_dir) if out_dir is not None else Path(session_dir).resolve().parent,
                          f"{original.id}-replay-{stamp}", recorded.text, recorded.file,
                          extra={"replay_of": original.id, "seed": original.info.seed})
-        writer = start_session(procedure, rig, new)
+        # a fixture slot's session: its steps as the slot saw them, through its recorded mounting (docs/fixture.md)
+        fixture = (original.info.rig.sensor.model_extra or {}).get("fixture")
+        rotation = fixture.get("rotation_matrix") if isinstance(fixture, dict) else None
+        writer = start_session(procedure, rig, new, steps=None if rotation is None else steps_in_frame(procedure, rotation),
+                               sensor_info=None if rotation is None else {"fixture": fixture})
         # recorded sample times are session times: the session clock starts at 0 now
         outcomes = execute(procedure, rig, writer, ui or SilentOperator(answer=True),
                            time_offset_s=rig.clock.now())

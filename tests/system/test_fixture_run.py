@@ -193,3 +193,16 @@ def test_a_procedure_a_fixture_cannot_run_is_refused_before_anything_moves(tmp_p
     err = capsys.readouterr().err
     assert code == 2 and "a fixture runs static poses" in err, err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_slot_mounted_another_way_replays_to_its_own_calibration(batch, tmp_path):
+    slot = _slot_dirs(batch[0])[6]  # z+x+: its +x up the turntable's +z
+    code = main(["replay", str(slot), "--out", str(tmp_path)])
+    assert code == 0
+    replay = next(p for p in tmp_path.iterdir() if p.is_dir())
+    steps = yaml.safe_load((replay / "session.yaml").read_text())["steps"]
+    assert steps[0]["f_nominal"] == [1.0, 0.0, 0.0]  # the slot's design, through its recorded mounting
+    got = calfile.read(replay / "calibration.yaml").accelerometer
+    want = calfile.read(slot / "calibration.yaml").accelerometer
+    assert np.allclose(got.bias_counts, want.bias_counts, rtol=0, atol=1e-9)
+    assert np.allclose(got.scale_counts_per_g, want.scale_counts_per_g, rtol=0, atol=1e-9)
