@@ -27,11 +27,15 @@ file it replaces); an error while writing is one line naming the path given, nev
 
 from __future__ import annotations
 
+import array
+import fcntl
 import fnmatch
 import os
+import select
 import stat
 import sys
 import tempfile
+import termios
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -240,6 +244,31 @@ def write(out: Output, data: str | bytes) -> Path | None:
     except OSError as exc:
         raise out.refuse(exc.strerror or str(exc)) from None
     return out.path.resolve()
+
+
+def reader_left_unread(stream=None) -> bool:
+    """True when ``stream`` (standard output) is a pipe whose reader has closed it with bytes of ours still unread
+    (``rig apply ... -o - | head -1``: what was written fitted in the pipe, so no write failed). False while the
+    reader is there, when it read everything, or when ``stream`` is not a pipe. Linux: the pipe's POLLERR says
+    the reader is gone, FIONREAD what it left (unknown counts as left)."""
+    stream = sys.stdout if stream is None else stream
+    try:
+        fd = stream.fileno()
+        if not stat.S_ISFIFO(os.fstat(fd).st_mode):
+            return False
+        poller = select.poll()
+        poller.register(fd, 0)  # POLLERR and POLLHUP are always reported
+        gone = any(events & select.POLLERR for _, events in poller.poll(0))
+    except (OSError, ValueError, AttributeError):  # no descriptor (a test's capture), no poll: cannot tell
+        return False
+    if not gone:
+        return False
+    unread = array.array("i", [0])
+    try:
+        fcntl.ioctl(fd, termios.FIONREAD, unread)
+    except OSError:
+        return True
+    return unread[0] > 0
 
 
 def write_figure(out: Output, fig, dpi: int) -> Path:

@@ -8,8 +8,12 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import re
+import shlex
 import shutil
+import subprocess
+import sys
 
 import pytest
 
@@ -152,3 +156,36 @@ def test_a_calibration_of_another_unit_is_said_in_one_note_naming_both(two_units
                                "(MPU-9150@0x68#0x68/sim-seed-11; simulated sensors drawn from seeds 0 and 11)"), notes
     code, _, err = rig(command, cal, two_units[0], *extra)
     assert code == 0 and "another unit" not in err, err
+
+
+def test_apply_to_a_pipe_whose_reader_stops_early_never_claims_every_row_was_taken(two_units, tmp_path):
+    """``rig apply CALIB SESSION -o - | head -1`` said "wrote 6000 rows to stdout" after head had closed the pipe:
+    the rows fitted in the pipe, so no write failed. Now either the reader's early close ends the output silently
+    (the write failed: exit 0, as for any `| head`), or the line says the reader closed it before reading them all."""
+    session = two_units[0]
+    run = subprocess.run(f"{shlex.quote(sys.executable)} -m rig.cli apply {shlex.quote(str(session))}/calibration.yaml "
+                         f"{shlex.quote(str(session))} -o - | head -1", shell=True, capture_output=True, text=True,
+                         cwd=REPO, env={**os.environ, "RIG_HISTORY": str(tmp_path / "h.sqlite")}, timeout=120)
+    assert run.stdout == "t_s,step,fx,fy,fz,temp_c\n"
+    assert run.stderr in ("", "rig apply: wrote 6000 rows to stdout; its reader closed it before reading them all\n"), \
+        run.stderr
+
+
+def test_a_pipe_closed_by_its_reader_with_bytes_unread_is_told_from_one_read_to_its_end():
+    """What rig apply asks after writing to standard output (rig.cli.outputs.reader_left_unread): the reader still
+    there, or gone after reading everything: no; gone with bytes unread: yes; not a pipe: no."""
+    from rig.cli.outputs import reader_left_unread
+
+    for read_all, close_reader, left in ((False, False, False), (True, True, False), (False, True, True)):
+        r, w = os.pipe()
+        with os.fdopen(w, "w") as writer:
+            writer.write("row\n" * 100)
+            writer.flush()
+            if read_all:
+                os.read(r, 400)
+            if close_reader:
+                os.close(r)
+            assert reader_left_unread(writer) is left, (read_all, close_reader)
+        if not close_reader:
+            os.close(r)
+    assert reader_left_unread(io.StringIO()) is False

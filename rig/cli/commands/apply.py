@@ -41,6 +41,10 @@ def run(args) -> int:
     if out.h_ut is not None:
         table.update({f"m{a}_ut": _fmt(out.h_ut[:, j], "%.5f") for j, a in enumerate("xyz")})
     outputs.write(dest, pd.DataFrame(table).to_csv(None, index=False, lineterminator="\r\n"))
+    if dest.stdout and outputs.reader_left_unread(sys.stdout):  # `-o - | head -1`: taken by the pipe, not read
+        print(f"rig apply: wrote {len(f)} rows to stdout; its reader closed it before reading them all",
+              file=sys.stderr)
+        return EXIT_OK
     print(f"wrote {len(f)} rows to {'stdout' if dest.stdout else args.output}",
           file=sys.stderr if dest.stdout else sys.stdout)
     return EXIT_OK
