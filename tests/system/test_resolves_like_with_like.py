@@ -13,6 +13,7 @@ import re
 
 import pytest
 
+from calib.file import calibration as calfile
 from rig.cli import main
 
 from conftest import PROCEDURES
@@ -102,3 +103,21 @@ def test_the_report_of_a_re_solve_says_it_shows_no_change(resolved, tmp_path):
     fits = [r[4] for r in page.rows["history-table"][1:]]
     assert fits == ["triangular by pinv", "diagonal by flip (re-solve of #1's session)",
                     "full by pinv (re-solve of #1's session)", "triangular by pinv"]
+
+
+def test_the_drift_limit_of_a_re_solve_compares_with_the_previous_session_not_with_the_same_data(tmp_path,
+                                                                                                 monkeypatch):
+    """max_drift_sigma of `rig solve B --model full` compared with B's own run (the history's newest row), the same
+    data; it now compares with the previous session's calibration (A's)."""
+    monkeypatch.setenv("RIG_HISTORY", str(tmp_path / "h.sqlite"))
+    procedure = tmp_path / "six_drift.yaml"
+    procedure.write_text((PROCEDURES / "six_position.yaml").read_text() + "\naccept:\n  max_drift_sigma: 5\n")
+    runs = []
+    for name in ("a", "b"):
+        assert rig("run", procedure, "--seed", 3, "--time-scale", 0, "--out", tmp_path / name, "--quiet")[0] == 0
+        runs.append(next((tmp_path / name).iterdir()))
+    a_created, b_created = (calfile.read(r / "calibration.yaml").created for r in runs)
+    assert a_created != b_created  # the line tells which calibration it compared with by its time
+    assert rig("solve", runs[1], "--model", "full", "-o", tmp_path / "full.yaml")[0] in (0, 3)
+    (check,) = [c for c in calfile.read(tmp_path / "full.yaml").acceptance["limits"] if c["name"] == "max_drift_sigma"]
+    assert check["line"].startswith(f"drift since {a_created}:"), check["line"]
