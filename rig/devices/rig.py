@@ -136,6 +136,10 @@ class Rig:
     closed: bool = False
     fixture: Any | None = None  # rig.devices.fixture.Fixture
     remount: Callable[[Any], None] | None = None
+    #: the unit's own accelerometer bias stability (calib.numerics.stability.BiasStability, from its noise profile,
+    #: docs/noise.md) when the workflow found one for the sensor it opened; the accuracy-target predictor's, in place
+    #: of the chip family's figures
+    unit_accel_stability: Any | None = None
 
     @property
     def stages(self) -> dict[str, Any]:

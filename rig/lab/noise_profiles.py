@@ -183,6 +183,23 @@ def render_schema() -> str:
     return json.dumps(schema(), indent=2, sort_keys=True) + "\n"
 
 
+def unit_accel_stability(manifest: dict, history=None) -> tuple[object, NoiseProfile] | None:
+    """The accelerometer's :class:`~calib.numerics.stability.AxisStability` from the newest noise profile of the unit
+    a session manifest (``manifest``: its plain mapping) records, and that profile; None without one (or without
+    accelerometer figures in it, or when the history's folder cannot be read)."""
+    key = sensor_identity(manifest, SimpleNamespace(sensor=None))["key"]
+    try:
+        profile = latest_profile(key, history)
+    except (OSError, RigInputError):
+        return None
+    if profile is None:
+        return None
+    axes = unit_stabilities(profile).get("accel")
+    if not axes or not any(a.bias_instability > 0 or a.random_walk_per_rts > 0 for a in axes):
+        return None
+    return AxisStability.of(axes), profile
+
+
 def use_unit_profile(session, history=None) -> dict | None:
     """Attach the newest noise profile of ``session``'s unit (its identity as the history keys it) to the session
     (``Session.unit_noise``: the solvers' bias stability per sensor) and return the calibration file's ``noise``

@@ -14,6 +14,7 @@ from rig.execution.estimate import step_durations_s
 from rig.execution.engine import check_before_recording
 from rig.execution.fixture import check_fixture_procedure
 from rig.execution.operator import Operator, SilentOperator
+from rig.lab.noise_profiles import unit_accel_stability
 from rig.session.lock import SessionLock
 from rig.errors import RigInputError
 from rig.session import SessionManifest, SessionWriter
@@ -77,6 +78,7 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
         try:
             lock = SessionLock(writer.session_dir).acquire()
             operator.info(f"session {writer.session_dir}")
+            use_unit_noise(procedure, rig, writer, operator, history)
         except BaseException as exc:  # between the session's creation and the engine: still resumable
             abort_session(writer, exc)
             if isinstance(exc, KeyboardInterrupt):
@@ -90,6 +92,19 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     finally:
         rig.close()
         lock.release()
+
+
+def use_unit_noise(procedure, rig, writer, operator: Operator, history) -> None:
+    """A run with an accuracy target predicts with the unit's own noise figures when the history holds its noise
+    profile (``rig.unit_accel_stability``; docs/noise.md), and says so; the family's otherwise."""
+    if procedure.target is None:
+        return
+    found = unit_accel_stability(writer.info.to_dict(), history)
+    if found is not None:
+        rig.unit_accel_stability, profile = found
+        operator.info(f"accuracy target: predicted with the unit's own noise figures (its profile of "
+                      f"{profile.measured_at[:10]}, session {profile.session}), not the {profile.sensor.model or 'chip'} "
+                      "family's")
 
 
 def _run_fixture(procedure, procedure_path, rig, *, out_dir, seed: int, operator: Operator, solve: bool,

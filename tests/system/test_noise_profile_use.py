@@ -76,3 +76,32 @@ def test_a_damaged_profile_never_hides_a_valid_one_and_alone_leaves_the_family_f
     good.unlink()  # only the damaged file is left: the family's figures, and the file says nothing of a profile
     cal = _six_position(tmp_path, "b", monkeypatch)
     assert "noise" not in cal or cal["noise"] is None
+
+
+def _rapid(root: Path, name: str, monkeypatch, capsys) -> tuple[int, str, dict]:
+    monkeypatch.setenv("RIG_HISTORY", str(root / "history.sqlite"))
+    capsys.readouterr()
+    code = main(["run", str(PROCEDURES / "six_position_rapid.yaml"), "--seed", "9", "--time-scale", "0", "--out",
+                 str(root / name)])
+    printed = capsys.readouterr()
+    session = next((root / name).iterdir())
+    return code, printed.out + printed.err, yaml.safe_load((session / "session.yaml").read_text())
+
+
+def test_an_accuracy_target_is_predicted_with_the_units_profile(tmp_path, monkeypatch, capsys):
+    code, printed, family = _rapid(tmp_path, "family", monkeypatch, capsys)
+    assert code == 0 and "unit's own noise figures" not in printed
+    record_profile(_profile(1.6 * 40e-6 / math.sqrt(2), 1.6 * 4e-6), tmp_path / "history.sqlite")  # 1.6x the family
+    code, printed, unit = _rapid(tmp_path, "unit", monkeypatch, capsys)
+    assert code == 0 and "accuracy target: predicted with the unit's own noise figures (its profile of 2026-11-01" in printed
+    dwell = [sum(s["stats"]["n_samples"] for s in m["steps"] if s["kind"] == "static") for m in (family, unit)]
+    assert dwell[1] > 1.2 * dwell[0], dwell  # more wander to average down: longer dwells
+
+
+def test_a_unit_too_unstable_for_the_target_is_stopped_at_the_first_pose_naming_its_profile(tmp_path, monkeypatch,
+                                                                                           capsys):
+    record_profile(_profile(4 * 40e-6 / math.sqrt(2), 4 * 4e-6), tmp_path / "history.sqlite")  # 4x the family
+    code, printed, _ = _rapid(tmp_path, "unit", monkeypatch, capsys)
+    assert code != 0
+    assert "no dwell reaches it (this unit's bias stability (its noise profile) alone exceeds it)" in printed
+    assert "Stopped at the first pose" in printed

@@ -73,7 +73,11 @@ class TargetSetup:
         self.spec = procedure.target
         self.goal = self.spec.goal(procedure.solve.model)
         self.rate = float(procedure.sensor.sample_rate_hz)  # what the sensor is configured to (also before it is)
-        self.predictor = Predictor(self.goal, sensor.accel_lsb_per_g, stability=accel_stability(chip_of(sensor.model)))  # as the solver's
+        # as the solver's: the unit's own figures when its noise profile is known, else the chip family's
+        stability = rig.unit_accel_stability or accel_stability(chip_of(sensor.model))
+        self.stability_name = ("this unit's bias stability (its noise profile)" if rig.unit_accel_stability is not None
+                               else "the chip's bias stability")
+        self.predictor = Predictor(self.goal, sensor.accel_lsb_per_g, stability=stability)
         self.statics = [s for s in procedure.expanded_steps() if s.kind == "static"]
 
     def timeline(self, start_s: float, steps: list, dwell_s: list) -> tuple[np.ndarray, np.ndarray]:
@@ -192,7 +196,7 @@ class TargetPolicy:
                 f"(standard error of a 1 s mean {_fmt3(pooled)} counts) the best reachable is {describe(self.goal, best)},"
                 f" spending all {max(budget_s + tau, 0.0):.1f} s of dwell left"
                 + (f"; it needs about {need.total_s:.0f} s of dwell" if need.feasible else
-                   "; no dwell reaches it (the chip's bias stability alone exceeds it)"))
+                   f"; no dwell reaches it ({self.setup.stability_name} alone exceeds it)"))
         if first_look and not self.blocks and self.plan.ratio > REFUSE_FACTOR:
             raise RunError(f"{line}. Stopped at the first pose: relax the target or raise max_seconds")
         if not self.warned:
