@@ -189,6 +189,7 @@ def _resume_locked(resume_dir, *, rig_spec, seed, operator: Operator, time_scale
         time_offset = _resume_time_offset(writer.info)
         writer.event("resume", t_s=time_offset, first_step=first_step)
         operator.info(f"resuming {writer.session_dir} at step {first_step + 1}")
+        use_unit_noise(procedure, rig, writer, operator, history)
         outcomes = execute(procedure, rig, writer, operator, first_step=first_step, resuming=True,
                            time_offset_s=time_offset, options=options)
     finally:
