@@ -35,8 +35,14 @@ from rig.workflow.lifecycle import NewSession, RunResult, abort_session, finish,
 #: the batch record's format and file name
 BATCH_FORMAT = "rig-batch/1"
 BATCH_FILE = "batch.json"
-#: without acceptance limits a slot PASSes when its fit's residual is at most this, g rms, and no step was flagged
+#: without acceptance limits a slot is NO LIMITS (not FAIL) when its fit's residual is at most this, g rms, and no
+#: step was flagged
 FIT_RESIDUAL_LIMIT_G = 1e-3
+#: a slot's outcome, in the one-unit run's and the report's verdict words: PASS and FAIL against the procedure's
+#: ``accept:`` limits, NO LIMITS (a good fit, no limits to judge it by), FAULT (its sensor failed)
+OUTCOMES = ("PASS", "FAIL", "NO LIMITS", "FAULT")
+#: the outcomes that leave the run's exit code 0 (as the one-unit run without limits exits 0)
+GOOD_OUTCOMES = ("PASS", "NO LIMITS")
 
 
 @dataclass
@@ -47,7 +53,7 @@ class SlotOutcome:
     ----------
     slot, serial : the slot's number and its unit's serial
     rotation : the mounting rotation's name (or its matrix, rows)
-    outcome : ``PASS``, ``FAIL`` or ``FAULT``
+    outcome : one of :data:`OUTCOMES`
     reason : why FAIL or FAULT (one line), else None
     session_dir : the slot's session (None when its sensor failed before one was written)
     result : the slot's :class:`RunResult` (its calibration) when it was solved
@@ -62,13 +68,15 @@ class SlotOutcome:
     result: RunResult | None = None
 
     def parameters(self) -> dict | None:
-        """The main calibrated parameters: bias, mg, and scale factor, counts/g, per sensor axis (its own frame)."""
+        """The main calibrated parameters per sensor axis (its own frame): bias in counts (as every other view
+        prints it) and in mg (``bias_mg``, the record's first key), scale factor in counts/g, residual in ug rms."""
         cal = None if self.result is None else self.result.calibration
         if cal is None or cal.accelerometer is None:
             return None
         a = cal.accelerometer
         scale = np.asarray(a.scale_counts_per_g, float)
         return {"bias_mg": [round(float(b / k * 1e3), 4) for b, k in zip(a.bias_counts, scale)],
+                "bias_counts": [round(float(b), 2) for b in a.bias_counts],
                 "scale_counts_per_g": [round(float(k), 3) for k in scale],
                 "residual_ug": round(float(a.fit.residual_rms_g) * 1e6, 2)}
 
@@ -199,12 +207,12 @@ def _conclude_slot(procedure, run: SlotRun, *, solve: bool, history) -> SlotOutc
 
 
 def _judge(run: SlotRun, result: RunResult) -> tuple[str, str | None]:
-    """PASS/FAIL: the acceptance verdict when the procedure has limits, else the fit's quality (no flagged step,
-    residual within :data:`FIT_RESIDUAL_LIMIT_G`)."""
+    """PASS/FAIL: the acceptance verdict when the procedure has limits; else NO LIMITS when the fit is good (no
+    flagged step, residual within :data:`FIT_RESIDUAL_LIMIT_G`), FAIL when it is not."""
     flagged = [o.index + 1 for o in run.ctx.outcomes if o.status == "flagged"]
     c = result.conclusion
     if c is None:
-        return ("FAIL", "steps flagged: " + ", ".join(map(str, flagged))) if flagged else ("PASS", None)
+        return ("FAIL", "steps flagged: " + ", ".join(map(str, flagged))) if flagged else ("NO LIMITS", None)
     if c.acceptance is not None:
         return ("PASS", None) if c.passed else ("FAIL", "acceptance: " + "; ".join(
             chk.line for chk in c.acceptance.failed))
@@ -213,7 +221,7 @@ def _judge(run: SlotRun, result: RunResult) -> tuple[str, str | None]:
         return "FAIL", "steps flagged: " + ", ".join(map(str, flagged))
     if residual > FIT_RESIDUAL_LIMIT_G:
         return "FAIL", f"fit residual {residual * 1e6:.0f} ug rms > {FIT_RESIDUAL_LIMIT_G * 1e6:.0f} ug"
-    return "PASS", None
+    return "NO LIMITS", None
 
 
 def write_batch_record(batch_dir: Path, new: NewSession, procedure, rig: Rig, slots: list[SlotOutcome]) -> Path:
@@ -223,7 +231,7 @@ def write_batch_record(batch_dir: Path, new: NewSession, procedure, rig: Rig, sl
            "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
            "procedure": {"name": procedure.name, "file": new.procedure_file},
            "rig_file": rig.rig_file, "seed": rig.seed, "turntable": rig.turntable,
-           "counts": {k: sum(1 for s in slots if s.outcome == k) for k in ("PASS", "FAIL", "FAULT")},
+           "counts": {k: sum(1 for s in slots if s.outcome == k) for k in OUTCOMES},
            "slots": [s.to_record(batch_dir) for s in slots]}
     path = batch_dir / BATCH_FILE
     atomic_write_text(path, json.dumps(doc, indent=2) + "\n")
@@ -231,17 +239,19 @@ def write_batch_record(batch_dir: Path, new: NewSession, procedure, rig: Rig, sl
 
 
 def format_batch_table(slots: list[SlotOutcome], batch_dir: Path) -> str:
-    """The batch table: one line per slot (serial, outcome, bias mg and scale counts/g per axis, its session),
-    then the reasons of the slots that did not pass."""
-    head = f"{'slot':>4}  {'serial':<10} {'outcome':<7} {'bias x,y,z (mg)':<26} {'scale x,y,z (counts/g)':<29} session"
-    lines = [f"batch {batch_dir}: " + ", ".join(f"{sum(1 for s in slots if s.outcome == k)} {k}"
-                                                for k in ("PASS", "FAIL", "FAULT")), head]
+    """The batch table: one line per slot (serial, outcome, bias counts and scale counts/g per axis, its session),
+    then the reasons of the slots that did not pass. NO LIMITS is counted only when a slot has it."""
+    head = (f"{'slot':>4}  {'serial':<10} {'outcome':<9} {'bias x,y,z (counts)':<26} {'scale x,y,z (counts/g)':<29} "
+            "session")
+    shown = [k for k in OUTCOMES if k != "NO LIMITS" or any(s.outcome == k for s in slots)]
+    lines = [f"batch {batch_dir}: " + ", ".join(f"{sum(1 for s in slots if s.outcome == k)} {k}" for k in shown),
+             head]
     for s in slots:
         p = s.parameters()
-        bias = " ".join(f"{v:+8.3f}" for v in p["bias_mg"]) if p else "-"
+        bias = " ".join(f"{v:+8.2f}" for v in p["bias_counts"]) if p else "-"
         scale = " ".join(f"{v:9.1f}" for v in p["scale_counts_per_g"]) if p else "-"
         where = s.session_dir.name if s.session_dir is not None else "-"
-        lines.append(f"{s.slot:>4}  {s.serial:<10} {s.outcome:<7} {bias:<26} {scale:<29} {where}")
+        lines.append(f"{s.slot:>4}  {s.serial:<10} {s.outcome:<9} {bias:<26} {scale:<29} {where}")
     for s in slots:
         if s.reason:
             lines.append(f"  slot {s.slot} ({s.serial}) {s.outcome}: {s.reason}")

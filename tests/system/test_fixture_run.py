@@ -69,12 +69,12 @@ def _slot_dirs(batch_dir):
 def test_eight_slots_one_run_a_table_a_record_and_eight_sessions(batch, tmp_path):
     batch_dir, printed = batch
     rows = [line for line in printed.splitlines() if line.strip().split(" ")[0].isdigit() and "SIM-" in line]
-    assert len(rows) == 8 and all(" PASS " in r for r in rows), printed
-    assert "8 PASS, 0 FAIL, 0 FAULT" in printed
+    assert len(rows) == 8 and all(" NO LIMITS " in r for r in rows), printed
+    assert "0 PASS, 0 FAIL, 8 NO LIMITS, 0 FAULT" in printed
     record = json.loads((batch_dir / "batch.json").read_text())
     assert record["format"] == "rig-batch/1" and record["seed"] == 3
     assert [s["slot"] for s in record["slots"]] == list(range(8))
-    assert {s["outcome"] for s in record["slots"]} == {"PASS"}
+    assert {s["outcome"] for s in record["slots"]} == {"NO LIMITS"}  # six_position has no accept: limits
     slots = _slot_dirs(batch_dir)
     assert [batch_dir / s["session"] for s in record["slots"]] == slots
     rotations = set()
@@ -130,7 +130,7 @@ def test_a_slot_that_stops_answering_is_fault_and_the_others_are_unchanged(batch
     (tmp_path / "rig.yaml").write_text(yaml.safe_dump(rig))
     code, printed, batches = _run(tmp_path / "out", tmp_path / "rig.yaml", capsys)
     assert code == 3, printed  # a unit did not pass: the acceptance exit code, the batch ran to its end
-    assert "7 PASS, 0 FAIL, 1 FAULT" in printed
+    assert "0 PASS, 0 FAIL, 7 NO LIMITS, 1 FAULT" in printed
     record = json.loads((batches[0] / "batch.json").read_text())
     bad = record["slots"][3]
     assert bad["outcome"] == "FAULT" and "step 4 (-X up)" in bad["reason"], bad
@@ -139,7 +139,7 @@ def test_a_slot_that_stops_answering_is_fault_and_the_others_are_unchanged(batch
     for s in record["slots"]:
         if s["slot"] == 3:
             continue
-        assert s["outcome"] == "PASS"
+        assert s["outcome"] == "NO LIMITS"
         got = calfile.read(batches[0] / s["calibration"]).accelerometer
         want = calfile.read(clean[s["slot"]] / "calibration.yaml").accelerometer
         assert np.array_equal(got.bias_counts, want.bias_counts), s["slot"]
@@ -152,7 +152,7 @@ def test_slots_whose_outputs_saturate_or_freeze_are_quarantined_and_the_others_a
     (tmp_path / "rig.yaml").write_text(yaml.safe_dump(rig))
     code, printed, batches = _run(tmp_path / "out", tmp_path / "rig.yaml", capsys)
     assert code == 3, printed
-    assert "6 PASS, 0 FAIL, 2 FAULT" in printed
+    assert "0 PASS, 0 FAIL, 6 NO LIMITS, 2 FAULT" in printed
     record = json.loads((batches[0] / "batch.json").read_text())
     saturated, stuck = record["slots"][2], record["slots"][6]
     assert saturated["outcome"] == "FAULT" and "step 4 (-X up): saturated on" in saturated["reason"], saturated
@@ -166,7 +166,7 @@ def test_slots_whose_outputs_saturate_or_freeze_are_quarantined_and_the_others_a
             continue
         got = calfile.read(batches[0] / s["calibration"]).accelerometer
         want = calfile.read(clean[s["slot"]] / "calibration.yaml").accelerometer
-        assert s["outcome"] == "PASS" and np.array_equal(got.bias_counts, want.bias_counts), s["slot"]
+        assert s["outcome"] == "NO LIMITS" and np.array_equal(got.bias_counts, want.bias_counts), s["slot"]
 
 
 @pytest.mark.parametrize("change, expect", [

@@ -17,6 +17,7 @@ import sys
 
 import pytest
 
+from calib.file import calibration as calfile
 from rig.cli import main
 
 from conftest import REPO
@@ -189,3 +190,31 @@ def test_a_pipe_closed_by_its_reader_with_bytes_unread_is_told_from_one_read_to_
         if not close_reader:
             os.close(r)
     assert reader_left_unread(io.StringIO()) is False
+
+
+# -- item 4: a fixture run's table in the one-unit run's units and verdict words --------------------------------
+@pytest.mark.parametrize("procedure, verdict", [("six_position.yaml", "NO LIMITS"),
+                                                ("six_position_production.yaml", "PASS")])
+def test_the_batch_table_prints_bias_in_counts_and_the_one_unit_verdict_words(tmp_path, procedure, verdict):
+    """The batch table printed bias in mg where every other view prints counts, and PASS for a procedure without
+    accept: limits where the one-unit report says NO LIMITS. Now: bias in counts (the unit in the header, each
+    slot's value its calibration file's), PASS/FAIL only against limits, NO LIMITS otherwise (exit 0 either way);
+    batch.json keeps its keys (bias_mg too) and adds bias_counts and the NO LIMITS count."""
+    code, out, _ = rig("run", REPO / "procedures" / procedure, "--rig", REPO / "rigs" / "sim-fixture.yaml", "--seed", 3,
+                       "--time-scale", 0, "--quiet", "--out", tmp_path)
+    assert code == 0, out
+    lines = out.splitlines()
+    head = next(ln for ln in lines if ln.startswith("slot "))
+    assert "bias x,y,z (counts)" in head and "(mg)" not in out
+    rows = [ln for ln in lines if re.match(r"\s+\d+  SIM-", ln)]
+    assert len(rows) == 8 and all(f" {verdict} " in r for r in rows), out
+    (batch_dir,) = [d for d in tmp_path.iterdir() if d.is_dir()]
+    record = json.loads((batch_dir / "batch.json").read_text())
+    assert record["counts"] == {"PASS": 8 if verdict == "PASS" else 0, "FAIL": 0,
+                                "NO LIMITS": 8 if verdict == "NO LIMITS" else 0, "FAULT": 0}
+    for row, slot in zip(rows, record["slots"]):
+        assert slot["outcome"] == verdict and set(slot["parameters"]) == {"bias_mg", "bias_counts",
+                                                                          "scale_counts_per_g", "residual_ug"}
+        bias = calfile.read(batch_dir / slot["calibration"]).accelerometer.bias_counts
+        printed = [float(v) for v in row.split()[-7:-4]]
+        assert printed == pytest.approx(list(bias), abs=0.006) == slot["parameters"]["bias_counts"]

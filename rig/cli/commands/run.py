@@ -13,7 +13,7 @@ from rig.cli.console import ConsoleUI
 from rig.cli.terminal import say, say_raw
 from rig.execution.context import RunAborted
 from rig.session import SessionManifest
-from rig.workflow.batch import BatchResult, format_batch_table
+from rig.workflow.batch import GOOD_OUTCOMES, BatchResult, format_batch_table
 from rig.workflow.run import run_procedure
 
 
@@ -75,7 +75,7 @@ def _run_and_report(args, stop: SignalStop) -> int:
     if isinstance(result, BatchResult):  # a fixture: the table of units, each slot its own session (docs/fixture.md)
         say(format_batch_table(result.slots, result.batch_dir), out)
         say(f"batch record: {result.record_path}", out)
-        return EXIT_OK if all(s.outcome == "PASS" for s in result.slots) else EXIT_REJECTED
+        return EXIT_OK if all(s.outcome in GOOD_OUTCOMES for s in result.slots) else EXIT_REJECTED
     say(f"session: {result.session_dir}", out)
     recorded = (result.conclusion.session.info if result.conclusion is not None  # the whole session, across resumes
                 else SessionManifest.load(result.session_dir)[0])
