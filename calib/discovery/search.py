@@ -185,7 +185,7 @@ def coverage_problem(name: str, steps: StepMeans, ctx: StepContext, pose_free: b
 
 # -- the search -----------------------------------------------------------------------------
 def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: float = MISFIT_LEVEL,
-             candidates=None, t0_c: float | None = None) -> Discovery:
+             candidates=None, t0_c: float | None = None, progress=None) -> Discovery:
     """Run the discrepancy search on a session's step means.
 
     Parameters
@@ -197,6 +197,7 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
         over the candidates at each forward pass).
     candidates : effect names to consider (default: the whole library).
     t0_c : reference temperature (default: the mean step temperature).
+    progress : called with each stage's name as it starts (a long session's progress), or None.
     """
     ctx = ctx or StepContext()
     if len(steps) < 2:
@@ -205,14 +206,18 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
     unknown = [n for n in names if n not in LIBRARY]
     if unknown:
         raise CalibError(f"unknown effect(s): {', '.join(unknown)} (known: {', '.join(LIBRARY)})")
+    say = progress or (lambda stage: None)
+    say(f"what {len(steps)} steps observe of {len(names)} candidate effects")
     prob, t0, t_ref, base_fit, (observable, unobservable, why, _) = _prepared(steps, ctx, names, false_alarm, t0_c)
     fit = _Cache(prob)
-    selected, aliases = select(prob, observable, false_alarm, fit)
+    selected, aliases = select(prob, observable, false_alarm, fit, progress=say)
     factor, dropped = None, []
     if not verdict(fit(selected).rss, fit(selected).dof, false_alarm)[0]:
+        say("the fit's lack of fit")
         kept, factor = lack_of_fit(prob, selected, false_alarm, fit, NEEDS)
         if factor is not None:
             dropped, selected = factor["dropped"], kept
+    say(f"the {len(selected)} named effects tested again in the final model")
     selected, final, pvals, unsupported = supported(prob, selected, false_alarm, _refit, _Cache)
     d = _outcome(steps, ctx, prob, base_fit, final, selected, aliases, (unobservable, why), factor, dropped,
                  false_alarm, t0, t_ref, observable, pvals)

@@ -96,7 +96,7 @@ def remaining(observable: list, selected: list) -> list:
     return [n for n in observable if n not in selected and (n not in TEMP_EFFECTS or "bias_tempco" in selected)]
 
 
-def select(prob: Problem, observable: list, alpha: float, fit) -> tuple[list, list]:
+def select(prob: Problem, observable: list, alpha: float, fit, progress=None) -> tuple[list, list]:
     """Forward stepwise selection (Bonferroni over the candidates left), aliases, then backward elimination.
 
     When the most significant candidate has aliases (neither it nor they significant once the other
@@ -110,6 +110,8 @@ def select(prob: Problem, observable: list, alpha: float, fit) -> tuple[list, li
         left = remaining(observable, selected)
         if not left:
             break
+        if progress is not None:
+            progress(f"forward pass {len(selected) + 1}: {len(left)} candidates tested")
         cur = fit(selected)
         if "bias_jump" in left:
             scan_jump(prob, selected)

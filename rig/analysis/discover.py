@@ -103,16 +103,23 @@ def check_discover_size(session: Session, n_steps: int) -> None:
                             "the recording imported alone")
 
 
-def discover_session(session_dir, *, false_alarm: float = 0.01) -> tuple[Session, Discovery]:
-    """Load the session and run the discovery on its static steps (refused beyond :data:`MAX_DISCOVER_STEPS`)."""
+def discover_session(session_dir, *, false_alarm: float = 0.01, progress=None) -> tuple[Session, Discovery]:
+    """Load the session and run the discovery on its static steps (refused beyond :data:`MAX_DISCOVER_STEPS`).
+    ``progress``: called with each stage's name as it starts (``progress.steps(n)`` first, when it has one: the
+    static steps the session holds)."""
+    say = progress or (lambda stage: None)
+    say("reading the session")
     session = load_session(session_dir)
     idx = session.static_step_indices()
     if not idx:  # an imported recording without known poses: the pose-free baseline
         idx = session.static_step_indices(unknown_pose=True)
     check_discover_size(session, len(idx))
+    if hasattr(progress, "steps"):
+        progress.steps(len(idx))
+    say("the step means")
     steps = step_means(session, idx)
     ctx = step_context(session, idx)
-    return session, discover(steps, ctx, false_alarm=false_alarm)
+    return session, discover(steps, ctx, false_alarm=false_alarm, progress=progress)
 
 
 #: how the report names each baseline model (calib.discovery.search.Discovery.baseline)

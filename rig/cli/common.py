@@ -4,6 +4,8 @@ calibration formatting, how the end of every solve (:func:`rig.workflow.conclude
 from __future__ import annotations
 
 import sys
+import time
+from pathlib import Path
 
 import numpy as np
 
@@ -77,6 +79,34 @@ def format_calibration(cal) -> str:
         m = cal.magnetometer if isinstance(cal.magnetometer, MagCalibration) else MagCalibration.from_dict(cal.magnetometer)
         lines.append(format_magnetometer(m, "uT"))
     return "\n".join(lines)
+
+
+class Stages:
+    """``rig COMMAND: STAGE (T s)`` on stderr as each stage starts, for a long input only (more than ``long_bytes``
+    of samples, or more than ``long_steps`` steps once :meth:`steps` says how many): a progress that never
+    depends on stdout (it goes where the errors go, and a closed stderr does not stop the command)."""
+
+    def __init__(self, command: str, session_dir, *, long_steps: int, long_bytes: int) -> None:
+        try:
+            size = (Path(session_dir) / "samples.csv").stat().st_size
+        except OSError:
+            size = 0
+        self.command, self.long_steps = command, long_steps
+        self.size_mb = size / 1e6
+        self.on = size > long_bytes
+        self.start = time.monotonic()
+
+    def __call__(self, stage: str) -> None:
+        if self.on:
+            try:
+                print(f"rig {self.command}: {stage} ({time.monotonic() - self.start:.1f} s)", file=sys.stderr,
+                      flush=True)
+            except (OSError, ValueError):
+                self.on = False
+
+    def steps(self, n_steps: int) -> None:
+        """The input's length is known: long by its steps as well as by its bytes."""
+        self.on = self.on or n_steps > self.long_steps
 
 
 def warn_if_misfit(cal, command: str) -> None:

@@ -1,5 +1,5 @@
-"""A long session's solve says its stages on stderr as they start (issue 32 item 5: progress on long inputs);
-a short one's stays as it was, and the progress never changes what stdout says."""
+"""A long session's solve and discover say their stages on stderr as they start (issue 32 item 5: progress on long
+inputs); a short one's stay as they were, and the progress never changes what stdout says."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import io
 import pytest
 
 from rig.cli import main
+from rig.cli.commands import discover as discover_command
 from rig.cli.commands import solve as solve_command
 
 from conftest import PROCEDURES
@@ -46,3 +47,15 @@ def test_a_session_of_many_steps_is_long_whatever_its_size(session, tmp_path, mo
     monkeypatch.setattr(solve_command, "LONG_STEPS", 5)
     code, _, err = _rig("solve", session, "-o", tmp_path / "c.yaml")
     assert code == 0 and "rig solve: solving 6 steps (" in err and "rig solve: reading" not in err
+
+
+def test_a_long_sessions_discovery_says_its_passes_and_stdout_is_unchanged(session, monkeypatch):
+    code, quiet_out, quiet_err = _rig("discover", session)
+    assert code == 0 and "rig discover: " not in quiet_err
+    monkeypatch.setattr(discover_command, "LONG_STEPS", 3)  # six static steps count as long
+    code, out, err = _rig("discover", session)
+    assert code == 0 and out == quiet_out
+    stages = [x.split(" (")[0] for x in err.splitlines() if x.startswith("rig discover: ") and x.endswith(" s)")]
+    assert stages[0] == "rig discover: the step means" and stages[-1] == "rig discover: done", stages
+    assert "rig discover: what 6 steps observe of 13 candidate effects" in stages
+    assert any(x.startswith("rig discover: forward pass 1: ") for x in stages), stages

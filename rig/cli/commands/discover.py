@@ -11,7 +11,7 @@ from rig.analysis import plots
 from rig.analysis import propose as prop
 from rig.analysis import twin as twn
 from rig.cli import outputs
-from rig.cli.common import EXIT_OK, check_false_alarm, json_default, report_warnings
+from rig.cli.common import EXIT_OK, Stages, check_false_alarm, json_default, report_warnings
 
 
 def add_parser(sub) -> None:
@@ -43,6 +43,12 @@ OWN = ("calibration-*.yaml",)
 PLOT_DPI = 100
 
 
+#: a session of more static steps than this, or more bytes of samples, is discovered with its stages said on
+#: stderr as they start (a 400-step session takes about a minute: docs/discrepancy.md)
+LONG_STEPS = 100
+LONG_BYTES = 20 * 1024 * 1024
+
+
 def run(args) -> int:
     check_false_alarm(args.false_alarm)
     policy = outputs.OutputPolicy(inputs=[args.session], session=args.session, follow=args.follow)
@@ -57,7 +63,9 @@ def run(args) -> int:
         twin = policy.file(args.twin, option="--twin", what="the twin", directory=True)
     proposal = None if args.propose is None else policy.file(args.propose, option="--propose", what="the proposal",
                                                              make_parents=True)
-    session, d = dsc.discover_session(args.session, false_alarm=args.false_alarm)
+    stages = Stages("discover", args.session, long_steps=LONG_STEPS, long_bytes=LONG_BYTES)
+    session, d = dsc.discover_session(args.session, false_alarm=args.false_alarm, progress=stages)
+    stages("done")
     report_warnings("discover", session)
     extra = {}
     if plot is not None:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import sys
-import time
 from pathlib import Path
 
 from calib.errors import CalibError
@@ -13,7 +12,7 @@ from calib.mag import MagCalibration
 from rig.analysis.solve import (ABSENT_ACCEL, accelerometer_absent, magnetometer_units, refuse_misplaced_poses,
                                 solve_present_sensors, static_gyro)
 from rig.cli import outputs
-from rig.cli.common import (EXIT_OK, UsageError, format_calibration, format_magnetometer, json_default, parse_thermal,
+from rig.cli.common import (EXIT_OK, Stages, UsageError, format_calibration, format_magnetometer, json_default, parse_thermal,
                             present, report_warnings, warn_if_misfit)
 from rig.session import load_session
 from rig.workflow.conclude import conclude
@@ -41,33 +40,6 @@ def add_parser(sub) -> None:
 LONG_STEPS = 1000
 LONG_BYTES = 20 * 1024 * 1024
 
-
-class Stages:
-    """``rig solve: STAGE (T s so far)`` on stderr as each stage starts, for a long session only (a progress that
-    never depends on stdout: it goes where the errors go, and a closed stderr does not stop the solve)."""
-
-    def __init__(self, session_dir) -> None:
-        d = Path(session_dir)
-        try:
-            size = (d / "samples.csv").stat().st_size
-        except OSError:
-            size = 0
-        self.size_mb = size / 1e6
-        self.on = size > LONG_BYTES
-        self.start = time.monotonic()
-
-    def __call__(self, stage: str) -> None:
-        if self.on:
-            try:
-                print(f"rig solve: {stage} ({time.monotonic() - self.start:.1f} s)", file=sys.stderr, flush=True)
-            except (OSError, ValueError):
-                self.on = False
-
-    def steps(self, n_steps: int) -> None:
-        """The session's length is known: long by its steps as well as by its bytes."""
-        self.on = self.on or n_steps > LONG_STEPS
-
-
 #: option pairs that contradict each other: (option, value, other option, value or None for any, why)
 CONFLICTS = [
     ("method", "flip", "model", "full", "the flip method fits biases and scale factors only (no cross-axis terms)"),
@@ -82,7 +54,7 @@ def run(args) -> int:
         if getattr(args, key) == value and given is not None and (other_value is None or given == other_value):
             raise UsageError(f"--{key} {value} cannot be combined with --{other} {given}: {why}")
     out = output(args) if args.output is not None else None  # -o: checked before the session is read
-    stages = Stages(args.session)
+    stages = Stages("solve", args.session, long_steps=LONG_STEPS, long_bytes=LONG_BYTES)
     stages(f"reading the session ({stages.size_mb:.0f} MB of samples)")
     session = load_session(args.session)
     stages.steps(len(session.info.steps))
