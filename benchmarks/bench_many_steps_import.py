@@ -33,8 +33,8 @@ quadratic) 11.6 s, now a field validator of ``steps``; the manifest's YAML dumpe
 14 s, now dumped once at the end and the seal computed from the mapping just written. ``rig solve`` of 10,000
 steps: 70 % is one SVD with full matrices (``calib.numerics.design._null_names``: a 30,000 x 30,000 U never used);
 with ``full_matrices=False`` the same solve took 2.2 s (median of 3; not this change's file). Progress: ``rig
-import`` prints ``N of M steps written`` on stderr every 5 s beyond 1,000 steps; ``rig solve`` and ``rig discover``
-show none.
+import`` prints ``N of M steps written`` on stderr every 5 s beyond 1,000 steps; ``rig solve`` (beyond 1,000 steps
+or 20 MB) and ``rig discover`` (beyond 100 static steps) say each stage as it starts (since 2026-11-26).
 """
 
 from __future__ import annotations
