@@ -12,6 +12,11 @@ class SensorError(Exception):
     """A sensor failed; one line: chip, bus address, what went wrong."""
 
 
+class SensorAbsent(SensorError):
+    """No chip answered at the sensor's address when its identity was read: not there, not powered or not
+    wired (a fixture slot left empty is ABSENT, not a failed unit)."""
+
+
 @dataclass(frozen=True)
 class SensorSettings:
     accel_range_g: int = 4
@@ -133,8 +138,8 @@ def check_identity(bus, address: int, model: str, register: int, register_name: 
     try:
         value = bus.read_byte_data(address, register)
     except OSError as exc:
-        raise SensorError(f"{model} at 0x{address:02x}: no answer on the I2C bus ({exc.strerror or exc}); "
-                          f"{hint}") from None
+        raise SensorAbsent(f"{model} at 0x{address:02x}: no answer on the I2C bus ({exc.strerror or exc}); "
+                           f"{hint}") from None
     if value != expected:
         raise SensorError(f"{model} at 0x{address:02x}: {register_name} reads 0x{value:02x}, expected "
                           f"0x{expected:02x} (wrong chip at this address?)")

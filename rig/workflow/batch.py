@@ -22,7 +22,7 @@ import numpy as np
 
 from calib.errors import CalibError
 from calib.file.calibration import atomic_write_text
-from drivers.sensors.base import SensorError
+from drivers.sensors.base import SensorAbsent, SensorError
 from rig.devices.fixture import Slot
 from rig.devices.rig import Rig
 from rig.execution.context import EngineOptions, RunContext, RunError
@@ -39,8 +39,9 @@ BATCH_FILE = "batch.json"
 #: step was flagged
 FIT_RESIDUAL_LIMIT_G = 1e-3
 #: a slot's outcome, in the one-unit run's and the report's verdict words: PASS and FAIL against the procedure's
-#: ``accept:`` limits, NO LIMITS (a good fit, no limits to judge it by), FAULT (its sensor failed)
-OUTCOMES = ("PASS", "FAIL", "NO LIMITS", "FAULT")
+#: ``accept:`` limits, NO LIMITS (a good fit, no limits to judge it by), FAULT (its sensor failed), ABSENT (no chip
+#: answered at the slot's address when the batch started: an empty slot, or one not wired)
+OUTCOMES = ("PASS", "FAIL", "NO LIMITS", "FAULT", "ABSENT")
 #: the outcomes that leave the run's exit code 0 (as the one-unit run without limits exits 0)
 GOOD_OUTCOMES = ("PASS", "NO LIMITS")
 
@@ -158,8 +159,9 @@ def run_batch(procedure, rig: Rig, new: NewSession, operator: Operator, *, optio
             writer = start_slot_session(procedure, view, slot, dataclasses.replace(
                 new, sessions_root=batch_dir, session_id=f"{new.session_id}-slot{slot.index}"))
         except (SensorError, RunError) as exc:  # its chip failed (no answer, its self-test): this slot only
-            outcomes[slot.index] = SlotOutcome(slot.index, slot.serial, rotation, "FAULT", _one_line(exc))
-            operator.warn(f"slot {slot.index} ({slot.serial}): FAULT before recording: {_one_line(exc)}; "
+            outcome = "ABSENT" if isinstance(exc, SensorAbsent) else "FAULT"
+            outcomes[slot.index] = SlotOutcome(slot.index, slot.serial, rotation, outcome, _one_line(exc))
+            operator.warn(f"slot {slot.index} ({slot.serial}): {outcome} before recording: {_one_line(exc)}; "
                           "the others go on")
             continue
         ctx = RunContext(procedure=procedure, rig=view, recorder=writer, operator=operator, options=options,
@@ -243,7 +245,7 @@ def format_batch_table(slots: list[SlotOutcome], batch_dir: Path) -> str:
     then the reasons of the slots that did not pass. NO LIMITS is counted only when a slot has it."""
     head = (f"{'slot':>4}  {'serial':<10} {'outcome':<9} {'bias x,y,z (counts)':<26} {'scale x,y,z (counts/g)':<29} "
             "session")
-    shown = [k for k in OUTCOMES if k != "NO LIMITS" or any(s.outcome == k for s in slots)]
+    shown = [k for k in OUTCOMES if k not in ("NO LIMITS", "ABSENT") or any(s.outcome == k for s in slots)]
     lines = [f"batch {batch_dir}: " + ", ".join(f"{sum(1 for s in slots if s.outcome == k)} {k}" for k in shown),
              head]
     for s in slots:
