@@ -212,7 +212,7 @@ def test_the_batch_table_prints_bias_in_counts_and_the_one_unit_verdict_words(tm
     (batch_dir,) = [d for d in tmp_path.iterdir() if d.is_dir()]
     record = json.loads((batch_dir / "batch.json").read_text())
     assert record["counts"] == {"PASS": 8 if verdict == "PASS" else 0, "FAIL": 0,
-                                "NO LIMITS": 8 if verdict == "NO LIMITS" else 0, "FAULT": 0}
+                                "NO LIMITS": 8 if verdict == "NO LIMITS" else 0, "FAULT": 0, "ABSENT": 0}
     for row, slot in zip(rows, record["slots"]):
         assert slot["outcome"] == verdict and set(slot["parameters"]) == {"bias_mg", "bias_counts",
                                                                           "scale_counts_per_g", "residual_ug"}
