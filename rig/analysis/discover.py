@@ -20,7 +20,7 @@ from calib.discovery.effects import LIBRARY, heating_state
 from calib.errors import CalibError
 from rig.analysis import plots
 from rig.analysis.effect_units import shown_effect_unit
-from rig.analysis.solve import SOFTWARE, sensor_section
+from rig.analysis.solve import SOFTWARE, accelerometer_absent, sensor_section
 from rig.errors import RigInputError
 from rig.planning.kinematics import sensor_to_world
 from rig.session import Session, load_session, step_means
@@ -114,6 +114,9 @@ def discover_session(session_dir, *, false_alarm: float = 0.01, progress=None) -
     if not idx:  # an imported recording without known poses: the pose-free baseline
         idx = session.static_step_indices(unknown_pose=True)
     check_discover_size(session, len(idx))
+    if accelerometer_absent(session):
+        raise CalibError(f"{session.path}: the session has no accelerometer data (an import of other sensors only): "
+                         "rig discover searches the accelerometer's model; rig solve solves the sensors it has")
     if hasattr(progress, "steps"):
         progress.steps(len(idx))
     say("the step means")

@@ -67,6 +67,10 @@ def run(args) -> int:
               f"{', '.join(pending[:10])}{' ...' if len(pending) > 10 else ''}; solving what was recorded",
               file=sys.stderr)
     if accelerometer_absent(session):
+        if args.output is not None:  # a file asked for that cannot be written: refused, never exit 0 without it
+            raise UsageError(f"-o {args.output}: {session.path} has no accelerometer data, and a calibration file "
+                             "(rig-calibration/1) holds an accelerometer section, so none can be written; "
+                             f"rig solve {session.path} --json > FILE keeps its magnetometer and gyroscope")
         return solve_without_accelerometer(session, args.json)
     if not args.trust_poses:
         refuse_misplaced_poses(session, model=args.model, method=args.method, thermal=thermal)

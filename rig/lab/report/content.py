@@ -27,6 +27,7 @@ from calib.gyro.result import NONORTHOGONALITY_NAMES
 from calib.mag.result import sigma_names as mag_sigma_names
 from calib.file.parameters import accel_parameters, sensor_parameters
 from rig.analysis.discover import already_modelled, document_headline
+from rig.analysis.solve import accelerometer_absent
 from rig.errors import RigInputError
 from rig.lab.bias_temperature import reference_view
 from rig.lab.drift import (CalibrationRecord, drift, flagged_names, history_notes, like_with_like_lines, resolve_of,
@@ -176,6 +177,10 @@ def load(session_dir, calibration=None, *, session: Session | None = None,
     if calibration_file is not None:
         return session, calibration_file, path
     if not path.exists():
+        if calibration is None and accelerometer_absent(session):
+            raise RigInputError(str(session_dir), None, None, "the session has no accelerometer data, so it has no "
+                                "calibration file to report (rig-calibration/1 holds an accelerometer section): "
+                                f"`rig solve {session_dir}` prints its magnetometer and gyroscope (--json keeps them)")
         if calibration is None:
             raise RigInputError(str(path), None, None, f"no calibration yet: run `rig solve {session_dir}` first "
                                 "(or give one with --calibration)")
@@ -634,3 +639,4 @@ def gather(session_dir, *, calibration=None, history_db=None, session: Session |
                          parameters=params, residuals=residuals(session, cal), seed=seed_table(session, cal),
                          discover=discover_outputs(session, others, problems), history=hist, sensor_key=hist.key,
                          other_calibrations=others, uncertainty=uncertainty_view(cal))
+

@@ -68,3 +68,18 @@ def test_the_option_with_labels_or_another_format_is_refused_in_one_line(tmp_pat
     assert len(err.strip().splitlines()) == 1
     code, _, err = _rig("import", "--from", "imucal", tmp_path / "l.csv", "-o", tmp_path / "s", "--continuous")
     assert code == 2 and "--continuous applies to --from csv only" in err
+
+
+def test_a_session_without_an_accelerometer_refuses_what_it_cannot_give_in_one_line(tmp_path):
+    rec = turning_recording(7, seconds=10.0)
+    assert _rig("import", "--from", "csv", _write(tmp_path / "t.csv", rec), "-o", tmp_path / "s", "--continuous",
+                "--id", "t")[0] == 0
+    session = tmp_path / "s" / "t"
+    # a file asked for that cannot be written (rig-calibration/1 holds an accelerometer): exit 2, never exit 0 without it
+    code, out, err = _rig("solve", session, "-o", tmp_path / "mag.yaml")
+    assert code == 2 and not (tmp_path / "mag.yaml").exists() and len(err.strip().splitlines()) == 1
+    assert "has no accelerometer data" in err and "--json > FILE" in err
+    code, _, err = _rig("report", session)  # no loop back to 'run rig solve first'
+    assert code == 2 and "no calibration file to report" in err and "run `rig solve" not in err
+    code, _, err = _rig("discover", session)
+    assert code == 2 and "searches the accelerometer's model" in err and len(err.strip().splitlines()) == 1
