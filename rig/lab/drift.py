@@ -12,6 +12,8 @@ previous calibration) judge what is left.
 
 from __future__ import annotations
 
+import re
+
 import json
 import math
 import sqlite3
@@ -86,10 +88,16 @@ def list_sensors(h: History, include_simulated: bool = True) -> list[dict]:
                      "MIN(c.calibrated_at) AS first, MAX(c.calibrated_at) AS last FROM sensors s "
                      "LEFT JOIN calibrations c ON c.sensor_key = s.sensor_key AND (? OR c.simulated = 0) "
                      "GROUP BY s.sensor_key ORDER BY s.sensor_key", (int(include_simulated),))
-    return [{"sensor_key": _text(r["sensor_key"]) or "", "model": _text(r["model"]), "address": _number(r["address"]),
-             "serial": _text(r["serial"]), "n": r["n"], "simulated": r["n_sim"], "first": _text(r["first"]),
-             "last": _text(r["last"])}
-            for r in rows if include_simulated or r["n"]]
+    out = [{"sensor_key": _text(r["sensor_key"]) or "", "model": _text(r["model"]), "address": _number(r["address"]),
+            "serial": _text(r["serial"]), "n": r["n"], "simulated": r["n_sim"], "first": _text(r["first"]),
+            "last": _text(r["last"])}
+           for r in rows if include_simulated or r["n"]]
+    return sorted(out, key=lambda row: natural_key(row["sensor_key"]))
+
+
+def natural_key(text: str) -> list:
+    """Sort key that orders the numbers in ``text`` by value (``sim-seed-2`` before ``sim-seed-10``)."""
+    return [(0, int(part), "") if part.isdigit() else (1, 0, part) for part in re.split(r"(\d+)", text)]
 
 
 def resolve_sensor(h: History, sensor: str) -> str:

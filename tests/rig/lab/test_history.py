@@ -212,3 +212,12 @@ def test_acceptance_drift_compares_at_one_temperature_too():
     previous, current, common_c = at_common_temperature(before.parameters, 27.6, after.parameters, 25.3)
     d = largest_drift([(n, *v) for n, v in current.items()], previous, "2026-01-01")
     assert common_c == 27.6 and abs(d.z) < 1.0
+
+
+def test_sensors_are_listed_with_their_numbers_in_order(seed3, tmp_path):
+    db = tmp_path / "h.sqlite"
+    for sensor_id in ("unit-10", "unit-2", "unit-1"):
+        _record(seed3, db, sensor_id=sensor_id)
+    with open_history(db) as h:
+        keys = [s["sensor_key"] for s in list_sensors(h)]
+    assert keys == ["MPU-9150:unit-1", "MPU-9150:unit-2", "MPU-9150:unit-10"], keys  # not 1, 10, 2
