@@ -35,7 +35,8 @@ def test_characterise_then_calibrate_on_the_characterised_rig(tmp_path):
     doc["sim"].update(time_scale=0, geometry={"enabled": True})
     rig_file = tmp_path / "lab.yaml"
     rig_file.write_text(yaml.safe_dump(doc, sort_keys=False))
-    reversal, _ = run(PROCEDURES / "characterize_reversal.yaml", rig_file, tmp_path / "rev")
+    reversal, printed = run(PROCEDURES / "characterize_reversal.yaml", rig_file, tmp_path / "rev")
+    assert f"next: rig characterize-rig {reversal}" in printed  # the run says what its session is for
 
     code, out, err = rig("characterize-rig", reversal)
     assert code == 0, err

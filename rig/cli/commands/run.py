@@ -85,11 +85,29 @@ def _run_and_report(args, stop: SignalStop) -> int:
             f"{s.index + 1} ({s.name}: {'; '.join(map(str, (s.stats.problems if s.stats else None) or ['bad data']))})"
             for s in flagged), out)
     if result.conclusion is None:
+        nxt = next_without_solve(recorded, result.session_dir)
+        if nxt:
+            say(f"next: {nxt}", out)
         return EXIT_OK
     say(f"calibration: {result.calibration_path}", out)
     say(format_calibration(result.calibration), out)
     warn_if_misfit(result.calibration, "run")
     return present("run", result.conclusion)
+
+
+def next_without_solve(recorded, session_dir) -> str | None:
+    """What to run on a session its procedure does not solve: a reversal (steps in two or more mountings) is
+    characterised (``rig characterize-rig``); a long static capture is characterised for its noise (``rig
+    characterize``); anything else is solved (``rig solve``)."""
+    where = shlex.quote(str(session_dir))
+    mounts = {tuple(map(tuple, s.mount.turn)) if getattr(s, "mount", None) is not None and getattr(s.mount, "turn", None)
+              is not None else None for s in recorded.steps}
+    if len(mounts - {None}) >= 2:
+        return f"rig characterize-rig {where} (the turntable's own errors by reversal)"
+    static = [s for s in recorded.steps if s.kind == "static"]
+    if len(static) == 1:
+        return f"rig characterize {where} (the sensor's noise terms)"
+    return f"rig solve {where}" if static else None
 
 
 class SignalStop:
