@@ -19,7 +19,7 @@ import numpy as np
 from pydantic import BeforeValidator, Field, WithJsonSchema, create_model
 
 from calib.discovery.effects import LIBRARY
-from calib.file.fields import Strict, choice, fail, flag, number
+from calib.file.fields import Strict, choice, fail, flag, integer, number
 from drivers.sensors.sim.error_model import (
     AccelErrorModel,
     GyroErrorModel,
@@ -216,6 +216,8 @@ class GeometrySection(Strict):
         _GC.non_orthogonality_deg
     mounting_deg: number(ge=0, le=45, description="sensor mounting misalignment, half-width, deg") = _GC.mounting_deg
     gravity_m_s2: number(ge=9.7, le=9.9, description="local gravity at the simulated site, m/s^2") = G0_M_S2
+    table_seed: integer(0, 2**31 - 1, description="which hidden table: its errors are drawn from this, the same for "
+                        "every run and unit on this rig file (the run's --seed draws the unit)") = 0
 
 
 class SimSection(Strict):
@@ -331,6 +333,7 @@ class SimSettings:
     noise_spread: dict[str, tuple[float, float]] | None = None  # term -> factor range (drivers.sensors.sim.unit_noise)
     geometry: GeometryClass | None = None  # the table's own error classes; None: a perfect table
     gravity_m_s2: float = G0_M_S2  # local gravity of the simulated site (with geometry only)
+    table_seed: int = 0  # the hidden table's draw (with geometry only): the rig's, not the run's seed
     serial_base: int = 0x5A00
     repeat: int = 0  # 0: the seed's own noise draws; N: new draws for the same hidden sensor (repeatability)
 
@@ -353,8 +356,9 @@ def _geometry(section: GeometrySection) -> dict:
     """SimSettings' geometry fields of a ``sim.geometry`` section (no classes when it is not enabled)."""
     if not section.enabled:
         return {}
-    classes = section.model_dump(exclude={"enabled", "gravity_m_s2"})
-    return {"geometry": GeometryClass(**classes), "gravity_m_s2": float(section.gravity_m_s2)}
+    classes = section.model_dump(exclude={"enabled", "gravity_m_s2", "table_seed"})
+    return {"geometry": GeometryClass(**classes), "gravity_m_s2": float(section.gravity_m_s2),
+            "table_seed": int(section.table_seed)}
 
 
 register_section("sim", SimSection, kinds=("sim",), doc="the simulated rig (docs/simulated-rig.md)")

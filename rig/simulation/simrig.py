@@ -33,7 +33,7 @@ from rig.simulation.world import AxisLink, SimChamber, WorldModel
 
 #: the stream the noise seed of a repeated run (``sim.repeat``) is drawn from
 REPEAT_STREAM = 0x5E9
-#: the seed's own stream for the turntable's hidden geometry (no other draw of the seed changes with it)
+#: the stream of the turntable's hidden geometry, drawn from ``sim.geometry.table_seed`` (no other draw changes with it)
 GEOMETRY_STREAM = 0x6E0
 
 
@@ -88,7 +88,10 @@ class SimulatedRig:
                                      seed=self.seed * 10 + i)
             self.emulators.append(emu)
         self.ports: dict[str, str] = {}
-        self.geometry = (settings.geometry.draw(np.random.default_rng([self.seed, GEOMETRY_STREAM]),
+        # the table is the rig's: its hidden errors come from the rig file's table_seed, the same for every run and
+        # unit on it (as a real table's are), while the run's seed draws the unit (a characterisation made with one
+        # unit serves the next, docs/simulated-rig.md)
+        self.geometry = (settings.geometry.draw(np.random.default_rng([settings.table_seed, GEOMETRY_STREAM]),
                                                 settings.gravity_m_s2) if settings.geometry is not None else None)
         self.world = WorldModel(
             axes=[AxisLink(e.position_deg_at, e.speed_deg_s_at, float(s), float(h), e.direction_at)

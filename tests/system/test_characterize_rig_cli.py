@@ -53,6 +53,13 @@ def test_characterise_then_calibrate_on_the_characterised_rig(tmp_path):
     assert "lab.characterisation.yaml" in cal["accelerometer"]["uncertainty"]["rig"]
     assert cal["accelerometer"]["fit"]["chi2_per_dof"] < 5  # the table's errors left the fit (26.7 without)
 
+    # another unit (another seed) on the same rig: the same table, so the same characterisation serves it
+    other, printed = run(PROCEDURES / "six_position.yaml", rig_file, tmp_path / "other", "--seed", "7")
+    truths = [yaml.safe_load((d / "sim_truth.yaml").read_text()) for d in (reversal, other)]
+    assert truths[0]["geometry"] == truths[1]["geometry"] and truths[0]["accelerometer"] != truths[1]["accelerometer"]
+    assert "characterised by reversal" in next(x for x in printed.splitlines() if "rig terms:" in x)
+    assert yaml.safe_load((other / "calibration.yaml").read_text())["accelerometer"]["fit"]["chi2_per_dof"] < 5
+
     rig_file.write_text(rig_file.read_text() + "# edited after the characterisation\n")
     _, printed = run(PROCEDURES / "six_position.yaml", rig_file, tmp_path / "edited")
     (line,) = [x for x in printed.splitlines() if "rig terms:" in x]
