@@ -167,6 +167,11 @@ def format_magnetometer(m: MagCalibration, unit: str) -> str:
     lines = [f"  magnetometer ({m.method}): {steps}, {residual}, chi2/dof {m.chi2_per_dof:.2f}",
              "    hard iron " + "  ".join(f"{a} {v:+.4g} +- {sig[f'hard_iron_{a}']:.2g}"
                                          for a, v in zip("xyz", m.hard_iron_ut)) + f" {unit}"]
+    scale = (f" ({unit}: the field's magnitude is unknown, so A carries it)" if m.method == "ellipsoid"
+             and m.field_ut == 1.0 else " (dimensionless)")
+    lines.append(f"    soft-iron matrix A, m = A h + B, rows x, y, z{scale}"
+                 + (", up to a rotation (the ellipsoid fixes its shape, not its orientation)"
+                    if m.method == "ellipsoid" else "") + ":")
     for i, r in enumerate("xyz"):
         lines.append(f"    a_{r}* " + "  ".join(f"{m.matrix[i][j]:+.5g} +- {sig[f'a_{r}{c}']:.2g}"
                                                for j, c in enumerate("xyz")))
