@@ -170,9 +170,7 @@ class SessionWriter:
                 v = np.asarray(values, dtype)
                 cols.update({c: v[:, j] for j, c in enumerate(names)})
         cols["temp_c"] = np.asarray(temp_c, float) if temp_c is not None else None
-        parts = [_format_column(c, cols.get(c), n) for c in self.columns]
-        rows = [",".join(r) for r in zip(*[p.astype(str) for p in parts])]
-        self._append(self._samples, "samples.csv", ("\n".join(rows) + "\n").encode())
+        self._append(self._samples, "samples.csv", format_rows(self.columns, cols, n).encode())
 
     def complete_step(self, index: int, stats: dict, status: str = "complete") -> None:
         """Make the step's samples durable (flush + fsync), then record it: one fsynced line of the steps
@@ -248,6 +246,18 @@ class SessionWriter:
         if self._journal is not None and not self._journal.closed:
             self._journal.close()
         self._journal = None
+
+
+def format_rows(columns, cols: dict, n: int | None = None) -> str:
+    """Rows of samples.csv (no header; each line ended) of the values ``cols`` (column -> (N,) array; a missing
+    column's cells empty), as the writer formats them: what an archive writes back (:mod:`rig.archive.store`)."""
+    if n is None:
+        n = len(next(v for v in cols.values() if v is not None)) if cols else 0
+    if n == 0:
+        return ""
+    parts = [_format_column(c, cols.get(c), n) for c in columns]
+    rows = [",".join(r) for r in zip(*[p.astype(str) for p in parts])]
+    return "\n".join(rows) + "\n"
 
 
 def _format_column(c: str, v: np.ndarray | None, n: int) -> np.ndarray:

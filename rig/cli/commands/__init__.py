@@ -34,6 +34,8 @@ COMMANDS: dict[str, str] = {
                     "random walk) with uncertainties",
     "characterize-rig": "the turntable's own errors by reversal (one sensor in several mountings); stored as the "
                         "rig's characterisation",
+    "archive": "session directories into a partitioned Parquet archive (or one back out)",
+    "resolve": "solve every session of an archive again, in chunks, on a process pool",
 }
 
 
@@ -77,6 +79,10 @@ def load(name: str) -> ModuleType:
         from rig.cli.commands import characterize as module
     elif name == "characterize-rig":
         from rig.cli.commands import characterize_rig as module
+    elif name == "archive":
+        from rig.cli.commands import archive as module
+    elif name == "resolve":
+        from rig.cli.commands import resolve as module
     else:
         raise KeyError(f"no rig command {name!r}")
     return module
