@@ -29,6 +29,7 @@ DEFERRED: tuple[tuple[str, str, str], ...] = (
     ("pandas", "rig.session.reader", "the CSV reader for files with empty or quoted cells; a file of numbers is read by numpy"),
     ("rig.config.procedure", "rig.session.reader", "the recorded procedure's validation, only when a solve needs its target or limits"),
     ("rig.lab.report", "rig.workflow.conclude", "the HTML report, only when the procedure asks for one"),
+    ("rig.lab.report", "rig.workflow.batch", "the batch's HTML report, only at the end of a fixture run"),
     ("rig.simulation", "rig.workflow.kinds", "the sim and replay rig kinds, only when such a rig is opened"),
     ("rig.simulation", "rig.composition", "the sim: and faults: schemas, only when a rig file has such a section"),
     ("rig.composition", "rig.cli.main", "the composition root, called once a command runs (not for --help)"),

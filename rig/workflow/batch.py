@@ -7,7 +7,8 @@
 A slot whose sensor fails its self-test or stops answering is FAULT (its session marked aborted, with the
 reason) and the others go on; a turntable fault or an interrupt aborts every slot's session and leaves.
 Where it all goes: ``OUT/<batch id>/`` holds ``batch.json`` and one session directory per slot,
-``<batch id>-slotN`` (docs/fixture.md, "A fixture run").
+``<batch id>-slotN``, and the batch's HTML report, ``batch-report.html`` (docs/fixture.md, "A fixture run").
+Each slot's outcome also sorts its unit into a failure bin (:mod:`rig.lab.bins`).
 """
 
 from __future__ import annotations
@@ -29,12 +30,11 @@ from rig.execution.context import EngineOptions, RunContext, RunError
 from rig.execution.estimate import step_durations_s
 from rig.execution.fixture import FixtureEngine, SlotRun
 from rig.execution.operator import Operator
+from rig.lab.batch_record import BATCH_FILE, BATCH_FORMAT
+from rig.lab.bins import BINS, bin_counts, failure_bin
 from rig.session import SessionWriter, StepRecord
 from rig.workflow.lifecycle import NewSession, RunResult, abort_session, finish, start_session
 
-#: the batch record's format and file name
-BATCH_FORMAT = "rig-batch/1"
-BATCH_FILE = "batch.json"
 #: without acceptance limits a slot is NO LIMITS (not FAIL) when its fit's residual is at most this, g rms, and no
 #: step was flagged
 FIT_RESIDUAL_LIMIT_G = 1e-3
@@ -44,6 +44,8 @@ FIT_RESIDUAL_LIMIT_G = 1e-3
 OUTCOMES = ("PASS", "FAIL", "NO LIMITS", "FAULT", "ABSENT")
 #: the outcomes that leave the run's exit code 0 (as the one-unit run without limits exits 0)
 GOOD_OUTCOMES = ("PASS", "NO LIMITS")
+#: the batch table's bin column, characters (the longest bin's name)
+BIN_WIDTH = max(len(b) for b in BINS)
 
 
 @dataclass
@@ -58,6 +60,7 @@ class SlotOutcome:
     reason : why FAIL or FAULT (one line), else None
     session_dir : the slot's session (None when its sensor failed before one was written)
     result : the slot's :class:`RunResult` (its calibration) when it was solved
+    failed_limits : the names of the acceptance limits it failed (``range accel.bias_y``, ...)
     """
 
     slot: int
@@ -67,6 +70,12 @@ class SlotOutcome:
     reason: str | None = None
     session_dir: Path | None = None
     result: RunResult | None = None
+    failed_limits: tuple[str, ...] = ()
+
+    @property
+    def bin(self) -> str:
+        """The unit's failure bin (:func:`rig.lab.bins.failure_bin`): ``good``, the failed limit's family, ..."""
+        return failure_bin(self.outcome, self.reason, self.failed_limits)
 
     def parameters(self) -> dict | None:
         """The main calibrated parameters per sensor axis (its own frame): bias in counts (as every other view
@@ -86,7 +95,7 @@ class SlotOutcome:
         rel = (lambda p: None if p is None else str(Path(p).relative_to(root)) if Path(p).is_relative_to(root)
                else str(p))
         return {"slot": self.slot, "serial": self.serial, "rotation": self.rotation, "outcome": self.outcome,
-                "reason": self.reason, "session": rel(self.session_dir),
+                "bin": self.bin, "reason": self.reason, "session": rel(self.session_dir),
                 "calibration": rel(None if self.result is None else self.result.calibration_path),
                 "parameters": self.parameters()}
 
@@ -94,10 +103,13 @@ class SlotOutcome:
 @dataclass
 class BatchResult(RunResult):
     """A fixture run: ``RunResult`` of the first slot with a session (what a one-sensor caller reads), plus the
-    batch's directory, its record and every slot's outcome."""
+    batch's directory, its record, its HTML report (None, with ``report_warning``, when it could not be written)
+    and every slot's outcome."""
 
     batch_dir: Path | None = None
     record_path: Path | None = None
+    report_path: Path | None = None
+    report_warning: str | None = None
     slots: list[SlotOutcome] = field(default_factory=list)
 
 
@@ -188,10 +200,23 @@ def run_batch(procedure, rig: Rig, new: NewSession, operator: Operator, *, optio
         outcomes[run.slot.index] = _conclude_slot(procedure, run, solve=solve, history=history)
     ordered = [outcomes[i] for i in sorted(outcomes)]
     record = write_batch_record(batch_dir, new, procedure, rig, ordered)
+    report, warning = write_report_of(batch_dir)
     first = next((o for o in ordered if o.session_dir is not None), None)
     return BatchResult(session_dir=first.session_dir if first is not None else batch_dir,
                        status="complete", outcomes=[], conclusion=None, batch_dir=batch_dir, record_path=record,
-                       slots=ordered)
+                       report_path=report, report_warning=warning, slots=ordered)
+
+
+def write_report_of(batch_dir: Path) -> tuple[Path | None, str | None]:
+    """The batch's HTML report (``batch-report.html``), written last: (its path, None), or (None, why not) when it
+    cannot be written (a full disk, ...): the sessions and the record written before it stand."""
+    from rig.lab.report.batch import write_batch_report  # deferred: the page and its figure, at a batch's end only
+
+    try:
+        return write_batch_report(batch_dir), None
+    except Exception as exc:  # noqa: BLE001 -- the report is the last thing made: its failure leaves the rest standing
+        return None, (f"batch report not written ({type(exc).__name__}: {_one_line(exc)}); the batch stands: "
+                      f"write it with rig report {batch_dir}")
 
 
 def _conclude_slot(procedure, run: SlotRun, *, solve: bool, history) -> SlotOutcome:
@@ -205,7 +230,10 @@ def _conclude_slot(procedure, run: SlotRun, *, solve: bool, history) -> SlotOutc
     except (CalibError, RunError) as exc:
         return SlotOutcome(slot.index, slot.serial, rotation, "FAIL", f"cannot solve: {_one_line(exc)}",
                            writer.session_dir)
-    return SlotOutcome(slot.index, slot.serial, rotation, *_judge(run, result), writer.session_dir, result)
+    outcome, reason = _judge(run, result)
+    acceptance = None if result.conclusion is None else result.conclusion.acceptance
+    failed = tuple(c.name for c in acceptance.failed()) if acceptance is not None else ()
+    return SlotOutcome(slot.index, slot.serial, rotation, outcome, reason, writer.session_dir, result, failed)
 
 
 def _judge(run: SlotRun, result: RunResult) -> tuple[str, str | None]:
@@ -217,7 +245,7 @@ def _judge(run: SlotRun, result: RunResult) -> tuple[str, str | None]:
         return ("FAIL", "steps flagged: " + ", ".join(map(str, flagged))) if flagged else ("NO LIMITS", None)
     if c.acceptance is not None:
         return ("PASS", None) if c.passed else ("FAIL", "acceptance: " + "; ".join(
-            chk.line for chk in c.acceptance.failed))
+            chk.line for chk in c.acceptance.failed()))
     residual = float(c.calibration.accelerometer.fit.residual_rms_g)
     if flagged:
         return "FAIL", "steps flagged: " + ", ".join(map(str, flagged))
@@ -234,6 +262,7 @@ def write_batch_record(batch_dir: Path, new: NewSession, procedure, rig: Rig, sl
            "procedure": {"name": procedure.name, "file": new.procedure_file},
            "rig_file": rig.rig_file, "seed": rig.seed, "turntable": rig.turntable,
            "counts": {k: sum(1 for s in slots if s.outcome == k) for k in OUTCOMES},
+           "bins": bin_counts(s.bin for s in slots),
            "slots": [s.to_record(batch_dir) for s in slots]}
     path = batch_dir / BATCH_FILE
     atomic_write_text(path, json.dumps(doc, indent=2) + "\n")
@@ -241,19 +270,20 @@ def write_batch_record(batch_dir: Path, new: NewSession, procedure, rig: Rig, sl
 
 
 def format_batch_table(slots: list[SlotOutcome], batch_dir: Path) -> str:
-    """The batch table: one line per slot (serial, outcome, bias counts and scale counts/g per axis, its session),
-    then the reasons of the slots that did not pass. NO LIMITS is counted only when a slot has it."""
-    head = (f"{'slot':>4}  {'serial':<10} {'outcome':<9} {'bias x,y,z (counts)':<26} {'scale x,y,z (counts/g)':<29} "
-            "session")
+    """The batch table: the counts by outcome and by bin, one line per slot (serial, outcome, failure bin, bias
+    counts and scale counts/g per axis, its session), then the reasons of the slots that did not pass. NO LIMITS
+    and ABSENT are counted only when a slot has them, bins only when a unit is in them."""
+    head = (f"{'slot':>4}  {'serial':<10} {'outcome':<9} {'bin':<{BIN_WIDTH}} {'bias x,y,z (counts)':<26} "
+            f"{'scale x,y,z (counts/g)':<29} session")
     shown = [k for k in OUTCOMES if k not in ("NO LIMITS", "ABSENT") or any(s.outcome == k for s in slots)]
     lines = [f"batch {batch_dir}: " + ", ".join(f"{sum(1 for s in slots if s.outcome == k)} {k}" for k in shown),
-             head]
+             "bins: " + ", ".join(f"{n} {b}" for b, n in bin_counts(s.bin for s in slots).items() if n), head]
     for s in slots:
         p = s.parameters()
         bias = " ".join(f"{v:+8.2f}" for v in p["bias_counts"]) if p else "-"
         scale = " ".join(f"{v:9.1f}" for v in p["scale_counts_per_g"]) if p else "-"
         where = s.session_dir.name if s.session_dir is not None else "-"
-        lines.append(f"{s.slot:>4}  {s.serial:<10} {s.outcome:<9} {bias:<26} {scale:<29} {where}")
+        lines.append(f"{s.slot:>4}  {s.serial:<10} {s.outcome:<9} {s.bin:<{BIN_WIDTH}} {bias:<26} {scale:<29} {where}")
     for s in slots:
         if s.reason:
             lines.append(f"  slot {s.slot} ({s.serial}) {s.outcome}: {s.reason}")

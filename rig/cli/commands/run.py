@@ -75,6 +75,10 @@ def _run_and_report(args, stop: SignalStop) -> int:
     if isinstance(result, BatchResult):  # a fixture: the table of units, each slot its own session (docs/fixture.md)
         say(format_batch_table(result.slots, result.batch_dir), out)
         say(f"batch record: {result.record_path}", out)
+        if result.report_path is not None:
+            say(f"batch report: {result.report_path}", out)
+        if result.report_warning:
+            print(f"rig run: warning: {result.report_warning}", file=sys.stderr)
         return EXIT_OK if all(s.outcome in GOOD_OUTCOMES for s in result.slots) else EXIT_REJECTED
     say(f"session: {result.session_dir}", out)
     recorded = (result.conclusion.session.info if result.conclusion is not None  # the whole session, across resumes
