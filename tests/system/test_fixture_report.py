@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import re
+import shutil
 import sys
 from html.parser import HTMLParser
 from pathlib import Path
@@ -212,3 +214,22 @@ def test_what_is_not_a_session_or_a_batch_is_one_line_exit_2(batch, tmp_path, ca
     assert main(args) == 2
     err = capsys.readouterr().err
     assert err.startswith("rig report: ") and err.count("\n") == 1 and want in err, err
+
+
+def test_chromium_renders_the_batch_page_its_red_badge_and_its_figure(batch, tmp_path):
+    """The one-unit report's browser check (tests/system/test_report_browser.py) on the batch page: skipped without
+    Chromium, failed when CI is set."""
+    from test_report_browser import BADGE_FAIL, MARKER_BLUE, browse, pixels
+
+    exe = shutil.which("chromium") or shutil.which("chromium-browser")
+    if exe is None:
+        if os.environ.get("CI"):
+            pytest.fail("CI is set but headless Chromium is not installed (.ci/run installs it)")
+        pytest.skip("headless Chromium is not installed (Debian: apt-get install chromium)")
+    page = batch["dir"] / "batch-report.html"
+    dom = browse(exe, page, tmp_path)
+    assert "4 NOT GOOD" in dom and dom.count("sensor fault") >= 2
+    shot = tmp_path / "batch.png"
+    browse(exe, page, tmp_path, screenshot=shot)
+    seen = pixels(shot)
+    assert seen.get(BADGE_FAIL, 0) > 2000 and seen.get(MARKER_BLUE, 0) > 50  # the badge and the figure drawn
