@@ -39,6 +39,8 @@ DEFERRED: tuple[tuple[str, str, str], ...] = (
     ("scipy.optimize", "calib.numerics.magnitude", "the magnitude method's nonlinear fit, only when that method is asked for"),
     ("scipy.optimize", "calib.mag.ellipsoid", "the ellipsoid's nonlinear fit, only when a magnetometer is solved"),
     ("allantools", "calib.noise.allan", "the Allan deviation and its intervals, only when rig characterize computes one"),
+    ("distributed", "rig.archive.resolve", "the Dask executor (an optional extra), only when rig resolve --executor dask"),
+    ("dask", "rig.archive.resolve", "the Dask executor's configuration, only when rig resolve --executor dask"),
 )
 
 

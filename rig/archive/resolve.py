@@ -28,9 +28,11 @@ from rig.analysis.solve import calibrate_session
 from rig.archive.store import extract_sessions, read_table
 from rig.errors import RigInputError
 
-EXECUTORS = ("serial", "processes")
+EXECUTORS = ("serial", "processes", "dask")
 RESULTS_FILE = "resolve.json"
 RESULTS_FORMAT = "rig-resolve/1"
+#: how long rig resolve waits for a Dask scheduler that does not answer
+CONNECT_TIMEOUT = "10s"
 
 
 @dataclass
@@ -94,10 +96,13 @@ def _solve_and_write(archive: str, results: str, name: str, sessions: list, opti
 
 def resolve_archive(archive, results, *, executor: str = "processes", workers: int | None = None, chunk: int = 50,
                     model: str | None = None, method: str | None = None,
-                    progress: Callable[[int, int], None] | None = None) -> ResolveReport:
+                    progress: Callable[[int, int], None] | None = None, scheduler: str | None = None,
+                    dask_processes: bool = True) -> ResolveReport:
     """Solve every archived session again into ``results/`` (one Parquet file per chunk of ``chunk`` sessions;
     ``resolve.json`` states the archive and the options). Chunks already there are skipped; a results folder made
-    with other options is refused (one line). ``progress(done, total)`` after each chunk."""
+    with other options is refused (one line). ``progress(done, total)`` after each chunk. ``executor`` ``dask``:
+    the chunks as tasks on the Dask scheduler at ``scheduler`` (an address), else on a ``LocalCluster`` of
+    ``workers`` (``dask_processes``: worker processes, else threads in this process)."""
     if executor not in EXECUTORS:
         raise RigInputError(None, None, "--executor", f"expected one of {', '.join(EXECUTORS)}, got {executor!r}")
     if chunk < 1:
@@ -133,7 +138,14 @@ def resolve_archive(archive, results, *, executor: str = "processes", workers: i
         else:
             todo.append((name, c))
     done = report.chunks_done_before
-    if executor == "serial" or len(todo) <= 1:
+    if executor == "dask":
+        for _, failed in _on_dask(todo, str(archive), str(results), options, scheduler, workers, dask_processes):
+            report.chunks_solved += 1
+            report.failed += failed
+            done += 1
+            if progress:
+                progress(done, len(chunks))
+    elif executor == "serial" or len(todo) <= 1:
         outcomes = (_solve_and_write(str(archive), str(results), name, c, options) for name, c in todo)
         for _, failed in outcomes:
             report.chunks_solved += 1
@@ -152,6 +164,34 @@ def resolve_archive(archive, results, *, executor: str = "processes", workers: i
                 if progress:
                     progress(done, len(chunks))
     return report
+
+
+def _on_dask(todo: list, archive: str, results: str, options: dict, scheduler: str | None, workers: int | None,
+             processes: bool):
+    """The chunks as Dask tasks (one per chunk: a task costs the scheduler about a millisecond, a chunk of 50
+    sessions about a second); (name, failed) of each as it finishes."""
+    try:
+        import dask  # deferred: the optional dask extra
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise RigInputError(None, None, "--executor", "dask needs the dask extra: pip install "
+                            "'rig-calibration[dask]' (or use --executor processes)") from None
+    cluster = None if scheduler else LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1,
+                                                   processes=processes, dashboard_address=None)
+    try:
+        # a scheduler that does not answer is said after CONNECT_TIMEOUT, not Dask's 30 s (unless configured)
+        timeout = dask.config.get("distributed.comm.timeouts.connect")
+        with dask.config.set({"distributed.comm.timeouts.connect": CONNECT_TIMEOUT if timeout == "30s" else timeout}), \
+                Client(scheduler or cluster) as client:
+            futures = [client.submit(_solve_and_write, archive, results, name, c, options, key=f"resolve-{name}",
+                                     pure=False) for name, c in todo]
+            for f in as_completed(futures):
+                yield f.result()
+    except OSError as exc:
+        raise RigInputError(None, None, "--scheduler", f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
+    finally:
+        if cluster is not None:
+            cluster.close()
 
 
 def read_results(results) -> pa.Table:

@@ -18,6 +18,8 @@ def add_parser(sub) -> None:
     r.add_argument("--chunk", type=int, default=50, help="sessions per chunk (default 50)")
     r.add_argument("--model", choices=["triangular", "full"], default=None)
     r.add_argument("--method", choices=["pinv", "flip", "combinations"], default=None)
+    r.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="--executor dask: an existing Dask scheduler (tcp://host:8786); default a local cluster")
 
 
 def run(args) -> int:
@@ -29,7 +31,7 @@ def run(args) -> int:
                   flush=True)
 
     report = resolve_archive(args.archive, args.out, executor=args.executor, workers=args.workers, chunk=args.chunk,
-                             model=args.model, method=args.method, progress=progress)
+                             model=args.model, method=args.method, progress=progress, scheduler=args.scheduler)
     print(f"resolved {args.archive} into {args.out}: {report.sessions} sessions, {report.chunks_solved} chunks solved "
           f"now, {report.chunks_done_before} found done; {len(report.failed)} failed now")
     for sid, reason in report.failed:

@@ -122,3 +122,14 @@ def test_bad_inputs_are_one_line_and_exit_2(archive, tmp_path):
     assert len(err.strip().splitlines()) == 1
     code, _, err = _rig("archive", tmp_path, "-o", tmp_path / "a2")
     assert code == 2 and "not a session directory" in err
+
+
+def test_a_two_worker_dask_cluster_gives_the_serial_rows(archive, tmp_path):
+    serial = resolve_archive(archive, tmp_path / "serial", executor="serial", chunk=2)
+    on_dask = resolve_archive(archive, tmp_path / "dask", executor="dask", workers=2, chunk=2, dask_processes=False)
+    assert on_dask.chunks_solved == serial.chunks_solved == 2
+    assert [s for s, _ in on_dask.failed] == ["mag-only"]
+    a, b = read_results(tmp_path / "serial"), read_results(tmp_path / "dask")
+    assert a.column("session_id").to_pylist() == b.column("session_id").to_pylist()
+    np.testing.assert_array_equal(np.array(a.column("bias_counts").to_pylist()),
+                                  np.array(b.column("bias_counts").to_pylist()))
