@@ -36,6 +36,7 @@ COMMANDS: dict[str, str] = {
                         "rig's characterisation",
     "archive": "session directories into a partitioned Parquet archive (or one back out)",
     "resolve": "solve every session of an archive again, in chunks, on a process pool",
+    "fleet": "statistics across the units of a re-solved archive: spread, units that stand out",
 }
 
 
@@ -83,6 +84,8 @@ def load(name: str) -> ModuleType:
         from rig.cli.commands import archive as module
     elif name == "resolve":
         from rig.cli.commands import resolve as module
+    elif name == "fleet":
+        from rig.cli.commands import fleet as module
     else:
         raise KeyError(f"no rig command {name!r}")
     return module

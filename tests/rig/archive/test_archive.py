@@ -133,3 +133,19 @@ def test_a_two_worker_dask_cluster_gives_the_serial_rows(archive, tmp_path):
     assert a.column("session_id").to_pylist() == b.column("session_id").to_pylist()
     np.testing.assert_array_equal(np.array(a.column("bias_counts").to_pylist()),
                                   np.array(b.column("bias_counts").to_pylist()))
+
+
+def test_fleet_statistics_per_lot_and_the_units_that_stand_out(archive, tmp_path):
+    from rig.archive.fleet import fleet
+    resolve_archive(archive, tmp_path / "r", executor="serial", chunk=4)
+    (group,) = fleet(tmp_path / "r", by="lot")
+    assert group.group == "L7" and group.n == 3 and group.failed == 1  # the magnetometer-only session: not used
+    rows = [r for r in read_results(tmp_path / "r").to_pylist() if r["ok"]]
+    assert group.parameters["bias_x"]["median"] == float(np.median([r["bias_counts"][0] for r in rows]))
+    assert group.parameters["scale_z"]["unit"] == "counts/g" and group.parameters["bias_y"]["spread"] > 0
+    (loose,) = fleet(tmp_path / "r", threshold=0.5)  # three units: at 0.5 robust sigmas someone stands out
+    assert loose.outliers and all(abs(o["z"]) > 0.5 for o in loose.outliers)
+    code, out, _ = _rig("fleet", tmp_path / "r", "--by", "lot")
+    assert code == 0 and out.startswith("lot L7: 3 units solved, 1 failed")
+    code, _, err = _rig("fleet", tmp_path)
+    assert code == 2 and "no results" in err
