@@ -112,20 +112,7 @@ def resolve_archive(archive, results, *, executor: str = "processes", workers: i
         raise RigInputError(str(archive), None, None, "not a session archive (no sessions/ table): make one with "
                             "rig archive SESSIONS... -o ARCHIVE")
     options = {"model": model, "method": method}
-    stated = {"format": RESULTS_FORMAT, "archive": str(archive.resolve()), "options": options}
-    results.mkdir(parents=True, exist_ok=True)
-    manifest = results / RESULTS_FILE
-    if manifest.exists():
-        try:
-            before = json.loads(manifest.read_text())
-        except ValueError:
-            raise RigInputError(str(manifest), None, None, "not a resolve record (damaged): remove the folder or "
-                                "choose another -o") from None
-        if before.get("options") != options:
-            raise RigInputError(str(manifest), None, "options", f"this folder holds results solved with "
-                                f"{before.get('options')}, not {options}: choose another -o")
-    else:
-        manifest.write_text(json.dumps(stated, indent=2) + "\n")
+    _results_folder(archive, results, options)
     meta = read_table(archive, "sessions", columns=["session_id", "content_hash"])
     pairs = sorted(zip(meta.column("session_id").to_pylist(), meta.column("content_hash").to_pylist()))
     chunks = [pairs[i:i + chunk] for i in range(0, len(pairs), chunk)]
@@ -137,33 +124,46 @@ def resolve_archive(archive, results, *, executor: str = "processes", workers: i
             report.chunks_done_before += 1
         else:
             todo.append((name, c))
-    done = report.chunks_done_before
+    for _, failed in _outcomes(todo, str(archive), str(results), options, executor, workers, scheduler,
+                               dask_processes):
+        report.chunks_solved += 1
+        report.failed += failed
+        if progress:
+            progress(report.chunks_done_before + report.chunks_solved, len(chunks))
+    return report
+
+
+def _results_folder(archive: Path, results: Path, options: dict) -> None:
+    """Make ``results`` (with its ``resolve.json``), or check that it holds results of the same options."""
+    results.mkdir(parents=True, exist_ok=True)
+    manifest = results / RESULTS_FILE
+    if not manifest.exists():
+        manifest.write_text(json.dumps({"format": RESULTS_FORMAT, "archive": str(archive.resolve()),
+                                        "options": options}, indent=2) + "\n")
+        return
+    try:
+        before = json.loads(manifest.read_text())
+    except ValueError:
+        raise RigInputError(str(manifest), None, None, "not a resolve record (damaged): remove the folder or "
+                            "choose another -o") from None
+    if before.get("options") != options:
+        raise RigInputError(str(manifest), None, "options", f"this folder holds results solved with "
+                            f"{before.get('options')}, not {options}: choose another -o")
+
+
+def _outcomes(todo: list, archive: str, results: str, options: dict, executor: str, workers: int | None,
+              scheduler: str | None, dask_processes: bool):
+    """(name, failed) of each chunk of ``todo`` as it is solved and written, by ``executor``."""
     if executor == "dask":
-        for _, failed in _on_dask(todo, str(archive), str(results), options, scheduler, workers, dask_processes):
-            report.chunks_solved += 1
-            report.failed += failed
-            done += 1
-            if progress:
-                progress(done, len(chunks))
+        yield from _on_dask(todo, archive, results, options, scheduler, workers, dask_processes)
     elif executor == "serial" or len(todo) <= 1:
-        outcomes = (_solve_and_write(str(archive), str(results), name, c, options) for name, c in todo)
-        for _, failed in outcomes:
-            report.chunks_solved += 1
-            report.failed += failed
-            done += 1
-            if progress:
-                progress(done, len(chunks))
+        for name, c in todo:
+            yield _solve_and_write(archive, results, name, c, options)
     else:
         with ProcessPoolExecutor(max_workers=workers or os.cpu_count()) as pool:
-            futures = [pool.submit(_solve_and_write, str(archive), str(results), name, c, options) for name, c in todo]
+            futures = [pool.submit(_solve_and_write, archive, results, name, c, options) for name, c in todo]
             for f in futures:
-                _, failed = f.result()
-                report.chunks_solved += 1
-                report.failed += failed
-                done += 1
-                if progress:
-                    progress(done, len(chunks))
-    return report
+                yield f.result()
 
 
 def _on_dask(todo: list, archive: str, results: str, options: dict, scheduler: str | None, workers: int | None,
