@@ -152,7 +152,7 @@ def start_slot_session(procedure, rig: Rig, slot: Slot, new: NewSession) -> Sess
 
 
 def run_batch(procedure, rig: Rig, new: NewSession, operator: Operator, *, options: EngineOptions = EngineOptions(),
-              solve: bool = True, history=None) -> BatchResult:
+              solve: bool = True, history=None, only_slots: list[int] | None = None) -> BatchResult:
     """Run ``procedure`` on every slot of ``rig.fixture`` in one motion; return every slot's outcome.
 
     ``new`` names the batch: its directory is ``new.sessions_root / new.session_id``, slot N's session
@@ -164,7 +164,7 @@ def run_batch(procedure, rig: Rig, new: NewSession, operator: Operator, *, optio
     outcomes: dict[int, SlotOutcome] = {}
     runs: list[SlotRun] = []
     estimates = step_durations_s(procedure.expanded_steps(), rig)
-    for slot in rig.fixture.slots:
+    for slot in (s for s in rig.fixture.slots if only_slots is None or s.index in only_slots):  # a re-test: some
         view = slot_rig(rig, slot)
         rotation = slot.describe()["rotation"]
         try:
@@ -199,7 +199,7 @@ def run_batch(procedure, rig: Rig, new: NewSession, operator: Operator, *, optio
     for run in runs:
         outcomes[run.slot.index] = _conclude_slot(procedure, run, solve=solve, history=history)
     ordered = [outcomes[i] for i in sorted(outcomes)]
-    record = write_batch_record(batch_dir, new, procedure, rig, ordered)
+    record = write_batch_record(batch_dir, new, procedure, rig, ordered, only_slots)
     report, warning = write_report_of(batch_dir)
     first = next((o for o in ordered if o.session_dir is not None), None)
     return BatchResult(session_dir=first.session_dir if first is not None else batch_dir,
@@ -254,13 +254,15 @@ def _judge(run: SlotRun, result: RunResult) -> tuple[str, str | None]:
     return "NO LIMITS", None
 
 
-def write_batch_record(batch_dir: Path, new: NewSession, procedure, rig: Rig, slots: list[SlotOutcome]) -> Path:
+def write_batch_record(batch_dir: Path, new: NewSession, procedure, rig: Rig, slots: list[SlotOutcome],
+                       only_slots: list[int] | None = None) -> Path:
     """``batch.json`` (format ``rig-batch/1``, docs/fixture.md): the batch's identity and every slot's session and
-    outcome."""
+    outcome; ``retest`` lists the slots a re-test ran (``rig run --slots``), null for the whole fixture."""
     doc = {"format": BATCH_FORMAT, "id": new.session_id,
            "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
            "procedure": {"name": procedure.name, "file": new.procedure_file},
            "rig_file": rig.rig_file, "seed": rig.seed, "turntable": rig.turntable,
+           "retest": sorted(only_slots) if only_slots is not None else None,
            "counts": {k: sum(1 for s in slots if s.outcome == k) for k in OUTCOMES},
            "bins": bin_counts(s.bin for s in slots),
            "slots": [s.to_record(batch_dir) for s in slots]}

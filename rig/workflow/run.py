@@ -43,7 +43,7 @@ def new_session_id(procedure_name: str, seed: int | None) -> str:
 def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, out_dir="sessions",
                   seed: int | None = None, resume_dir=None, ui: Operator | None = None,
                   time_scale: float | None = None, clock: str | None = None, solve: bool = True,
-                  options: EngineOptions = EngineOptions(), history=None) -> RunResult:
+                  options: EngineOptions = EngineOptions(), history=None, slots: list[int] | None = None) -> RunResult:
     """Run (or resume) a procedure; return where the session is and how it ended.
 
     With ``solve`` (and a ``solve:`` section in the procedure) the session goes through the pipeline
@@ -58,6 +58,9 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     RunAborted; motors are stopped and the session marked aborted before any of them leaves.
     """
     operator = ui or SilentOperator()
+    if resume_dir is not None and slots is not None:
+        raise RigInputError(None, None, "--slots", "a re-test runs a new batch of some slots: give the procedure and "
+                            "the fixture's rig file, not --resume")
     if resume_dir is not None:
         return _resume(resume_dir, rig_spec=rig_spec, seed=seed, operator=operator, time_scale=time_scale,
                        clock=clock, solve=solve, options=options, history=history)
@@ -67,7 +70,11 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     rig = open_rig_file(rig_file, seed=seed, time_scale=time_scale, clock=clock)
     if rig.fixture is not None:  # many units in one run: docs/fixture.md
         return _run_fixture(procedure, procedure_path, rig, out_dir=out_dir, seed=seed, operator=operator,
-                            solve=solve, options=options, history=history)
+                            solve=solve, options=options, history=history, slots=slots)
+    if slots is not None:
+        rig.close()
+        raise RigInputError(None, None, "--slots", "a re-test of some slots needs a rig file with a fixture: section "
+                            "(docs/fixture.md); this rig has one sensor")
     lock = SessionLock(None)
     try:
         new = NewSession(Path(out_dir), new_session_id(procedure.name, seed), Path(procedure_path).read_text(),
@@ -108,16 +115,23 @@ def use_unit_noise(procedure, rig, writer, operator: Operator, history) -> None:
 
 
 def _run_fixture(procedure, procedure_path, rig, *, out_dir, seed: int, operator: Operator, solve: bool,
-                 options: EngineOptions, history) -> BatchResult:
-    """A fixture rig file: every slot in one motion (:func:`rig.workflow.batch.run_batch`); the checks before
-    anything moves are the one-sensor run's, and the fixture's own."""
+                 options: EngineOptions, history, slots: list[int] | None = None) -> BatchResult:
+    """A fixture rig file: every slot in one motion (:func:`rig.workflow.batch.run_batch`), or the ``slots`` of a
+    re-test; the checks before anything moves are the one-sensor run's, and the fixture's own."""
     try:
+        if slots is not None:
+            known = [s.index for s in rig.fixture.slots]
+            unknown = [n for n in slots if n not in known]
+            if unknown or not slots:
+                raise RigInputError(None, None, "--slots", f"slot {unknown[0] if unknown else '(none)'} is not in the "
+                                    f"fixture (its slots: {', '.join(map(str, known))})")
         new = NewSession(Path(out_dir), new_session_id(procedure.name, seed), Path(procedure_path).read_text(),
                          str(procedure_path), extra={"seed": rig.seed})
         check_fixture_procedure(procedure)
         check_before_recording(procedure, rig, operator)
         announce_duration(procedure, rig, operator)
-        return run_batch(procedure, rig, new, operator, options=options, solve=solve, history=history)
+        return run_batch(procedure, rig, new, operator, options=options, solve=solve, history=history,
+                         only_slots=slots)
     finally:
         rig.close()
 

@@ -229,3 +229,35 @@ def test_a_slot_where_no_chip_answers_is_absent_and_the_others_are_unchanged(bat
         # within a small part of their sigmas (not bit for bit)
         sigma = np.asarray(want.sigma["bias_counts"])
         assert np.all(np.abs(got.bias_counts - want.bias_counts) < 0.2 * sigma), s["slot"]
+
+
+def test_a_retest_runs_only_the_slots_asked_for_and_the_record_says_so(batch, tmp_path, capsys):
+    code = main(["run", str(PROCEDURES / "six_position.yaml"), "--rig", str(RIGS / "sim-fixture.yaml"), "--out",
+                 str(tmp_path / "out"), "--seed", "3", "--time-scale", "0", "--slots", "2,5"])
+    printed = capsys.readouterr()
+    assert code == 0, printed.err
+    (retest,) = [p for p in (tmp_path / "out").iterdir() if p.is_dir()]
+    record = json.loads((retest / "batch.json").read_text())
+    assert record["retest"] == [2, 5] and [s["slot"] for s in record["slots"]] == [2, 5]
+    assert sorted(d.name.rsplit("slot", 1)[1] for d in retest.iterdir() if d.is_dir()) == ["2", "5"]
+    for s in record["slots"]:  # the same units as in the whole batch (the same seed: the same hidden sensors)
+        truth = yaml.safe_load((retest / s["session"] / "sim_truth.yaml").read_text())["accelerometer"]
+        whole = yaml.safe_load((_slot_dirs(batch[0])[s["slot"]] / "sim_truth.yaml").read_text())["accelerometer"]
+        assert truth["bias_g"] == whole["bias_g"]
+
+
+@pytest.mark.parametrize("argv, expect", [
+    (["--slots", "9"], "--slots: slot 9 is not in the fixture"),
+    (["--slots", "2,x"], "expected slot numbers separated by commas"),
+])
+def test_a_retest_of_slots_the_fixture_does_not_have_is_refused_before_anything_moves(tmp_path, capsys, argv, expect):
+    code = main(["run", str(PROCEDURES / "six_position.yaml"), "--rig", str(RIGS / "sim-fixture.yaml"), "--out",
+                 str(tmp_path / "out"), "--time-scale", "0", *argv])
+    err = capsys.readouterr().err
+    assert code == 2 and expect in err and not (tmp_path / "out").exists()
+
+
+def test_slots_on_a_one_sensor_rig_are_refused(tmp_path, capsys):
+    code = main(["run", str(PROCEDURES / "six_position.yaml"), "--out", str(tmp_path / "out"), "--time-scale", "0",
+                 "--slots", "1"])
+    assert code == 2 and "needs a rig file with a fixture: section" in capsys.readouterr().err

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import argparse
+
 import math
 import shlex
 import signal
@@ -31,6 +33,8 @@ def add_parser(sub) -> None:
                         "then lost, as on hardware); default: simulated time waits for the reader")
     r.add_argument("--yes", action="store_true", help="confirm every operator prompt")
     r.add_argument("--quiet", action="store_true", help="print only warnings and the result")
+    r.add_argument("--slots", type=_slot_list, default=None, metavar="N,N,...",
+                   help="a fixture rig: run only these slots (a re-test of some units; docs/fixture.md)")
 
 
 def run(args) -> int:
@@ -59,7 +63,7 @@ def _run_and_report(args, stop: SignalStop) -> int:
     try:
         result = run_procedure(args.procedure, rig_spec=args.rig, out_dir=args.out, seed=args.seed,
                                resume_dir=args.resume, ui=ui, time_scale=args.time_scale,
-                               clock="strict" if args.strict else None)
+                               clock="strict" if args.strict else None, slots=args.slots)
     except RunAborted as exc:
         ui.close()
         where = getattr(exc, "session_dir", None)
@@ -97,6 +101,14 @@ def _run_and_report(args, stop: SignalStop) -> int:
     say(format_calibration(result.calibration), out)
     warn_if_misfit(result.calibration, "run")
     return present("run", result.conclusion)
+
+
+def _slot_list(text: str) -> list[int]:
+    """``--slots 2,5``: slot numbers (argparse says the option and the text when one is not a number)."""
+    try:
+        return sorted({int(x) for x in text.split(",") if x.strip()})
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected slot numbers separated by commas (2,5), got {text!r}") from None
 
 
 def next_without_solve(recorded, session_dir) -> str | None:
