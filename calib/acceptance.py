@@ -101,6 +101,9 @@ class Drift:
     z: float | None = None
 
 
+#: a range check whose value lies within this many sigmas of a limit says it is marginal (the verdict stays the
+#: limit's: the procedure's limits decide; the words tell a technician a re-test may decide otherwise)
+MARGINAL_K = 2.0
 #: the unit the residual's line states it in (the fit line of rig run and rig solve: ``residual 91.9 ug rms``)
 RESIDUAL_LINE_UNIT = ("ug", 1e6)
 
@@ -117,10 +120,15 @@ def stored_unit(unit: str | None) -> tuple[str | None, float]:
 def _parameter_checks(limits: AcceptanceLimits, params: dict, shown=stored_unit) -> list[LimitCheck]:
     """The range and sigma limits; each check's ``value`` in the stored unit, its ``line`` for people in the unit
     ``shown(unit) -> (unit shown, factor)`` gives (limits and values alike)."""
-    def line_range(name, v, u, lo, hi):
+    def line_range(name, v, s, u, lo, hi):
         to, k = shown(u)
-        return (f"{name} = {_g(v * k)} {to}: {'within' if lo <= v <= hi else 'outside'} "
+        line = (f"{name} = {_g(v * k)} {to}: {'within' if lo <= v <= hi else 'outside'} "
                 f"[{_g(lo * k)}, {_g(hi * k)}] {to}")
+        edge = min(abs(v - lo), abs(v - hi))
+        if s is not None and math.isfinite(float(s)) and s > 0 and edge <= MARGINAL_K * s:
+            line += (f" (marginal: {_g(edge * k)} {to} from the limit, within {MARGINAL_K:g} sigma, "
+                     f"{_g(MARGINAL_K * s * k)} {to}: a re-test may decide otherwise)")
+        return line
 
     def line_sigma(name, s, u, top):
         to, k = shown(u)
@@ -131,7 +139,7 @@ def _parameter_checks(limits: AcceptanceLimits, params: dict, shown=stored_unit)
     out = []
     for pattern, (lo, hi) in limits.ranges.items():
         out += _each(pattern, params, "range", f"[{_g(lo)}, {_g(hi)}]",
-                     lambda name, v, s, u: (v, lo <= v <= hi, line_range(name, v, u, lo, hi)))
+                     lambda name, v, s, u: (v, lo <= v <= hi, line_range(name, v, s, u, lo, hi)))
     for pattern, top in limits.max_sigma.items():
         out += _each(pattern, params, "sigma", f"<= {_g(top)}",
                      lambda name, v, s, u: (s, s is not None and s <= top, line_sigma(name, s, u, top)))

@@ -88,3 +88,14 @@ def test_a_tampered_or_misspelt_file_is_refused_naming_the_field(cal, edit, mess
     edit(d)
     with pytest.raises(CalibrationFileError, match=message.replace("(", r"\(").replace(".", r"\.")):
         calfile.from_dict(d, "c.yaml")
+
+
+def test_a_value_within_two_sigma_of_a_limit_is_said_marginal_and_the_verdict_is_the_limits(cal):
+    bias_x, sigma_x = float(cal.accelerometer.bias_counts[0]), float(cal.accelerometer.sigma["bias_counts"][0])
+    just_out = evaluate(cal, AcceptanceLimits(ranges={"accel.bias_x": (bias_x + 0.5 * sigma_x, 1e4)}))
+    (check,) = just_out.checks
+    assert not check.passed and "outside" in check.line and "(marginal: " in check.line and "re-test" in check.line
+    just_in = evaluate(cal, AcceptanceLimits(ranges={"accel.bias_x": (bias_x - 1.5 * sigma_x, 1e4)}))
+    assert just_in.checks[0].passed and "(marginal: " in just_in.checks[0].line
+    clear = evaluate(cal, AcceptanceLimits(ranges={"accel.bias_x": (bias_x - 5 * sigma_x, bias_x + 5 * sigma_x)}))
+    assert clear.checks[0].passed and "marginal" not in clear.checks[0].line
