@@ -15,9 +15,9 @@ marks its session aborted) and the motion goes on for the others. Its reads cost
 drivers retry without sleeping), so the others' data are what they would be without it. Anything else (the
 turntable, an interrupt) stops the motors and leaves the engine, as in the one-sensor engine.
 
-Only fixed-dwell static steps run on a fixture in this version (:func:`check_fixture_procedure`, before
-anything moves): no re-measuring of a flagged step (each slot's step is recorded, flagged when its checks
-fail), no accuracy target, no rate or temperature steps.
+Static poses with a fixed dwell run on a fixture, and temperature set-points and prompts once for every slot
+(:data:`SHARED_STEPS`); rate steps, ramps and accuracy-targeted dwells not yet (:func:`check_fixture_procedure`,
+before anything moves); a flagged step is recorded flagged, not measured again.
 """
 
 from __future__ import annotations
@@ -34,13 +34,13 @@ from rig.execution.capture import Capture, _join, expected_samples, loss_counter
 from rig.execution.checks import check_step
 from rig.execution.context import EngineOptions, RunAborted, RunContext
 from rig.execution.engine import Engine
-from rig.execution.executors import static
+from rig.execution.executors import prompt, static, temperature
 from rig.execution.motion import move_to, stop_motors
 from rig.execution.operator import Operator
 from rig.execution.settle import SettleDetector, SettleRule
 
 #: the step executors a fixture runs (PlannedStep.executor)
-FIXTURE_EXECUTORS = ("static",)
+FIXTURE_EXECUTORS = ("static", "thermal", "prompt")
 
 
 #: a step check's problems that say the chip itself failed (its outputs on a rail, or frozen): a slot that shows
@@ -51,11 +51,13 @@ CHIP_FAILURES = ("saturated on", "stuck reading on")
 def check_fixture_procedure(procedure: Procedure) -> None:
     """Refuse (RigInputError, one line) a procedure a fixture cannot run yet, before anything moves."""
     for step in procedure.expanded_steps():
-        if step.executor not in FIXTURE_EXECUTORS or step.dwell is None or step.dwell.sem_g is not None:
+        static_ok = step.executor != "static" or (step.dwell is not None and step.dwell.sem_g is None)
+        if step.executor not in FIXTURE_EXECUTORS or not static_ok:
             what = step.executor if step.executor != "static" else "an uncertainty-targeted dwell"
             raise RigInputError(procedure.path, step.source_line, "steps",
                                 f"step {step.index + 1} ({step.name}) is {what}: a fixture runs static poses with a "
-                                "dwell of seconds or samples only (docs/fixture.md, \"A fixture run\")")
+                                "dwell of seconds or samples, temperature set-points and prompts only (docs/fixture.md, "
+                                "\"A fixture run\")")
 
 
 @dataclass
@@ -146,6 +148,9 @@ class FixtureEngine:
                 self.rig.begin_step(step.index)
                 if not any(r.live for r in self.runs):
                     break
+                if step.executor in SHARED_STEPS:  # the chamber or the operator: one for every slot
+                    SHARED_STEPS[step.executor](self, step)
+                    continue
                 move_to(self.ctx, step)
                 captures = capture_slots(self.ctx, step, [r for r in self.runs if r.live], self._fault)
                 for cap in captures:
@@ -158,6 +163,43 @@ class FixtureEngine:
             stop_motors(self.rig, soft=False)
             raise
         return self.runs
+
+    def _temperature(self, step: PlannedStep) -> None:
+        """A temperature set-point: the chamber is set once, the wait reads a live slot's thermometer (the next one
+        when it fails: that slot is faulted), and every live slot's session records the step with its own
+        thermometer's reading at the end."""
+        temperature.apply_setpoint(self.ctx, step)
+        t_start = self.rig.clock.now()
+        while True:
+            live = [r for r in self.runs if r.live]
+            if not live:
+                return
+            try:
+                mean_c, first_c = temperature.wait_in_band(live[0].ctx, step, t_start)
+                break
+            except SensorError as exc:
+                self._fault(live[0], step, exc)
+        waited_s = self.rig.clock.now() - t_start
+        for run in (r for r in self.runs if r.live):
+            try:
+                own_c = run.ctx.rig.sensor.read_temperature_c()
+                run.ctx.event("temperature", step=step.index, temp_c=own_c, start_c=first_c, waited_s=waited_s,
+                              band_mean_c=mean_c)
+                run.ctx.recorder.complete_step(step.index, {"t_end_s": run.ctx.session_time(), "temp_c": own_c,
+                                                            "waited_s": waited_s})
+            except SensorError as exc:
+                self._fault(run, step, exc)
+
+    def _prompt(self, step: PlannedStep) -> None:
+        """A prompt: asked once (the operator answers for the whole fixture), recorded in every live slot's session."""
+        text = prompt.question(step)
+        ok = self.ctx.operator.confirm(text)
+        for run in (r for r in self.runs if r.live):
+            run.ctx.event("prompt", step=step.index, text=text, answer="yes" if ok else "abort")
+        if not ok:
+            raise RunAborted(f"operator aborted at step {step.index + 1} ({step.name})")
+        for run in (r for r in self.runs if r.live):
+            run.ctx.recorder.complete_step(step.index, {"t_end_s": run.ctx.session_time()})
 
     def _fault(self, run: SlotRun, step: PlannedStep, exc: BaseException) -> None:
         run.fault = f"step {step.index + 1} ({step.name}): {exc}"
@@ -274,3 +316,7 @@ def _advance(cap: _SlotCapture, step: PlannedStep, block: SampleBlock, now_s: fl
 
 
 __all__ = ["FixtureEngine", "SlotRun", "capture_slots", "check_fixture_procedure"]
+
+
+#: the steps a fixture runs once for every slot (the shared chamber, the one operator), by executor
+SHARED_STEPS = {"thermal": FixtureEngine._temperature, "prompt": FixtureEngine._prompt}
