@@ -52,6 +52,10 @@ def check_fixture_procedure(procedure: Procedure) -> None:
     """Refuse (RigInputError, one line) a procedure a fixture cannot run yet, before anything moves."""
     for step in procedure.expanded_steps():
         static_ok = step.executor != "static" or (step.dwell is not None and step.dwell.sem_g is None)
+        if step.executor == "prompt" and step.mount is not None and step.mount.name != "x+z+":
+            raise RigInputError(procedure.path, step.source_line, "steps",
+                                f"step {step.index + 1} ({step.name}) turns the sensor in its fixture (mount:): a fixture's "
+                                "slots keep their mountings (a reversal runs on a one-sensor rig, docs/uncertainty.md)")
         if step.executor not in FIXTURE_EXECUTORS or not static_ok:
             what = step.executor if step.executor != "static" else "an uncertainty-targeted dwell"
             raise RigInputError(procedure.path, step.source_line, "steps",

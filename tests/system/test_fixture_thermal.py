@@ -52,3 +52,11 @@ def test_a_thermal_procedure_on_a_fixture_calibrates_each_units_tempco(tmp_path)
         sigma = np.asarray(cal.sigma["temperature"]["coefficients"], float)[:, 0]
         true = np.asarray(truth["bias_tempco_g_per_c"]) * cal.lsb_per_g
         assert np.all(np.abs(tempco - true) < 4 * sigma), (s["slot"], tempco, true, sigma)
+
+
+def test_a_reversal_on_a_fixture_is_refused_before_anything_moves(tmp_path, capsys):
+    from conftest import PROCEDURES
+    code = main(["run", str(PROCEDURES / "characterize_reversal.yaml"), "--rig", str(RIGS / "sim-fixture.yaml"),
+                 "--time-scale", "0", "--yes", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2 and "a fixture's slots keep their mountings" in err and not (tmp_path / "o").exists()
