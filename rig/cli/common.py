@@ -81,6 +81,10 @@ def format_calibration(cal) -> str:
     return "\n".join(lines)
 
 
+#: the zero-rate output is printed, not stored, when the calibration file has no gyroscope section (rate steps)
+ZRO_NOT_STORED = "; printed only: the calibration file's gyroscope section comes from rate steps (gyro_rates.yaml)"
+
+
 class Stages:
     """``rig COMMAND: STAGE (T s)`` on stderr as each stage starts, for a long input only (more than ``long_bytes``
     of samples, or more than ``long_steps`` steps once :meth:`steps` says how many): a progress that never

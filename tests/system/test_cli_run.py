@@ -132,3 +132,15 @@ def test_procedure_with_an_unknown_key_names_file_line_and_key(tmp_path, capsys)
 def test_solve_of_a_missing_session_is_exit_2(tmp_path, capsys):
     assert main(["solve", str(tmp_path / "none")]) == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_run_and_solve_print_the_gyroscopes_zero_rate_output_alike_and_say_it_is_not_stored(tmp_path, capsys):
+    code, (session,) = _run(tmp_path)
+    run_out = capsys.readouterr().out
+    assert code == 0
+    assert main(["solve", str(session), "-o", str(tmp_path / "again.yaml")]) == 0
+    solve_out = capsys.readouterr().out
+    lines = [[x for x in out.splitlines() if "gyroscope zero-rate output" in x] for out in (run_out, solve_out)]
+    assert lines[0] == lines[1] and len(lines[0]) == 1, lines
+    assert "printed only: the calibration file's gyroscope section comes from rate steps" in lines[0][0]
+    assert calfile.read(session / "calibration.yaml").gyroscope is None

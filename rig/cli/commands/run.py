@@ -9,8 +9,9 @@ import shlex
 import signal
 import sys
 
-from rig.cli.common import (EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, UsageError, format_calibration, present,
+from rig.cli.common import (EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, ZRO_NOT_STORED, UsageError, format_calibration, present,
                             warn_if_misfit)
+from rig.analysis.solve import static_gyro
 from rig.cli.console import ConsoleUI
 from rig.cli.terminal import say, say_raw
 from rig.execution.context import RunAborted
@@ -99,6 +100,9 @@ def _run_and_report(args, stop: SignalStop) -> int:
         return EXIT_OK
     say(f"calibration: {result.calibration_path}", out)
     say(format_calibration(result.calibration), out)
+    gyro = static_gyro(result.conclusion.session)  # as rig solve prints it: the gyroscope's zero-rate output
+    if gyro is not None:
+        say(f"  {gyro.format_line()}{ZRO_NOT_STORED if result.calibration.gyroscope is None else ''}", out)
     warn_if_misfit(result.calibration, "run")
     return present("run", result.conclusion)
 

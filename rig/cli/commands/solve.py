@@ -12,7 +12,7 @@ from calib.mag import MagCalibration
 from rig.analysis.solve import (ABSENT_ACCEL, accelerometer_absent, magnetometer_units, refuse_misplaced_poses,
                                 solve_present_sensors, static_gyro)
 from rig.cli import outputs
-from rig.cli.common import (EXIT_OK, Stages, UsageError, format_calibration, format_magnetometer, json_default, parse_thermal,
+from rig.cli.common import (EXIT_OK, ZRO_NOT_STORED, Stages, UsageError, format_calibration, format_magnetometer, json_default, parse_thermal,
                             present, report_warnings, warn_if_misfit)
 from rig.session import load_session
 from rig.workflow.conclude import conclude
@@ -88,7 +88,7 @@ def run(args) -> int:
         print(format_calibration(cal).replace(" uT", f" {magnetometer_units(session)}"))
         gyro = static_gyro(session)
         if gyro is not None:
-            print(f"  {gyro.format_line()}")
+            print(f"  {gyro.format_line()}{ZRO_NOT_STORED if cal.gyroscope is None else ''}")
         warn_if_misfit(cal, "solve")
         if args.method != "magnitude":
             print_redundancy(session)
