@@ -102,5 +102,5 @@ def test_a_recording_with_an_accelerometer_prints_the_static_gyro_bias(tmp_path,
     # in counts, as the gyro bias is everywhere else (issue 33 item 4): the session's sensitivity times deg/s
     lsb = load_session(tmp_path / "s" / "r").info.rig.sensor.gyro_lsb_per_dps
     x = float(line.split(" x ")[1].split()[0])
-    assert line.split(" +- ")[-1].split()[1] == "counts", line
+    assert line.split(" +- ")[-1].split()[1].rstrip(";") == "counts", line
     assert abs(x / lsb - GYRO_BIAS_DPS[0]) < 0.02, (line, lsb)
