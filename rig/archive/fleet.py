@@ -84,3 +84,44 @@ def fleet(results, by: str | None = None, threshold: float = 5.0) -> list[GroupS
                                                    "value": float(x), "z": float(z)})
         out.append(stats)
     return out
+
+
+@dataclass
+class Change:
+    """A parameter's change across the sessions both result sets solved: the mean and the largest change, in its
+    unit and in combined sigmas, and the sessions whose change is beyond the threshold."""
+
+    parameter: str
+    unit: str
+    n: int
+    mean: float
+    mean_z: float
+    largest_z: float
+    beyond: list = field(default_factory=list)  # {session_id, change, z}
+
+
+def changes(new, old, threshold: float = 3.0) -> list[Change]:
+    """Per parameter the change from results ``old`` to ``new`` (``rig resolve`` folders of the same archive, say
+    before and after a model change) over the sessions solved in both: ``z = (new - old) / sqrt(s_new^2 + s_old^2)``
+    (the two solves' sigmas, as if independent: an upper bound of the change's own sigma when they share data, so a
+    conservative z)."""
+    a, b = read_results(new).to_pylist(), read_results(old).to_pylist()
+    if not a or not b:
+        raise RigInputError(str(new if not a else old), None, None, "no results: run rig resolve first")
+    before = {r["session_id"]: r for r in b if r["ok"]}
+    pairs = [(r, before[r["session_id"]]) for r in a if r["ok"] and r["session_id"] in before]
+    if not pairs:
+        raise RigInputError(str(new), None, None, f"no session is solved in both {new} and {old}")
+    out = []
+    sigma_of = {"bias_counts": "bias_sigma_counts", "scale_counts_per_g": "scale_sigma_counts_per_g"}
+    for column, (name, unit) in PARAMETERS.items():
+        for j, axis in enumerate("xyz"):
+            d = np.array([n[column][j] - o[column][j] for n, o in pairs])
+            s = np.array([np.hypot(n[sigma_of[column]][j], o[sigma_of[column]][j]) for n, o in pairs])
+            z = np.where(s > 0, d / np.where(s > 0, s, 1.0), 0.0)
+            change = Change(f"{name}_{axis}", unit, len(pairs), float(d.mean()), float(z.mean()),
+                            float(z[np.argmax(np.abs(z))]))
+            change.beyond = [{"session_id": n["session_id"], "change": float(dd), "z": float(zz)}
+                             for (n, _), dd, zz in zip(pairs, d, z) if abs(zz) > threshold]
+            out.append(change)
+    return out

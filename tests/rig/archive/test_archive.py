@@ -149,3 +149,17 @@ def test_fleet_statistics_per_lot_and_the_units_that_stand_out(archive, tmp_path
     assert code == 0 and out.startswith("lot L7: 3 units solved, 1 failed")
     code, _, err = _rig("fleet", tmp_path)
     assert code == 2 and "no results" in err
+
+
+def test_the_change_of_every_parameter_after_a_re_solve_in_combined_sigmas(archive, tmp_path):
+    from rig.archive.fleet import changes
+    resolve_archive(archive, tmp_path / "old", executor="serial", chunk=4)
+    resolve_archive(archive, tmp_path / "new", executor="serial", chunk=4, model="full")
+    found = {c.parameter: c for c in changes(tmp_path / "new", tmp_path / "old")}
+    assert set(found) == {f"{p}_{a}" for p in ("bias", "scale") for a in "xyz"}
+    assert all(c.n == 3 for c in found.values())  # the three solved in both (not the magnetometer-only one)
+    new, old = (read_results(tmp_path / d).to_pylist() for d in ("new", "old"))
+    d = np.mean([n["bias_counts"][0] - o["bias_counts"][0] for n, o in zip(new, old) if n["ok"] and o["ok"]])
+    assert found["bias_x"].mean == pytest.approx(d)
+    code, out, _ = _rig("fleet", tmp_path / "new", "--against", tmp_path / "old")
+    assert code == 0 and "over 3 sessions solved in both" in out
