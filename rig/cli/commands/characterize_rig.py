@@ -5,6 +5,8 @@ uncertainties and stored as the rig's characterisation (``rig-characterisation/1
 
 from __future__ import annotations
 
+import math
+
 from calib.accel.reversal import ALIASES
 from rig.analysis.characterisation_record import CharacterisationRecord, default_path
 from rig.analysis.rig_characterisation import characterise_session, kept_as_classes
@@ -48,9 +50,13 @@ def format_report(record: CharacterisationRecord, session) -> str:
     lines = [f"rig characterisation by reversal: session {record.session}",
              f"  rig file: {record.rig_file} (sha256 {record.rig_file_sha256[:12]}..)",
              "  mountings: " + "; ".join(f"{m['turn']} ({m['steps']} poses)" for m in record.mountings),
-             "  table errors (deg; u standard uncertainty):"]
+             "  table errors (deg, and mrad as misalignments are printed; u: standard uncertainty as the table's "
+             "own error, then as a correction of later poses):"]
+    fix = c.u_correction_deg or c.u_deg
     for name, value in c.estimate_deg.items():
-        lines.append(f"    {name:<26} {value:+.5f}  u {c.u_deg[name]:.5f}")
+        mrad = math.radians(value) * 1e3
+        lines.append(f"    {name:<26} {value:+.5f} deg ({mrad:+.3f} mrad)  u {c.u_deg[name]:.5f} deg, "
+                     f"as a correction {fix[name]:.5f} deg")
     lines.append(f"  chi2/dof {c.chi2_per_dof:.2f} ({c.dof} dof)")
     lines.append(f"  held by the above (no term of their own in later budgets): {', '.join(ALIASES)}")
     n_poses = record.mountings[0]["steps"] if record.mountings else 6
