@@ -2,8 +2,8 @@
 
 Layout of ``ARCHIVE/`` (hive partitions by the month the session was created, ``month=2026-11``):
 
-- ``sessions/``: one row per session: ``session_id``, ``content_hash`` (sha256 over the session's files, name and
-  bytes, in name order), identity columns from the manifest (``sensor_key``, ``model``, ``serial``, ``rig_kind``,
+- ``sessions/``: one row per session: ``session_id``, ``content_hash`` (sha256 over the session's recording files,
+  name and bytes, in name order: :data:`RECORDING_FILES`), identity columns from the manifest (``sensor_key``, ``model``, ``serial``, ``rig_kind``,
   ``rig_file``, ``procedure``, ``created``, ``status``, ``n_steps``, ``lot``), ``columns`` (samples.csv's header);
 - ``steps/``: one row per step: ``session_id``, ``index``, ``name``, ``kind``, ``status``, ``n_samples``,
   ``temp_c``;
@@ -52,11 +52,17 @@ class ArchiveReport:
     refused: list[str] = field(default_factory=list)
 
 
+#: the files that are the recording (rig-session/1); the others (calibrations, reports, plots, discover's output)
+#: are made from it, kept in the archive as they were when the session was first added, and not in its hash
+RECORDING_FILES = ("session.yaml", "samples.csv", "events.jsonl", "steps.jsonl", "sim_truth.yaml")
+
+
 def content_hash(session_dir: Path) -> str:
-    """sha256 over the session's files (each name, its length and its bytes, in name order)."""
+    """sha256 over the session's recording (:data:`RECORDING_FILES` present: each name, its length and its bytes,
+    in name order): a re-solve that adds a calibration file leaves it unchanged."""
     h = hashlib.sha256()
     for p in sorted(session_dir.iterdir()):
-        if p.is_file() and p.name not in SKIPPED_FILES:
+        if p.is_file() and p.name in RECORDING_FILES:
             data = p.read_bytes()
             h.update(p.name.encode() + b"\0" + str(len(data)).encode() + b"\0" + data)
     return h.hexdigest()

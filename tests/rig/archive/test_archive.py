@@ -55,14 +55,19 @@ def archive(sessions, tmp_path_factory):
     return path
 
 
-def test_appending_again_adds_nothing_and_other_content_under_an_archived_id_is_refused(sessions, archive, tmp_path):
+def test_appending_again_adds_nothing_and_a_changed_recording_is_refused(sessions, archive, tmp_path):
     again = archive_sessions(sessions, archive)
     assert again.added == [] and len(again.skipped) == 4
-    changed = tmp_path / sessions[0].name
+    resolved = tmp_path / "resolved" / sessions[0].name  # re-solved since: a calibration file more, the same recording
+    shutil.copytree(sessions[0], resolved)
+    (resolved / "calibration-resolved.yaml").write_text((resolved / "calibration.yaml").read_text())
+    assert archive_sessions([resolved], archive).skipped == [sessions[0].name]
+    changed = tmp_path / "changed" / sessions[0].name  # its samples edited: its seal no longer holds
     shutil.copytree(sessions[0], changed)
-    (changed / "calibration.yaml").write_text((changed / "calibration.yaml").read_text() + "# a note\n")
+    text = (changed / "samples.csv").read_text()
+    (changed / "samples.csv").write_text(text.replace(",8", ",9", 1))
     refused = archive_sessions([changed], archive).refused
-    assert len(refused) == 1 and "archived already with other content" in refused[0]
+    assert len(refused) == 1 and str(changed) in refused[0], refused
 
 
 def test_a_session_comes_back_as_it_was_its_seal_verifies_and_it_solves_the_same(sessions, archive, tmp_path):
