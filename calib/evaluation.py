@@ -63,7 +63,8 @@ class Evaluation:
         lines = [head, "-" * len(head)]
         for r in self.rows:
             re = "   n/a" if r.roll_error_deg is None else f"{r.roll_error_deg:+7.3f}"
-            lines.append(f"{r.name[:22]:<22} {r.roll_deg:7.1f}/{r.pitch_deg:<7.1f}  {re:>10}/{r.pitch_error_deg:<+9.3f}"
+            roll, pitch = (round(x, 1) + 0.0 for x in (r.roll_deg, r.pitch_deg))  # never "-0.0" for a nominal 0
+            lines.append(f"{r.name[:22]:<22} {roll:7.1f}/{pitch:<7.1f}  {re:>10}/{r.pitch_error_deg:<+9.3f}"
                          f"   {r.angle_error_deg:12.4f} {r.norm_error_g * 1e6:+11.1f}")
         lines.append(f"max |error|: roll {self.max_abs('roll_error_deg'):.3f} deg, pitch "
                      f"{self.max_abs('pitch_error_deg'):.3f} deg, angle {self.max_abs('angle_error_deg'):.4f} deg, "

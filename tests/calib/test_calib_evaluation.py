@@ -36,6 +36,7 @@ def test_a_perfect_calibration_scores_zero_and_a_biased_one_does_not():
     assert ev.rows[0].roll_error_deg is None  # roll is undefined at pitch 90
     table = ev.format_table()
     assert "roll/pitch" in table and len(table.splitlines()) == 2 + 7 + 1
+    assert "-0.0/" not in table and "/-0.0 " not in table  # a nominal 0 deg is printed 0.0, whatever its rounding
     bad = calib.AccelCalibration(**{**cal.__dict__, "bias_counts": cal.bias_counts + np.array([82.0, 0, 0])})
     ev2 = calib.evaluate(bad, v)
     assert ev2.max_abs("angle_error_deg") > 0.5  # 10 mg of bias is ~0.6 deg of tilt
