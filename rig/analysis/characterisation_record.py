@@ -22,6 +22,8 @@ whose rig file has the digest the record names gets it as its rig's ``known`` er
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import re
 from dataclasses import dataclass
@@ -53,11 +55,13 @@ class CharacterisationRecord:
     session: str
     mountings: tuple = ()
     path: Path | None = None
+    table_sha256: str | None = None  # the rig file without its run-time pacing keys (:func:`table_digest`)
 
     def to_dict(self) -> dict:
         c = self.characterisation
         return {"format": FORMAT, "date": self.date,
-                "rig_file": {"path": self.rig_file, "sha256": self.rig_file_sha256},
+                "rig_file": {"path": self.rig_file, "sha256": self.rig_file_sha256,
+                             **({"table_sha256": self.table_sha256} if self.table_sha256 else {})},
                 "session": self.session, "method": "reversal", "mountings": [dict(m) for m in self.mountings],
                 "estimates": {n: {"estimate_deg": float(c.estimate_deg[n]), "u_deg": float(c.u_deg[n]),
                                   **({"u_correction_deg": float(c.u_correction_deg[n])} if c.u_correction_deg else {})}
@@ -75,6 +79,26 @@ class CharacterisationRecord:
         """``reversal 2026-11-26 (lab.characterisation.yaml)``: which characterisation, for a budget's rig terms."""
         name = self.path.name if self.path is not None else "characterisation"
         return f"characterised by reversal {self.date[:10]} ({name})"
+
+
+#: the keys of a simulated rig's ``sim:`` section that pace a run without changing the table (editing one keeps
+#: a characterisation: the same table, run faster or slower)
+PACING_KEYS = ("time_scale", "clock", "transport")
+
+
+def table_digest(rig_file_bytes: bytes) -> str | None:
+    """sha256 of the rig file's content without the ``sim:`` pacing keys (:data:`PACING_KEYS`), as canonical JSON:
+    the same for a rig file whose only edit is how fast its simulation runs; None for a file that does not parse."""
+    try:
+        doc = yamlsafe.load(rig_file_bytes.decode("utf-8"))
+    except (HostileYaml, UnicodeDecodeError):
+        return None
+    if not isinstance(doc, dict):
+        return None
+    sim = doc.get("sim")
+    if isinstance(sim, dict):
+        doc = {**doc, "sim": {k: v for k, v in sim.items() if k not in PACING_KEYS}}
+    return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()
 
 
 def default_path(rig_file) -> Path:
@@ -121,7 +145,9 @@ def load_record(path) -> CharacterisationRecord:
         Characterisation(est, u, float(chi2) if isinstance(chi2, (int, float)) else float("nan"),
                          int(dof) if isinstance(dof, int) else 0, u_correction_deg=u_fix if len(u_fix) == len(u) else None),
         date=str(doc.get("date", "")), rig_file=str(rig.get("path", "")), rig_file_sha256=rig["sha256"],
-        session=str(doc.get("session", "")), mountings=tuple(doc.get("mountings") or ()), path=path)
+        session=str(doc.get("session", "")), mountings=tuple(doc.get("mountings") or ()), path=path,
+        table_sha256=rig["table_sha256"] if isinstance(rig.get("table_sha256"), str)
+        and _SHA256.match(rig["table_sha256"]) else None)
 
 
 def find_record(rig_file) -> CharacterisationRecord | None:

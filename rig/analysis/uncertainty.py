@@ -28,7 +28,7 @@ from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration
 from calib.numerics.budget import DEFAULT_K, RigErrors, TableClass
 from calib.numerics.gravity import G0_M_S2, Gravity, standard_gravity
-from rig.analysis.characterisation_record import CharacterisationRecord, find_record
+from rig.analysis.characterisation_record import CharacterisationRecord, find_record, table_digest
 from rig.config.rigfile import GravityConfig, RigFile, load_rig_file
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
@@ -115,7 +115,9 @@ def session_rig_errors(session) -> RigErrors:
     why (an imported session has no rig file; a recorded one's may have changed or gone)."""
     rig_file = session_rig_facts(session)
     if rig_file is not None:
-        return characterised(rig_errors(rig_file), rig_file.path, session.info.rig.rig_file_sha256)
+        found = _unchanged_rig_file_bytes(session)
+        return characterised(rig_errors(rig_file), rig_file.path, session.info.rig.rig_file_sha256,
+                             table_digest(found[2]) if found is not None else None)
     info = session.info
     rig = info.rig
     if info.import_ is not None or rig.kind == "import":
@@ -156,17 +158,20 @@ class CharacterisedRig(RigErrors):
     record: CharacterisationRecord | None = None
 
 
-def characterised(rig: RigErrors, rig_file, digest: str | None) -> RigErrors:
+def characterised(rig: RigErrors, rig_file, digest: str | None, table: str | None = None) -> RigErrors:
     """``rig`` with the characterisation stored next to ``rig_file`` when it was made on a rig file of sha256
-    ``digest`` (:class:`CharacterisedRig`, its source naming the record and its date); a record of another digest,
-    or one that cannot be read, is ignored and the source says so in one line; no record: ``rig`` as it is."""
+    ``digest``, or of the same table (``table``: :func:`~rig.analysis.characterisation_record.table_digest`, the
+    file without its simulation's pacing keys) (:class:`CharacterisedRig`, its source naming the record and its
+    date); a record of another rig file, or one that cannot be read, is ignored and the source says so in one
+    line; no record: ``rig`` as it is."""
     try:
         record = find_record(rig_file)
     except (OSError, RigInputError) as exc:
         return dataclasses.replace(rig, source=f"{rig.source}; its characterisation is ignored: {exc}")
     if record is None:
         return rig
-    if record.rig_file_sha256 != digest:
+    same_table = (record.table_sha256 is not None and table is not None and record.table_sha256 == table)
+    if record.rig_file_sha256 != digest and not same_table:
         return dataclasses.replace(rig, source=(
             f"{rig.source}; characterisation {record.path.name} ({record.date[:10]}) ignored: made on rig file "
             f"sha256 {record.rig_file_sha256[:12]}.., this session's is {str(digest)[:12]}.."))

@@ -45,6 +45,7 @@ def test_characterise_then_calibrate_on_the_characterised_rig(tmp_path):
     assert record["format"] == "rig-characterisation/1" and record["session"] == reversal.name
     assert record["rig_file"]["path"] == str(rig_file.resolve()) and len(record["rig_file"]["sha256"]) == 64
     assert record["date"] and record["dof"] > 0 and set(record["estimates"]["mounting.z"]) == {"estimate_deg", "u_deg", "u_correction_deg"}
+    assert len(record["rig_file"]["table_sha256"]) == 64
 
     six, printed = run(PROCEDURES / "six_position.yaml", rig_file, tmp_path / "six")
     line = next(x for x in printed.splitlines() if "rig terms:" in x)
@@ -60,7 +61,17 @@ def test_characterise_then_calibrate_on_the_characterised_rig(tmp_path):
     assert "characterised by reversal" in next(x for x in printed.splitlines() if "rig terms:" in x)
     assert yaml.safe_load((other / "calibration.yaml").read_text())["accelerometer"]["fit"]["chi2_per_dof"] < 5
 
-    rig_file.write_text(rig_file.read_text() + "# edited after the characterisation\n")
+    # only how fast the simulation runs edited (and a comment): the same table, the characterisation still holds
+    paced = yaml.safe_load(rig_file.read_text())
+    paced["sim"]["time_scale"] = 50
+    rig_file.write_text(yaml.safe_dump(paced, sort_keys=False) + "# run faster\n")
+    _, printed = run(PROCEDURES / "six_position.yaml", rig_file, tmp_path / "paced")
+    assert "characterised by reversal" in next(x for x in printed.splitlines() if "rig terms:" in x)
+
+    # another table (its table_seed): the characterisation is ignored, and said so
+    other_table = yaml.safe_load(rig_file.read_text())
+    other_table["sim"]["geometry"]["table_seed"] = 1
+    rig_file.write_text(yaml.safe_dump(other_table, sort_keys=False))
     _, printed = run(PROCEDURES / "six_position.yaml", rig_file, tmp_path / "edited")
     (line,) = [x for x in printed.splitlines() if "rig terms:" in x]
     assert "characterisation lab.characterisation.yaml" in line and "ignored: made on rig file sha256" in line
