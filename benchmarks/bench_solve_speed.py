@@ -52,6 +52,11 @@ against imucal's 10.1 (load 8.2, adapter 1.9). What moved: the seal checked on t
 call per block length for every axis (calib.numerics.uncertainty.pooled_autocovariances), numpy's reader
 refusing a row of another width itself (rig.session.reader._parse_whole).
 
+2026-11-26 04:00, quiet machine (load 1.0), three runs (medians of 50, 100, 100): rig solve in process 10.23, 10.32,
+9.35 ms against imucal's 10.09, 9.46, 9.05 ms: 1.01-1.09x (load 6.3 ms, adapter 1.25, core 0.77); the rig file's
+facts are now parsed once per process by the guarded loader's fast path (2.27 -> 1.69 ms of the solve). Still
+missed by the session's load; combinations on 26 directions 210 ms (core 113).
+
 Copied into another checkout (``benchmarks/``), it times that checkout's code: without
 :func:`calibrate_session` it times ``solve_session`` with the file's write skipped.
 """
