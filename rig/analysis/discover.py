@@ -103,13 +103,16 @@ def check_discover_size(session: Session, n_steps: int) -> None:
                             "the recording imported alone")
 
 
-def discover_session(session_dir, *, false_alarm: float = 0.01, progress=None) -> tuple[Session, Discovery]:
+def discover_session(session_dir, *, false_alarm: float = 0.01, progress=None, prepare=None) -> tuple[Session, Discovery]:
     """Load the session and run the discovery on its static steps (refused beyond :data:`MAX_DISCOVER_STEPS`).
     ``progress``: called with each stage's name as it starts (``progress.steps(n)`` first, when it has one: the
-    static steps the session holds)."""
+    static steps the session holds). ``prepare``: called with the loaded session before its step means are taken
+    (``rig discover`` attaches the unit's noise profile there, as a solve does)."""
     say = progress or (lambda stage: None)
     say("reading the session")
     session = load_session(session_dir)
+    if prepare is not None:
+        prepare(session)
     idx = session.static_step_indices()
     if not idx:  # an imported recording without known poses: the pose-free baseline
         idx = session.static_step_indices(unknown_pose=True)

@@ -105,3 +105,19 @@ def test_a_unit_too_unstable_for_the_target_is_stopped_at_the_first_pose_naming_
     assert code != 0
     assert "no dwell reaches it (this unit's bias stability (its noise profile) alone exceeds it)" in printed
     assert "Stopped at the first pose" in printed
+
+
+def test_discover_weighs_the_wander_with_the_units_profile_and_says_so(tmp_path, monkeypatch, capsys):
+    _six_position(tmp_path, "s", monkeypatch)
+    session = next((tmp_path / "s").iterdir())
+    capsys.readouterr()
+    assert main(["discover", str(session), "--json"]) == 0
+    family = json.loads(capsys.readouterr().out)
+    assert "noise" not in family
+    record_profile(_profile(4 * 40e-6 / math.sqrt(2), 4 * 4e-6), tmp_path / "history.sqlite")  # a unit 4x noisier
+    assert main(["discover", str(session), "--json"]) == 0
+    unit = json.loads(capsys.readouterr().out)
+    assert unit["noise"]["source"] == "unit profile" and unit["noise"]["sensor_key"] == KEY
+    assert unit["wander_rms_g"] > 2 * family["wander_rms_g"]  # the wander the unit has, not the family's
+    assert main(["discover", str(session)]) == 0
+    assert "the bias wander is the unit's own (its noise profile of 2026-11-01)" in capsys.readouterr().err

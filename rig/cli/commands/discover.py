@@ -4,6 +4,7 @@ and which effect is missing."""
 from __future__ import annotations
 
 import json
+import sys
 
 from calib.numerics.design import MISFIT_LEVEL
 from rig.analysis import discover as dsc
@@ -11,6 +12,7 @@ from rig.analysis import plots
 from rig.analysis import propose as prop
 from rig.analysis import twin as twn
 from rig.cli import outputs
+from rig.lab.noise_profiles import use_unit_profile
 from rig.cli.common import EXIT_OK, Stages, check_false_alarm, json_default, report_warnings
 
 
@@ -64,10 +66,15 @@ def run(args) -> int:
     proposal = None if args.propose is None else policy.file(args.propose, option="--propose", what="the proposal",
                                                              make_parents=True)
     stages = Stages("discover", args.session, long_steps=LONG_STEPS, long_bytes=LONG_BYTES)
-    session, d = dsc.discover_session(args.session, false_alarm=args.false_alarm, progress=stages)
+    noise = {}
+    session, d = dsc.discover_session(args.session, false_alarm=args.false_alarm, progress=stages,
+                                      prepare=lambda s: noise.update(used=use_unit_profile(s)))
     stages("done")
     report_warnings("discover", session)
     extra = {}
+    if noise.get("used") and not args.json:  # the unit's own wander, as its calibrations weigh it (docs/noise.md)
+        print(f"rig discover: note: the bias wander is the unit's own (its noise profile of "
+              f"{noise['used']['measured_at'][:10]}), not the chip family's", file=sys.stderr)
     if plot is not None:
         name = plots.safe_name(f"{session.id or 'session'}-discover") + ".png"
         if plot.directory:
@@ -83,7 +90,8 @@ def run(args) -> int:
         with outputs.writing(proposal):
             extra.update(prop.write_proposal(session, d, proposal.path))
     if args.json:
-        print(json.dumps({**dsc.document(session, d), **extra}, indent=2, default=json_default))
+        print(json.dumps({**dsc.document(session, d), **extra, **({"noise": noise["used"]} if noise.get("used") else {})},
+                         indent=2, default=json_default))
     else:
         print(dsc.format_report(session, d, details=args.details))
         for k, v in extra.items():
