@@ -340,6 +340,13 @@ def build_twin(session: Session, cal: AccelCalibration, *, label: str = "discove
     sim = {"time_scale": 0, "chamber": {"initial_c": round(initial_c, 4), "tau_s": round(tau_s, 3)}, **env,
            "table_tilt_deg": tilt, "noise": model, "errors": errors}
     sim.update({k: v for k, v in (("gyro_errors", gyro), ("mag_errors", mag)) if v})
+    unit = getattr(session, "unit_noise", None) or {}  # the unit's own wander, when its noise profile was attached
+    accel = unit.get("accel")
+    if accel is not None and getattr(accel, "axes", None):
+        sim["noise_figures"] = {"accel_bias_instability_g": [float(a.bias_instability) for a in accel.axes],
+                                "accel_random_walk_g_per_rts": [float(a.random_walk_per_rts) for a in accel.axes]}
+        noise_notes = noise_notes + ["the accelerometer's bias wander is the unit's own (its noise profile), not "
+                                     "the chip family's"]
     doc = {"format": "rig-file/1", "name": f"twin-{session.id}"[:200],
            "description": f"digital twin of session {session.id}: the sensor's {label} model "
                           f"({', '.join(e['name'] for e in cal.effects) or 'no effects beyond the seed model'}"

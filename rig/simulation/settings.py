@@ -19,7 +19,7 @@ import numpy as np
 from pydantic import BeforeValidator, Field, WithJsonSchema, create_model
 
 from calib.discovery.effects import LIBRARY
-from calib.file.fields import Strict, choice, fail, flag, integer, number
+from calib.file.fields import Strict, array, choice, fail, flag, integer, number
 from drivers.sensors.sim.error_model import (
     AccelErrorModel,
     GyroErrorModel,
@@ -187,6 +187,14 @@ FactorRange = Annotated[Optional[tuple[float, float]], BeforeValidator(_factor_r
     "type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "number", "minimum": 0.01, "maximum": 100}})]
 
 
+class NoiseFiguresSection(Strict):
+    """``sim.noise_figures``: this unit's own accelerometer bias wander per axis (x, y, z), in place of its family's:
+    what a digital twin of a characterised unit carries (its noise profile, docs/noise.md; docs/twin.md)."""
+
+    accel_bias_instability_g: Optional[array(3, nonneg=True, as_list=True)] = None
+    accel_random_walk_g_per_rts: Optional[array(3, nonneg=True, as_list=True)] = None
+
+
 class NoiseSpreadSection(Strict):
     """``sim.noise_spread``: each simulated unit's noise figures drawn about its family's, a factor per axis and
     term, log-uniform in [lo, hi] (drivers.sensors.sim.unit_noise; docs/noise.md)."""
@@ -239,6 +247,7 @@ class SimSection(Strict):
     mag_errors: MagOverrides = MagOverrides()
     noise: Optional[choice(NOISE_MODELS)] = None  # None: the chips' default (drivers.sensors.sim.noise)
     noise_spread: Optional[NoiseSpreadSection] = None  # None: every unit has its family's figures
+    noise_figures: Optional[NoiseFiguresSection] = None  # None: the family's (or the spread's) figures
     geometry: GeometrySection = GeometrySection()  # the turntable's own errors (off unless enabled)
     serial_base: number(ge=1, le=2**31 - 1, integer=True) = 0x5A00
     repeat: number(ge=0, le=2**31 - 1, integer=True,
@@ -331,6 +340,7 @@ class SimSettings:
     mag_errors: dict[str, Any] = dataclasses.field(default_factory=dict)  # MagErrorModel overrides
     noise: str | None = None  # "white" | "dlpf" | None (the chip models' DEFAULT_NOISE_MODEL)
     noise_spread: dict[str, tuple[float, float]] | None = None  # term -> factor range (drivers.sensors.sim.unit_noise)
+    noise_figures: dict[str, list] | None = None  # NoiseConfig field -> this unit's figures (x, y, z)
     geometry: GeometryClass | None = None  # the table's own error classes; None: a perfect table
     gravity_m_s2: float = G0_M_S2  # local gravity of the simulated site (with geometry only)
     table_seed: int = 0  # the hidden table's draw (with geometry only): the rig's, not the run's seed
@@ -349,6 +359,8 @@ class SimSettings:
                    effects=given(s.effects) if s.effects is not None else {}, errors=given(s.errors),
                    gyro_errors=given(s.gyro_errors), mag_errors=given(s.mag_errors), noise=s.noise,
                    noise_spread=given(s.noise_spread) if s.noise_spread is not None else None,
+                   noise_figures={k: v for k, v in given(s.noise_figures).items() if v is not None}
+                   if s.noise_figures is not None else None,
                    serial_base=s.serial_base, repeat=int(s.repeat), **_geometry(s.geometry))
 
 

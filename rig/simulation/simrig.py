@@ -79,6 +79,8 @@ class SimulatedRig:
             self.unit_noise = draw_unit_noise(self.seed, resolve_noise(settings.noise, sensor_model), errors,
                                               settings.noise_spread)
             self.noise = self.unit_noise.noise
+        if settings.noise_figures:  # this unit's own figures (a twin of a characterised unit)
+            self.noise = dataclasses.replace(resolve_noise(self.noise, sensor_model), **settings.noise_figures)
         self.chamber = SimChamber(self.clock, settings.chamber)
         ximc_faults = ximc_faults or {}
         self.emulators: list[ControllerEmulator] = []
@@ -182,7 +184,8 @@ class SimulatedRig:
             "effects": {k: _plain(v) for k, v in self.settings.effects.items()},
             "time_scale": self.settings.time_scale,
             "clock": self.settings.clock if self.settings.time_scale else "virtual",
-            **({"noise": self.chip.noise.to_dict()} if self.settings.noise or self.unit_noise else {}),
+            **({"noise": self.chip.noise.to_dict()} if self.settings.noise or self.unit_noise
+               or self.settings.noise_figures else {}),
             **({"unit_noise": self.unit_noise.truth()} if self.unit_noise else {}),
             **({"geometry": {"classes": dataclasses.asdict(self.settings.geometry), **self.geometry.truth()}}
                if self.geometry is not None else {}),

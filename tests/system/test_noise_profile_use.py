@@ -121,3 +121,20 @@ def test_discover_weighs_the_wander_with_the_units_profile_and_says_so(tmp_path,
     assert unit["wander_rms_g"] > 2 * family["wander_rms_g"]  # the wander the unit has, not the family's
     assert main(["discover", str(session)]) == 0
     assert "the bias wander is the unit's own (its noise profile of 2026-11-01)" in capsys.readouterr().err
+
+
+def test_the_twin_of_a_characterised_unit_carries_its_own_wander(tmp_path, monkeypatch, capsys):
+    _six_position(tmp_path, "s", monkeypatch)
+    session = next((tmp_path / "s").iterdir())
+    record_profile(_profile(4 * 40e-6 / math.sqrt(2), 4 * 4e-6), tmp_path / "history.sqlite")
+    assert main(["discover", str(session), "--twin", str(tmp_path / "twin.yaml")]) == 0
+    twin = yaml.safe_load((tmp_path / "twin.yaml").read_text())
+    figures = twin["sim"]["noise_figures"]
+    assert figures["accel_random_walk_g_per_rts"] == pytest.approx([16e-6] * 3)
+    assert figures["accel_bias_instability_g"] == pytest.approx([160e-6] * 3)  # B in the registry's convention
+    assert "the unit's own (its noise profile)" in (tmp_path / "twin.yaml").read_text()
+    capsys.readouterr()
+    assert main(["run", str(PROCEDURES / "six_position.yaml"), "--rig", str(tmp_path / "twin.yaml"), "--seed", "4",
+                 "--time-scale", "0", "--out", str(tmp_path / "on-twin"), "--quiet"]) == 0
+    truth = yaml.safe_load((next((tmp_path / "on-twin").iterdir()) / "sim_truth.yaml").read_text())
+    assert truth["noise"]["accel_random_walk_g_per_rts"] == pytest.approx([16e-6] * 3)
