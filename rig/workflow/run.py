@@ -8,7 +8,9 @@ from pathlib import Path
 
 from rig.config.procedure import load_procedure, load_procedure_text
 from rig.config.rigfile import load_rig_file
+from drivers.sensors.base import SensorError
 from rig.devices import open_rig_file
+from rig.devices.rig import describe_sensor
 from rig.execution.context import EngineOptions, RunAborted, wall_per_rig_s
 from rig.execution.estimate import step_durations_s
 from rig.execution.engine import check_before_recording
@@ -79,13 +81,13 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     try:
         new = NewSession(Path(out_dir), new_session_id(procedure.name, seed), Path(procedure_path).read_text(),
                          str(procedure_path), extra={"seed": rig.seed})
+        use_unit_noise(procedure, rig, None, operator, history)  # before the preflight: it judges the target too
         check_before_recording(procedure, rig, operator)
         announce_duration(procedure, rig, operator)
         writer = start_session(procedure, rig, new)
         try:
             lock = SessionLock(writer.session_dir).acquire()
             operator.info(f"session {writer.session_dir}")
-            use_unit_noise(procedure, rig, writer, operator, history)
         except BaseException as exc:  # between the session's creation and the engine: still resumable
             abort_session(writer, exc)
             if isinstance(exc, KeyboardInterrupt):
@@ -101,12 +103,19 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
         lock.release()
 
 
-def use_unit_noise(procedure, rig, writer, operator: Operator, history) -> None:
+def use_unit_noise(procedure, rig, manifest: dict | None, operator: Operator, history) -> None:
     """A run with an accuracy target predicts with the unit's own noise figures when the history holds its noise
-    profile (``rig.unit_accel_stability``; docs/noise.md), and says so; the family's otherwise."""
+    profile (``rig.unit_accel_stability``; docs/noise.md), and says so; the family's otherwise. ``manifest``: the
+    session's (its plain mapping); None before the session starts: what identifies the unit is read from the rig
+    (its sensor's identity, the seed)."""
     if procedure.target is None:
         return
-    found = unit_accel_stability(writer.info.to_dict(), history)
+    try:
+        if manifest is None:
+            manifest = {"rig": {"sensor": describe_sensor(rig.sensor)}, "seed": rig.seed}
+        found = unit_accel_stability(manifest, history)
+    except (SensorError, OSError):  # the chip did not answer its identity: the run's start says so, in its words
+        return
     if found is not None:
         rig.unit_accel_stability, profile = found
         operator.info(f"accuracy target: predicted with the unit's own noise figures (its profile of "
@@ -203,7 +212,7 @@ def _resume_locked(resume_dir, *, rig_spec, seed, operator: Operator, time_scale
         time_offset = _resume_time_offset(writer.info)
         writer.event("resume", t_s=time_offset, first_step=first_step)
         operator.info(f"resuming {writer.session_dir} at step {first_step + 1}")
-        use_unit_noise(procedure, rig, writer, operator, history)
+        use_unit_noise(procedure, rig, writer.info.to_dict(), operator, history)
         outcomes = execute(procedure, rig, writer, operator, first_step=first_step, resuming=True,
                            time_offset_s=time_offset, options=options)
     finally:

@@ -98,13 +98,16 @@ def test_an_accuracy_target_is_predicted_with_the_units_profile(tmp_path, monkey
     assert dwell[1] > 1.2 * dwell[0], dwell  # more wander to average down: longer dwells
 
 
-def test_a_unit_too_unstable_for_the_target_is_stopped_at_the_first_pose_naming_its_profile(tmp_path, monkeypatch,
-                                                                                           capsys):
+def test_a_unit_too_unstable_for_the_target_is_refused_before_anything_moves_naming_its_profile(tmp_path, monkeypatch,
+                                                                                                    capsys):
     record_profile(_profile(4 * 40e-6 / math.sqrt(2), 4 * 4e-6), tmp_path / "history.sqlite")  # 4x the family
-    code, printed, _ = _rapid(tmp_path, "unit", monkeypatch, capsys)
-    assert code != 0
-    assert "no dwell reaches it (this unit's bias stability (its noise profile) alone exceeds it)" in printed
-    assert "Stopped at the first pose" in printed
+    monkeypatch.setenv("RIG_HISTORY", str(tmp_path / "history.sqlite"))
+    capsys.readouterr()
+    code = main(["run", str(PROCEDURES / "six_position_rapid.yaml"), "--seed", "9", "--time-scale", "0", "--out",
+                 str(tmp_path / "unit")])
+    err = capsys.readouterr().err
+    assert code == 2 and not (tmp_path / "unit").exists()  # the preflight: no session, nothing moved
+    assert "target: out of reach" in err and "with this unit's bias stability (its noise profile)" in err
 
 
 def test_discover_weighs_the_wander_with_the_units_profile_and_says_so(tmp_path, monkeypatch, capsys):

@@ -71,8 +71,11 @@ def preflight(procedure, step, rig) -> None:
     if not plan.feasible:
         raise RigInputError(procedure.path, None, "target",
                             f"out of reach within max_seconds {cap:g}: even at the {rig.sensor.model}'s datasheet "
-                            f"noise ({density * 1e6:.0f} ug/rtHz) the best reachable is {plan.ratio:.2g} times the "
-                            "target after the moves and settling; relax the target or raise max_seconds")
+                            f"noise ({density * 1e6:.0f} ug/rtHz)"
+                            + (" and with this unit's bias stability (its noise profile)"
+                               if rig.unit_accel_stability is not None else "")
+                            + f" the best reachable is {plan.ratio:.2g} times the target after the moves and "
+                            "settling; relax the target or raise max_seconds")
 
 
 def execute(ctx: RunContext, step) -> None:
