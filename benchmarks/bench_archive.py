@@ -8,7 +8,8 @@ counts, 8 counts of noise) imported with ``rig import`` (``import_recording``: t
 recorded session). Then: the archive's size against the session directories', the time to archive them; ``rig
 resolve`` serially and on a process pool of ``--workers`` (wall time, and the per-session time of one core); the
 results identical between the two; every bias within 3 sigma of its hidden truth (the fraction); the
-extrapolation to 10^6 sessions on 16 cores (target: under an hour). Dask is not measured (not built yet).
+extrapolation to 10^6 sessions on 16 cores (target: under an hour); and Dask's ``LocalCluster`` of ``--workers``
+processes (its start included).
 
 Measured 2026-11-26 (2 cores, one of them shared with another session's test runs; Python 3.11):
 
@@ -16,6 +17,7 @@ Measured 2026-11-26 (2 cores, one of them shared with another session's test run
 |---|---|---|---|---|---|---|---|
 | 100 | 1.4 s | 0.4 s | 0.66 / 4.44 MB (6.8x) | 2.3 s (22.5 ms each) | 1.2 s (1.88x) | yes | 100 % (rms z 0.96) |
 | 2,000 | 29.9 s | 8.3 s | 13.4 / 89.0 MB (6.6x) | 48.7 s (24.3 ms each) | 33.5 s (1.45x) | yes | 99.7 % (rms z 0.99) |
+| 1,000 (quiet machine, with Dask) | 14.0 s | 3.9 s | 6.68 / 44.5 MB (6.7x) | 22.0 s (22.0 ms each) | 11.8 s (1.87x); Dask LocalCluster(2), its start included: 13.7 s (1.61x) | yes (all three) | 99.7 % (rms z 0.99) |
 
 The time per session does not grow with the archive (22.5 -> 24.3 ms from 100 to 2,000 sessions: each chunk reads
 only its own rows). 10^6 sessions at 24 ms: 6.8 core-hours, about 25 minutes on 16 cores at perfect scaling (the
@@ -88,21 +90,23 @@ def main() -> int:
         print(f"archive: {len(report.added)} added in {t_archive:.1f} s; {size_archive / 1e6:.2f} MB against "
               f"{size_dirs / 1e6:.2f} MB of session directories ({size_dirs / size_archive:.1f}x smaller)")
         times = {}
-        for executor, workers in (("serial", 1), ("processes", args.workers)):
-            t0 = time.perf_counter()
+        for executor, workers in (("serial", 1), ("processes", args.workers), ("dask", args.workers)):
+            t0 = time.perf_counter()  # dask: a LocalCluster of worker processes, started inside the timing
             resolve_archive(tmp / "archive", tmp / executor, executor=executor, workers=workers, chunk=args.chunk)
             times[executor] = time.perf_counter() - t0
             print(f"resolve {executor:<9} ({workers} worker{'s' if workers > 1 else ''}, chunks of {args.chunk}): "
                   f"{times[executor]:.1f} s wall, {times[executor] / args.sessions * 1e3:.1f} ms a session")
-        a, b = read_results(tmp / "serial"), read_results(tmp / "processes")
-        same = np.array_equal(np.array(a.column("bias_counts").to_pylist()), np.array(b.column("bias_counts").to_pylist()))
+        a, b, c = read_results(tmp / "serial"), read_results(tmp / "processes"), read_results(tmp / "dask")
+        same = all(np.array_equal(np.array(a.column("bias_counts").to_pylist()), np.array(x.column("bias_counts").to_pylist()))
+                   for x in (b, c))
         rows = a.to_pylist()
         z = np.array([(np.array(r["bias_counts"]) - truth[r["session_id"]]) / np.array(r["bias_sigma_counts"])
                       for r in rows if r["ok"]])
         per_session = times["serial"] / args.sessions
-        print(f"results identical (serial, processes): {same}; {sum(r['ok'] for r in rows)} of {len(rows)} solved; "
+        print(f"results identical (serial, processes, dask): {same}; {sum(r['ok'] for r in rows)} of {len(rows)} solved; "
               f"biases within 3 sigma of the truth: {np.mean(np.abs(z) < 3):.1%} (rms z {np.sqrt(np.mean(z**2)):.2f})")
-        print(f"speed-up of {args.workers} processes: {times['serial'] / times['processes']:.2f}x; 10^6 sessions at "
+        print(f"speed-up of {args.workers} processes: {times['serial'] / times['processes']:.2f}x, of Dask's "
+              f"LocalCluster({args.workers}): {times['serial'] / times['dask']:.2f}x; 10^6 sessions at "
               f"{per_session * 1e3:.1f} ms a session on one core: {per_session * 1e6 / 3600:.1f} core-hours, "
               f"{per_session * 1e6 / 16 / 3600 * 60:.0f} min on 16 cores (perfect scaling; target under 60 min)")
     return 0
