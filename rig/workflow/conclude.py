@@ -62,7 +62,7 @@ class Conclusion:
 
 
 def conclude(session: Session, *, out=None, model: str | None = None, method: str | None = None, thermal=None,
-             history=None, sensor_id: str | None = None, report: bool | None = None) -> Conclusion:
+             history=None, sensor_id: str | None = None, report: bool | None = None, record: bool = True) -> Conclusion:
     """Solve a loaded session, judge it, write its calibration file once, record it, report it.
 
     Parameters
@@ -73,6 +73,7 @@ def conclude(session: Session, *, out=None, model: str | None = None, method: st
     history : history database (default ``$RIG_HISTORY``, else the user's).
     sensor_id : a serial or fixture id that overrides the sensor key built from the manifest.
     report : write ``SESSION/report.html``; default: when the recorded procedure says ``report: true``.
+    record : put the calibration into the history (False: an exploratory re-solve, ``rig solve --no-record``).
         :func:`write_conclusion_report` writes it later for a caller that concludes before the session
         is marked complete (``rig run``).
 
@@ -89,7 +90,7 @@ def conclude(session: Session, *, out=None, model: str | None = None, method: st
     calfile.write(path, cal)
     warning = record_calibration(session.path, path, history=history, sensor_id=sensor_id,
                                  verdict=None if acceptance is None else acceptance.verdict,
-                                 manifest=session.info.to_dict(), calibration=cal)
+                                 manifest=session.info.to_dict(), calibration=cal) if record else None
     conclusion = Conclusion(session, cal, path, acceptance, warning)
     if report if report is not None else report_asked(session):
         write_conclusion_report(conclusion, history=history)

@@ -105,3 +105,17 @@ def test_every_run_and_solve_is_recorded_in_the_history(recorded, tmp_path, monk
     assert main(["history", "--json", "--all"]) == 0
     listing = json.loads(capsys.readouterr().out)
     assert [s["n"] for s in listing["sensors"]] == [2]  # a re-solve that differs: both
+
+
+def test_an_exploratory_re_solve_with_no_record_writes_its_file_and_leaves_the_history_alone(recorded, tmp_path,
+                                                                                            monkeypatch, capsys):
+    db = tmp_path / "h.sqlite"
+    with closing(sqlite3.connect(recorded["history"])) as src, closing(sqlite3.connect(db)) as dst:
+        src.backup(dst)
+    monkeypatch.setenv("RIG_HISTORY", str(db))
+    assert main(["solve", str(recorded["session"]), "-o", str(tmp_path / "full.yaml"), "--model", "full",
+                 "--no-record"]) == 0
+    assert (tmp_path / "full.yaml").is_file()
+    capsys.readouterr()
+    assert main(["history", "--json", "--all"]) == 0
+    assert [s["n"] for s in json.loads(capsys.readouterr().out)["sensors"]] == [1]  # only the run's own record

@@ -33,6 +33,8 @@ def add_parser(sub) -> None:
                         "noise (sessions without a turntable); the sigmas then carry the misfit, not the pose error")
     s.add_argument("--force", action="store_true",
                    help="replace SESSION/calibration.yaml (otherwise a re-solve is written beside it)")
+    s.add_argument("--no-record", action="store_true",
+                   help="an exploratory re-solve: write the calibration file, record nothing in the history")
 
 
 #: a session longer than this many steps, or with more than this many bytes of samples, is solved with its stages
@@ -77,7 +79,7 @@ def run(args) -> int:
     stages(f"solving {len(session.info.steps)} steps")
     with outputs.writing(out):  # an error writing the file names the path given
         conclusion = conclude(session, out=out.path, model=args.model, method=args.method, thermal=thermal,
-                              report=False)
+                              report=False, record=not args.no_record)
     stages("done: calibration written and recorded")
     verdict_code = present("solve", conclusion, quiet=args.json)
     cal, path = conclusion.calibration, conclusion.calibration_path
