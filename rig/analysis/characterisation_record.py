@@ -86,13 +86,10 @@ class CharacterisationRecord:
 PACING_KEYS = ("time_scale", "clock", "transport")
 
 
-def table_digest(rig_file_bytes: bytes) -> str | None:
-    """sha256 of the rig file's content without the ``sim:`` pacing keys (:data:`PACING_KEYS`), as canonical JSON:
-    the same for a rig file whose only edit is how fast its simulation runs; None for a file that does not parse."""
-    try:
-        doc = yamlsafe.load(rig_file_bytes.decode("utf-8"))
-    except (HostileYaml, UnicodeDecodeError):
-        return None
+def table_digest(doc) -> str | None:
+    """sha256 of a rig file's content ``doc`` (as parsed) without the ``sim:`` pacing keys (:data:`PACING_KEYS`), as
+    canonical JSON: the same for a rig file whose only edit is how fast its simulation runs; None when ``doc`` is
+    not a mapping."""
     if not isinstance(doc, dict):
         return None
     sim = doc.get("sim")

@@ -21,7 +21,7 @@ from calib.accel.reversal import ALIASES, CHARACTERISED, Mounting, characterise
 from calib.accel.rig_propagation import rig_parameters
 from calib.errors import CalibError
 from calib.numerics.budget import RigErrors
-from rig.analysis.characterisation_record import table_digest, CharacterisationRecord
+from rig.analysis.characterisation_record import CharacterisationRecord
 from rig.analysis.uncertainty import rig_errors, session_rig_facts
 from rig.config.rotations import describe, name_of
 from rig.session import Session, step_means
@@ -97,7 +97,7 @@ def characterise_session(session: Session) -> CharacterisationRecord:
         fit, date=datetime.now(timezone.utc).isoformat(timespec="seconds"),
         rig_file=str(Path(facts.path).resolve()), rig_file_sha256=info.rig_file_sha256, session=session.id,
         mountings=tuple({"name": name_of(q), "turn": describe(q), "steps": len(m)} for q, m in groups),
-        table_sha256=table_digest(Path(facts.path).read_bytes()))
+        table_sha256=facts.table_sha256)
 
 
 def kept_as_classes(rig: RigErrors, n_poses: int) -> list[tuple[str, float]]:

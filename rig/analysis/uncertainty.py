@@ -49,6 +49,7 @@ class RigFacts:
     sim: dict
     axes: dict
     gravity: Gravity
+    table_sha256: str | None = None  # the file without its simulation's pacing keys (characterisation_record.table_digest)
 
 
 def session_rig_facts(session) -> RigFacts | None:
@@ -71,7 +72,7 @@ def _rig_facts(path: Path, digest: str, data: bytes) -> RigFacts | None:
         gravity = GravityConfig(**stated).resolve() if stated else standard_gravity()
         return RigFacts(path, doc.get("kind") == "sim", sim if isinstance(sim, dict) else {},
                         {n: SimpleNamespace(approach=(axes.get(n) or {}).get("approach", "none")) for n in STAGE_AXES},
-                        gravity)
+                        gravity, table_digest(doc))
     except (ValueError, TypeError, AttributeError, UnicodeDecodeError, yamlsafe.HostileYaml):
         return None
 
@@ -115,9 +116,8 @@ def session_rig_errors(session) -> RigErrors:
     why (an imported session has no rig file; a recorded one's may have changed or gone)."""
     rig_file = session_rig_facts(session)
     if rig_file is not None:
-        found = _unchanged_rig_file_bytes(session)
         return characterised(rig_errors(rig_file), rig_file.path, session.info.rig.rig_file_sha256,
-                             table_digest(found[2]) if found is not None else None)
+                             rig_file.table_sha256)
     info = session.info
     rig = info.rig
     if info.import_ is not None or rig.kind == "import":
