@@ -183,28 +183,10 @@ def render_schema() -> str:
     return json.dumps(schema(), indent=2, sort_keys=True) + "\n"
 
 
-def unit_accel_stability(manifest: dict, history=None) -> tuple[object, NoiseProfile] | None:
-    """The accelerometer's :class:`~calib.numerics.stability.AxisStability` from the newest noise profile of the unit
-    a session manifest (``manifest``: its plain mapping) records, and that profile; None without one (or without
-    accelerometer figures in it, or when the history's folder cannot be read)."""
+def _unit_noise(manifest: dict, history=None) -> tuple[str, NoiseProfile, dict] | None:
+    """(sensor key, the newest noise profile of the unit ``manifest`` records, its figures per sensor with any
+    wander) or None: no profile, none with wander figures, or a history folder that cannot be read."""
     key = sensor_identity(manifest, SimpleNamespace(sensor=None))["key"]
-    try:
-        profile = latest_profile(key, history)
-    except (OSError, RigInputError):
-        return None
-    if profile is None:
-        return None
-    axes = unit_stabilities(profile).get("accel")
-    if not axes or not any(a.bias_instability > 0 or a.random_walk_per_rts > 0 for a in axes):
-        return None
-    return AxisStability.of(axes), profile
-
-
-def use_unit_profile(session, history=None) -> dict | None:
-    """Attach the newest noise profile of ``session``'s unit (its identity as the history keys it) to the session
-    (``Session.unit_noise``: the solvers' bias stability per sensor) and return the calibration file's ``noise``
-    record; None (nothing attached) when the unit has no profile or the history's folder cannot be read."""
-    key = sensor_identity(session.info.to_dict(), SimpleNamespace(sensor=None))["key"]
     try:
         profile = latest_profile(key, history)
     except (OSError, RigInputError):
@@ -213,8 +195,27 @@ def use_unit_profile(session, history=None) -> dict | None:
         return None
     used = {sensor: AxisStability.of(axes) for sensor, axes in unit_stabilities(profile).items() if any(
         s.bias_instability > 0 or s.random_walk_per_rts > 0 for s in axes)}
-    if not used:
+    return (key, profile, used) if used else None
+
+
+def unit_accel_stability(manifest: dict, history=None) -> tuple[object, NoiseProfile] | None:
+    """The accelerometer's :class:`~calib.numerics.stability.AxisStability` from the newest noise profile of the unit
+    a session manifest (``manifest``: its plain mapping) records, and that profile; None without one (or without
+    accelerometer figures in it, or when the history's folder cannot be read)."""
+    found = _unit_noise(manifest, history)
+    if found is None or "accel" not in found[2]:
         return None
+    return found[2]["accel"], found[1]
+
+
+def use_unit_profile(session, history=None) -> dict | None:
+    """Attach the newest noise profile of ``session``'s unit (its identity as the history keys it) to the session
+    (``Session.unit_noise``: the solvers' bias stability per sensor) and return the calibration file's ``noise``
+    record; None (nothing attached) when the unit has no profile or the history's folder cannot be read."""
+    found = _unit_noise(session.info.to_dict(), history)
+    if found is None:
+        return None
+    key, profile, used = found
     session.unit_noise = used
     return {"source": "unit profile", "sensor_key": key, "measured_at": profile.measured_at,
             "session": profile.session,
