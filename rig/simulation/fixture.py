@@ -27,7 +27,7 @@ from drivers.sensors.sim.bus import SimulatedI2CBus
 from drivers.sensors.sim.error_model import AccelErrorModel, GyroErrorModel, MagErrorModel
 from drivers.sensors.sim.faults import SensorFaults
 from drivers.sensors.sim.mpu9150 import Mpu9150Model
-from drivers.sensors.sim.physics import PhysicsBatch, advance, temperature_at
+from drivers.sensors.sim.physics import PhysicsBatch, SeenThrough
 from drivers.sensors.sim.tca9548a import Tca9548aModel
 from rig.devices.fixture import Fixture, attach_fixture
 from rig.devices.rig import Rig
@@ -42,7 +42,7 @@ def slot_seed(seed: int, slot: int) -> int:
 
 
 @dataclasses.dataclass
-class RotatedPhysics:
+class RotatedPhysics(SeenThrough):
     """A physics source seen from a slot: every vector of ``physics`` (turntable frame) taken to the slot frame.
 
     Parameters
@@ -55,12 +55,6 @@ class RotatedPhysics:
 
     physics: object
     rotation: np.ndarray
-
-    def temp_c_at(self, t_s: np.ndarray) -> np.ndarray:
-        return temperature_at(self.physics, t_s)
-
-    def advance(self, t_s: np.ndarray) -> np.ndarray:
-        return advance(self.physics, t_s)
 
     def __call__(self, t_s: np.ndarray) -> PhysicsBatch:
         p = self.physics(t_s)

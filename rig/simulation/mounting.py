@@ -16,11 +16,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.sensors.sim.physics import PhysicsBatch, advance, temperature_at
+from drivers.sensors.sim.physics import PhysicsBatch, SeenThrough
 
 
 @dataclass
-class MountedPhysics:
+class MountedPhysics(SeenThrough):
     """``physics`` (the fixture frame) seen by a sensor turned in its fixture by the turn in force at each time.
 
     Parameters
@@ -46,12 +46,6 @@ class MountedPhysics:
         """The turn in force at clock time ``t_s`` (the identity before any)."""
         i = bisect.bisect_right(self.times_s, float(t_s))
         return self.turns[i - 1] if i else np.eye(3)
-
-    def temp_c_at(self, t_s: np.ndarray) -> np.ndarray:
-        return temperature_at(self.physics, t_s)
-
-    def advance(self, t_s: np.ndarray) -> np.ndarray:
-        return advance(self.physics, t_s)
 
     def __call__(self, t_s: np.ndarray) -> PhysicsBatch:
         p = self.physics(t_s)

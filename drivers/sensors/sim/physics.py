@@ -61,3 +61,17 @@ class StaticPhysics:
                             np.tile(np.asarray(self.angular_rate_dps, float), (n, 1)),
                             np.tile(np.asarray(self.magnetic_field_ut, float), (n, 1)),
                             np.full(n, float(self.temp_c)))
+
+
+class SeenThrough:
+    """Base of a physics source that shows another (``self.physics``) in another frame: the temperature is the
+    wrapped source's, and samples nobody sees advance it (:func:`temperature_at`, :func:`advance`); a subclass
+    gives ``__call__``."""
+
+    physics: object
+
+    def temp_c_at(self, t_s) -> np.ndarray:
+        return temperature_at(self.physics, t_s)
+
+    def advance(self, t_s) -> np.ndarray:
+        return advance(self.physics, t_s)
