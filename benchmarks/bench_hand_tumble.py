@@ -44,13 +44,16 @@ sys.path.insert(0, str(REPO))
 
 import calib  # noqa: E402
 from calib.accel.placement import check_placement  # noqa: E402
+from calib.mag.continuous import solve_mag_ellipsoid_samples  # noqa: E402
 from rig.analysis.solve import solve_accelerometer  # noqa: E402
 from rig.importers.recordings import import_recording  # noqa: E402
 from rig.session import load_session, step_means  # noqa: E402
+from rig.session.adapter import mag_turning_samples  # noqa: E402
 
 
-def _load(name: str):
-    spec = importlib.util.spec_from_file_location(name, REPO / "tests" / "rig" / "importers" / f"{name}.py")
+def _load(name: str, folder: str = "rig/importers"):
+    """A generator module of the tests (``tests/FOLDER/NAME.py``)."""
+    spec = importlib.util.spec_from_file_location(name, REPO / "tests" / folder / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)
@@ -68,10 +71,17 @@ def hand_tumbled(n: int, tmp: Path) -> str:
         est = np.concatenate([cal.bias_counts, np.asarray(cal.matrix_counts_per_g)[iu]])
         sig = np.concatenate([cal.sigma["bias_counts"], np.asarray(cal.sigma["matrix_counts_per_g"])[iu]])
         z.append((est - np.concatenate([truth["bias"], truth["matrix"][iu]])) / sig)
+    return coverage("hand-tumbled", z)
+
+
+def coverage(what: str, z) -> str:
+    """The line of a recording set's (error / sigma) per recording and parameter ``z``: the fractions within 1, 2,
+    3 sigma, the recordings with every parameter within 3 sigma, the largest |z|."""
     z = np.abs(np.array(z))
-    within = [100 * float(np.mean(z < k)) for k in (1, 2, 3)]
+    n, k = z.shape
+    within = [100 * float(np.mean(z < m)) for m in (1, 2, 3)]
     every = int(np.sum(np.all(z < 3, axis=1)))
-    return (f"hand-tumbled: {n} recordings x 9 parameters: within 1/2/3 sigma {within[0]:.1f} / {within[1]:.1f} / "
+    return (f"{what}: {n} recordings x {k} parameters: within 1/2/3 sigma {within[0]:.1f} / {within[1]:.1f} / "
             f"{within[2]:.1f} %; every parameter within 3 sigma in {every} of {n} recordings; largest |z| "
             f"{z.max():.2f}")
 
@@ -80,11 +90,7 @@ def magnetometer_turned(n: int, tmp: Path) -> str:
     """Magnetometers turned by hand without rests (``tests/calib/mag_turning.py``: 40 s at 100 Hz, a known A and B,
     0.4 uT of noise) written as generic CSVs, imported with ``--continuous`` and solved (the ellipsoid on the
     samples, the field's magnitude given by a site): hard iron and the upper-triangular A against the truth."""
-    spec = importlib.util.spec_from_file_location("mag_turning", REPO / "tests" / "calib" / "mag_turning.py")
-    gen = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(gen)
-    from calib.mag.continuous import solve_mag_ellipsoid_samples
-    from rig.session.adapter import mag_turning_samples
+    gen = _load("mag_turning", "calib")
     z, iu = [], np.triu_indices(3)
     for seed in range(n):
         rec = gen.turning_recording(3000 + seed, seconds=40.0)
@@ -99,12 +105,7 @@ def magnetometer_turned(n: int, tmp: Path) -> str:
         sigma = np.concatenate([[sig[f"hard_iron_{c}"] for c in "xyz"],
                                 np.array([[sig[f"a_{r}{c}"] for c in "xyz"] for r in "xyz"])[iu]])
         z.append((est - np.concatenate([rec["b"], gen.upper_representative(rec["a"])[iu]])) / sigma)
-    z = np.abs(np.array(z))
-    within = [100 * float(np.mean(z < k)) for k in (1, 2, 3)]
-    every = int(np.sum(np.all(z < 3, axis=1)))
-    return (f"magnetometer turned without rests: {n} recordings x 9 parameters: within 1/2/3 sigma {within[0]:.1f} / "
-            f"{within[1]:.1f} / {within[2]:.1f} %; every parameter within 3 sigma in {every} of {n} recordings; "
-            f"largest |z| {z.max():.2f}")
+    return coverage("magnetometer turned without rests", z)
 
 
 def hand_placed(n: int, tmp: Path, max_deg: float = 10.0) -> str:
