@@ -267,14 +267,19 @@ def site_field_world(site: SiteInfo | None) -> np.ndarray | None:
     return np.array([hor * np.cos(dec), hor * np.sin(dec), -site.field_ut * np.sin(inc)])
 
 
+def mag_counts_per_ut(session: Session) -> float:
+    """The stored magnetometer counts per uT of the session (its manifest's, else the recorder's default)."""
+    mag_info = session.info.rig.sensor.magnetometer
+    return float((mag_info.mag_lsb_per_ut if mag_info is not None else None) or MAG_COUNTS_PER_UT)
+
+
 def mag_turning_samples(session: Session) -> tuple[np.ndarray, int] | None:
     """The magnetometer's samples (N, 3), uT, in recording order, of the complete steps in which the sensor turns
     (kind ``rotation``: a recording turned by hand without rests, ``rig import --continuous``), and how many such
     steps; None when there are none with at least 2 finite readings."""
     if "mag_counts" not in session.samples:
         return None
-    mag_info = session.info.rig.sensor.magnetometer
-    lsb = float((mag_info.mag_lsb_per_ut if mag_info is not None else None) or MAG_COUNTS_PER_UT)
+    lsb = mag_counts_per_ut(session)
     blocks = []
     for st in session.info.steps:
         if st.kind != "rotation" or st.status != "complete":
@@ -298,8 +303,7 @@ def mag_step_means(session: Session, known_field: bool = True) -> MagStepMeans |
     times and durations are those of the readings (the first ``mag_samples`` of a step)."""
     if "mag_counts" not in session.samples:
         return None
-    mag_info = session.info.rig.sensor.magnetometer
-    lsb = float((mag_info.mag_lsb_per_ut if mag_info is not None else None) or MAG_COUNTS_PER_UT)
+    lsb = mag_counts_per_ut(session)
     h_world = site_field_world(session.info.rig.site) if known_field else None
     names, h, blocks, windows = [], [], [], []
     for st in session.info.steps:
