@@ -36,9 +36,15 @@ def test_a_perfect_calibration_scores_zero_and_a_biased_one_does_not():
     assert ev.rows[0].roll_error_deg is None  # roll is undefined at pitch 90
     table = ev.format_table()
     assert "roll/pitch" in table and len(table.splitlines()) == 2 + 7 + 1
-    assert "-0.0/" not in table and "/-0.0 " not in table  # a nominal 0 deg is printed 0.0, whatever its rounding
     bad = calib.AccelCalibration(**{**cal.__dict__, "bias_counts": cal.bias_counts + np.array([82.0, 0, 0])})
     ev2 = calib.evaluate(bad, v)
     assert ev2.max_abs("angle_error_deg") > 0.5  # 10 mg of bias is ~0.6 deg of tilt
     d = ev2.to_dict()
     assert len(d["steps"]) == 7 and d["max_angle_error_deg"] == pytest.approx(ev2.max_abs("angle_error_deg"))
+
+
+def test_a_nominal_zero_angle_is_printed_0_0_never_minus_0_0():
+    from calib.evaluation import Evaluation, EvaluationRow
+    row = EvaluationRow("+Z up", -0.0004, -1e-9, 0.001, -0.002, 0.0021, 1e-6)  # tiny negatives of a level pose
+    line = Evaluation([row]).format_table().splitlines()[2]
+    assert line.split()[2] == "0.0/0.0", line  # the nominal roll/pitch column, after the step name "+Z up"
