@@ -16,7 +16,6 @@ import re
 
 import json
 import math
-import sqlite3
 from dataclasses import dataclass, field
 
 from calib.file.parameters import at_common_temperature
@@ -68,15 +67,10 @@ def _number(v) -> int | float | None:
     return None
 
 
-def _query(h: History, sql: str, params=()) -> list[sqlite3.Row]:
-    """``h.query`` with text read as bytes (decoded by the caller, so text that is not UTF-8 is a note
-    instead of an error of the whole query)."""
-    before = h.conn.text_factory
-    h.conn.text_factory = bytes
-    try:
-        return h.query(sql, params)
-    finally:
-        h.conn.text_factory = before
+def _query(h: History, sql: str, params=None) -> list:
+    """``h.query`` with text read as bytes where a file may hold text that is not UTF-8 (SQLite; decoded by the
+    caller, so such text is a note instead of an error of the whole query). Rows read by column name."""
+    return h.query(sql, params, raw_text=True)
 
 
 def list_sensors(h: History, include_simulated: bool = True) -> list[dict]:
@@ -86,8 +80,8 @@ def list_sensors(h: History, include_simulated: bool = True) -> list[dict]:
     rows = _query(h, "SELECT s.sensor_key, s.model, s.address, s.serial, COUNT(c.id) AS n, "
                      "COALESCE(SUM(c.simulated), 0) AS n_sim, "
                      "MIN(c.calibrated_at) AS first, MAX(c.calibrated_at) AS last FROM sensors s "
-                     "LEFT JOIN calibrations c ON c.sensor_key = s.sensor_key AND (? OR c.simulated = 0) "
-                     "GROUP BY s.sensor_key ORDER BY s.sensor_key", (int(include_simulated),))
+                     "LEFT JOIN calibrations c ON c.sensor_key = s.sensor_key AND (:everything = 1 OR c.simulated = 0) "
+                     "GROUP BY s.sensor_key ORDER BY s.sensor_key", {"everything": int(include_simulated)})
     out = [{"sensor_key": _text(r["sensor_key"]) or "", "model": _text(r["model"]), "address": _number(r["address"]),
             "serial": _text(r["serial"]), "n": r["n"], "simulated": r["n_sim"], "first": _text(r["first"]),
             "last": _text(r["last"])}
@@ -112,7 +106,7 @@ def resolve_sensor(h: History, sensor: str) -> str:
     raise HistoryCorrupt(h.path, f"sensor {sensor!r}: {what} (rig history --all lists them, simulated ones too)")
 
 
-def _calibration_info(row: sqlite3.Row, where: str, notes: list[str]) -> dict:
+def _calibration_info(row, where: str, notes: list[str]) -> dict:
     """The ``calibrations`` row as plain values: numbers where numbers belong, text, the rig as a mapping."""
     info = {}
     for k in row.keys():
@@ -145,7 +139,7 @@ def sensor_history(h: History, key: str, include_simulated: bool | None = None) 
 
     ``include_simulated``: True every calibration, False those of hardware rigs only, None (the default view)
     those of hardware rigs when the sensor has any, else its simulated ones (a simulated sensor's history)."""
-    cals = _query(h, "SELECT * FROM calibrations WHERE sensor_key = ? ORDER BY calibrated_at, id", (key,))
+    cals = _query(h, "SELECT * FROM calibrations WHERE sensor_key = :key ORDER BY calibrated_at, id", {"key": key})
     if not include_simulated:
         hardware = [r for r in cals if not r["simulated"]]
         cals = hardware if hardware or include_simulated is False else cals
@@ -159,7 +153,7 @@ def sensor_history(h: History, key: str, include_simulated: bool | None = None) 
         where[info["id"]] = here
     by_id = {c.id: c for c in out if c.id is not None}
     for p in _query(h, "SELECT p.* FROM parameters p JOIN calibrations c ON c.id = p.calibration_id "
-                       "WHERE c.sensor_key = ? ORDER BY p.rowid", (key,)):
+                       f"WHERE c.sensor_key = :key ORDER BY p.{h.db.row_order}", {"key": key}):
         rec = by_id.get(p["calibration_id"])
         if rec is None:
             continue

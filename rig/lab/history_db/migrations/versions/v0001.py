@@ -1,0 +1,18 @@
+"""History schema version 1 (rig.lab.history_db.schema.MIGRATIONS)."""
+
+from alembic import op
+
+from rig.lab.history_db.schema import apply, revision as _rev
+
+revision = _rev(1)
+down_revision = None
+branch_labels = None
+depends_on = None
+
+
+def upgrade() -> None:
+    apply(op, 1)
+
+
+def downgrade() -> None:
+    raise NotImplementedError("the history is never migrated down: an older rig refuses a newer history")
