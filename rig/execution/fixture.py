@@ -15,6 +15,10 @@ marks its session aborted) and the motion goes on for the others. Its reads cost
 drivers retry without sleeping), so the others' data are what they would be without it. Anything else (the
 turntable, an interrupt) stops the motors and leaves the engine, as in the one-sensor engine.
 
+**Resume** (:class:`FixtureEngine` with ``first_step``): the motion continues at the earliest first unfinished
+step of the slots it resumes (``SlotRun.first_step``, each slot's own: an interruption between two slots'
+recordings of one pose leaves them one step apart); a slot records only the steps it has not finished.
+
 Static poses with a fixed dwell run on a fixture, and temperature set-points and prompts once for every slot
 (:data:`SHARED_STEPS`); rate steps, ramps and accuracy-targeted dwells not yet (:func:`check_fixture_procedure`,
 before anything moves); a flagged step is recorded flagged, not measured again.
@@ -66,17 +70,23 @@ def check_fixture_procedure(procedure: Procedure) -> None:
 
 @dataclass
 class SlotRun:
-    """One slot in a fixture run: its slot, its own run context (its rig view and its session) and, once its
-    sensor has failed, the reason (``fault``: one line) and the step it failed at."""
+    """One slot in a fixture run: its slot, its own run context (its rig view and its session), the first step
+    it records (``first_step``: 0, or its first unfinished step on a resume) and, once its sensor has failed, the
+    reason (``fault``: one line) and the step it failed at."""
 
     slot: Slot
     ctx: RunContext
     fault: str | None = None
     fault_step: int | None = None
+    first_step: int = 0
 
     @property
     def live(self) -> bool:
         return self.fault is None
+
+    def due(self, step: PlannedStep) -> bool:
+        """Whether this slot records ``step``: live, and the step not finished before (a resume)."""
+        return self.live and step.index >= self.first_step
 
 
 class FanOut:
@@ -127,28 +137,43 @@ class FixtureEngine:
         Called with a slot's run and the exception when its sensor fails (the run goes on without it).
     where : path
         The batch's directory (for messages).
+    time_offset_s : float
+        A resume: the session time the motion continues at (every slot's sessions share one clock).
+
+    A resume starts the motion at the earliest ``first_step`` of the runs.
     """
 
     def __init__(self, procedure: Procedure, rig: Rig, runs: list[SlotRun], operator: Operator, *,
                  options: EngineOptions = EngineOptions(), on_fault: Callable[[SlotRun, BaseException], None],
-                 where=None) -> None:
+                 where=None, time_offset_s: float = 0.0) -> None:
         self.procedure = procedure
         self.rig = rig
         self.runs = runs
         self.on_fault = on_fault
-        self.engine = Engine(procedure, rig, FanOut(runs, where), operator, options=options)
+        first = min((r.first_step for r in runs), default=0)
+        self.engine = Engine(procedure, rig, FanOut(runs, where), operator, options=options, first_step=first,
+                             time_offset_s=time_offset_s)
         self.ctx = self.engine.ctx  # the motion's context: the shared clock, the session time, the operator
         for run in runs:  # one session time for the motion and every slot
             run.ctx.t0_s = self.ctx.t0_s
 
-    def prepare(self) -> None:
-        """The axes' speeds and the home/zero policy, as the one-sensor engine does (checked before already)."""
-        self.engine.prepare(resuming=False, preflight=False)
+    def prepare(self, resuming: bool = False) -> None:
+        """The axes' speeds and the home/zero policy, as the one-sensor engine does (checked before already); a
+        resume keeps the axes' zero and restores the last temperature set-point before it, waiting on the first
+        live slot's thermometer (the one-sensor engine's restore)."""
+        live = [r for r in self.runs if r.live]
+        if resuming and live:  # the restore reads a thermometer: a live slot's, not the rig's first slot's
+            self.ctx.rig = live[0].ctx.rig
+        try:
+            self.engine.prepare(resuming=resuming, preflight=False)
+        finally:
+            self.ctx.rig = self.rig
 
     def run(self) -> list[SlotRun]:
-        """Every step: move once, capture every live slot, record each; stop the motors on any error."""
+        """Every step (from the first a slot has not finished): move once, capture every slot that records it,
+        record each; stop the motors on any error."""
         try:
-            for step in self.engine.steps:
+            for step in self.engine.steps[self.engine.first_step:]:
                 self.rig.begin_step(step.index)
                 if not any(r.live for r in self.runs):
                     break
@@ -156,7 +181,7 @@ class FixtureEngine:
                     SHARED_STEPS[step.executor](self, step)
                     continue
                 move_to(self.ctx, step)
-                captures = capture_slots(self.ctx, step, [r for r in self.runs if r.live], self._fault)
+                captures = capture_slots(self.ctx, step, [r for r in self.runs if r.due(step)], self._fault)
                 for cap in captures:
                     if cap.run.live:
                         self._record(step, cap)
@@ -175,7 +200,7 @@ class FixtureEngine:
         temperature.apply_setpoint(self.ctx, step)
         t_start = self.rig.clock.now()
         while True:
-            live = [r for r in self.runs if r.live]
+            live = [r for r in self.runs if r.due(step)]
             if not live:
                 return
             try:
@@ -184,7 +209,7 @@ class FixtureEngine:
             except SensorError as exc:
                 self._fault(live[0], step, exc)
         waited_s = self.rig.clock.now() - t_start
-        for run in (r for r in self.runs if r.live):
+        for run in (r for r in self.runs if r.due(step)):
             try:
                 own_c = run.ctx.rig.sensor.read_temperature_c()
                 run.ctx.event("temperature", step=step.index, temp_c=own_c, start_c=first_c, waited_s=waited_s,
@@ -198,11 +223,11 @@ class FixtureEngine:
         """A prompt: asked once (the operator answers for the whole fixture), recorded in every live slot's session."""
         text = prompt.question(step)
         ok = self.ctx.operator.confirm(text)
-        for run in (r for r in self.runs if r.live):
+        for run in (r for r in self.runs if r.due(step)):
             run.ctx.event("prompt", step=step.index, text=text, answer="yes" if ok else "abort")
         if not ok:
             raise RunAborted(f"operator aborted at step {step.index + 1} ({step.name})")
-        for run in (r for r in self.runs if r.live):
+        for run in (r for r in self.runs if r.due(step)):
             run.ctx.recorder.complete_step(step.index, {"t_end_s": run.ctx.session_time()})
 
     def _fault(self, run: SlotRun, step: PlannedStep, exc: BaseException) -> None:

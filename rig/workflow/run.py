@@ -16,13 +16,15 @@ from rig.execution.estimate import step_durations_s
 from rig.execution.engine import check_before_recording
 from rig.execution.fixture import check_fixture_procedure
 from rig.execution.operator import Operator, SilentOperator
+from rig.planning.kinematics import STAGE_AXES
+from rig.lab.batch_record import BATCH_FILE, is_batch, read_batch
 from rig.lab.noise_profiles import unit_accel_stability
 from rig.session.lock import SessionLock
 from rig.errors import RigInputError
 from rig.session import SessionManifest, SessionWriter
 from rig.session.recovery import check_resumable
 from rig.workflow import identity
-from rig.workflow.batch import BatchResult, run_batch
+from rig.workflow.batch import BatchResult, plan_resume, refuse_finished, resume_batch, run_batch
 from rig.workflow import kinds  # noqa: F401 - registers the "sim" rig kind (the simulator loads when it opens)
 from rig.workflow.lifecycle import (NewSession, RunResult, abort_session, configure_devices, execute, file_sha256,
                                     finish, interrupted, start_session)
@@ -63,6 +65,9 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
     if resume_dir is not None and slots is not None:
         raise RigInputError(None, None, "--slots", "a re-test runs a new batch of some slots: give the procedure and "
                             "the fixture's rig file, not --resume")
+    if resume_dir is not None and is_batch(resume_dir):  # an interrupted fixture batch: docs/fixture.md
+        return _resume_batch(resume_dir, rig_spec=rig_spec, seed=seed, operator=operator, time_scale=time_scale,
+                             clock=clock, solve=solve, options=options, history=history)
     if resume_dir is not None:
         return _resume(resume_dir, rig_spec=rig_spec, seed=seed, operator=operator, time_scale=time_scale,
                        clock=clock, solve=solve, options=options, history=history)
@@ -180,10 +185,60 @@ def format_duration(seconds: float) -> str:
     return f"{int(seconds // 3600)} h {int(seconds % 3600 // 60):02d} min"
 
 
+def _resume_batch(batch_dir, *, rig_spec, seed, operator: Operator, time_scale, clock, solve: bool,
+                  options: EngineOptions, history=None) -> BatchResult:
+    """Continue an interrupted fixture batch (:func:`rig.workflow.batch.resume_batch`): lock it, open the rig file
+    it recorded (or ``rig_spec``), check the rig, its fixture's slots and every slot's session before anything is
+    touched (:func:`rig.workflow.batch.plan_resume`), then the checks before anything moves, then go on."""
+    record = read_batch(batch_dir, finished=False)
+    refuse_finished(batch_dir, record)  # before the lock and the rig: nothing to do
+    with SessionLock(batch_dir) as lock:
+        if lock.stale:
+            operator.warn(f"took over the lock of pid {lock.stale.get('pid', '?')} on {lock.stale.get('host', '?')}, "
+                          "which is no longer running")
+        rig_path = resolve_rig(record.get("rig_file") if rig_spec is None else rig_spec)
+        rig = open_rig_file(load_rig_file(rig_path), seed=record.get("seed") if seed is None else seed,
+                            time_scale=time_scale, clock=clock)
+        try:
+            plan = plan_resume(batch_dir, record, rig, rig_path)
+            procedure = None
+            if plan.resumed:  # the procedure the slots recorded (every slot's session holds its text)
+                info = plan.resumed[0][2]
+                procedure = load_procedure_text(info.procedure.text or "", info.procedure.file or "<session>")
+                first = min(_first_unfinished(m) for _, _, m in plan.resumed)
+                check_fixture_procedure(procedure)
+                check_before_recording(procedure, rig, operator, first_step=first, start_deg={
+                    name: rig.axes[name].stage.get_position_deg() for name in STAGE_AXES})
+            operator.info(f"resuming batch {batch_dir}: " + (", ".join(
+                f"slot {slot.index} at step {_first_unfinished(m) + 1}" for slot, _, m in plan.resumed) or
+                "no slot to record, only the end of the batch"))
+            return resume_batch(procedure, rig, plan, operator, options=options, solve=solve, history=history)
+        finally:
+            rig.close()
+
+
+def _first_unfinished(info: SessionManifest) -> int:
+    """The index of a session's first step not finished (complete or flagged); the step count when none."""
+    return next((s.index for s in info.steps if s.status not in ("complete", "flagged")), len(info.steps))
+
+
 def _resume(resume_dir, *, rig_spec, seed, operator: Operator, time_scale, clock, solve: bool,
             options: EngineOptions, history=None) -> RunResult:
     """Continue an interrupted session: lock it first (a second resume touches nothing)."""
-    SessionManifest.load(resume_dir)  # a directory that is not a session is refused before it is locked
+    d = Path(resume_dir)
+    if not (d / "session.yaml").exists() and any(d.glob("*-slot*/session.yaml")):  # a batch without its record
+        raise RigInputError(str(d / BATCH_FILE), None, None, "missing: a fixture batch without its batch record "
+                            "cannot be resumed (it stopped before every slot's session had started, or was recorded "
+                            "before batches resumed); run the batch again, or solve a slot's session: rig solve SESSION")
+    recorded, _ = SessionManifest.load(resume_dir)  # a directory that is not a session is refused before it is locked
+    fixture = recorded.to_dict()["rig"]["sensor"].get("fixture")
+    if fixture is not None:  # one slot of a batch: its sessions share one motion
+        batch = Path(resume_dir).resolve().parent
+        raise RigInputError(str(Path(resume_dir) / "session.yaml"), None, "rig.sensor.fixture",
+                            f"this session is slot {fixture.get('slot')} of a fixture batch: resume the batch, "
+                            f"rig run --resume {batch}" + ("" if (batch / BATCH_FILE).is_file() else
+                                                          f" (it has no {BATCH_FILE}: it stopped before its slots' "
+                                                          "sessions had all started; run the batch again)"))
     with SessionLock(resume_dir) as lock:
         if lock.stale:
             operator.warn(f"took over the lock of pid {lock.stale.get('pid', '?')} on {lock.stale.get('host', '?')}, "
