@@ -232,7 +232,7 @@ def _run_and_conclude(procedure, rig: Rig, runs: list[SlotRun], record: "BatchRe
         record.write()
 
     try:
-        n_steps = len(procedure.expanded_steps())
+        n_steps = len(procedure.expanded_steps()) if runs else 0
         if any(r.live and r.first_step < n_steps for r in runs):
             engine = FixtureEngine(procedure, rig, runs, operator, options=options, on_fault=on_fault,
                                    where=batch_dir, time_offset_s=time_offset_s)
@@ -484,18 +484,18 @@ def _kept_outcome(batch_dir: Path, entry: dict, slot: Slot) -> SlotOutcome | Non
         return SlotOutcome(slot.index, entry["serial"], entry.get("rotation"), entry.get("outcome") or "FAULT",
                            entry.get("reason"), session, recorded=entry)
     rotation = entry.get("rotation")
-    quarantined = _quarantine_reason(session)
+    manifest, _ = SessionManifest.load(session)
+    quarantined = _quarantine_reason(session, manifest)
     if quarantined is not None:
         return SlotOutcome(slot.index, entry["serial"], rotation, "FAULT", quarantined, session)
-    manifest, _ = SessionManifest.load(session)
     if manifest.status == "complete":  # concluded; the record was not rewritten before the batch stopped
         return _outcome_on_disk(slot, rotation, session, manifest)
     return None
 
 
-def _quarantine_reason(session: Path) -> str | None:
+def _quarantine_reason(session: Path, manifest: SessionManifest) -> str | None:
     """The reason of the slot's quarantine when its session's events record one (the fixture engine's ``error``
-    event, ``slot N quarantined: ...``), else None."""
+    event, ``slot N quarantined: ...``), in the record's words (``step 4 (-X up): ...``), else None."""
     try:
         lines = (session / "events.jsonl").read_text(encoding="utf-8", errors="replace").splitlines()
     except OSError:
@@ -508,7 +508,9 @@ def _quarantine_reason(session: Path) -> str | None:
         if event.get("kind") == "error" and " quarantined: " in str(event.get("message", "")):
             step = event.get("step")
             why = event["message"].split(" quarantined: ", 1)[1]
-            return f"step {step + 1}: {why}" if isinstance(step, int) else why
+            if isinstance(step, int) and 0 <= step < len(manifest.steps):
+                return f"step {step + 1} ({manifest.steps[step].name}): {why}"
+            return why
     return None
 
 
@@ -562,14 +564,15 @@ def resume_batch(procedure, rig: Rig, plan: ResumePlan, operator: Operator, *,
     batch's lock and closes the rig): each resumed slot's session is reopened (cut back to its finished steps,
     as a one-sensor resume does) and continues from its first unfinished step in one motion; the kept slots stay
     as they are. Then each resumed slot's pipeline tail, the record (the resume appended) and the report, as at
-    the end of an uninterrupted batch."""
+    the end of an uninterrupted batch. ``procedure``: the one the slots recorded (None when no slot is resumed: the
+    batch stopped once every slot had ended, and only its end is made)."""
     record = BatchRecord(plan.batch_dir, dict(plan.record), plan.kept)
     offset_s = plan.time_offset_s()
-    estimates = step_durations_s(procedure.expanded_steps(), rig)
+    estimates = step_durations_s(procedure.expanded_steps(), rig) if plan.resumed else []
     runs: list[SlotRun] = []
-    for slot, _entry, _manifest in plan.resumed:
+    for slot, entry, _ in plan.resumed:
         view = slot_rig(rig, slot)
-        writer, first = SessionWriter.resume(plan.batch_dir / _entry["session"])
+        writer, first = SessionWriter.resume(plan.batch_dir / entry["session"])
         writer.event("resume", t_s=offset_s, first_step=first)
         run = SlotRun(slot, _slot_context(procedure, view, slot, writer, operator, options, estimates),
                       first_step=first)

@@ -154,6 +154,27 @@ def test_a_slot_cut_mid_pose_has_its_step_in_progress_and_torn_line_cut_and_redo
     assert _record(batch)["slots"][5]["outcome"] == "NO LIMITS"
 
 
+def test_slots_that_had_concluded_stay_untouched_and_keep_their_outcome(whole, tmp_path, capsys):
+    """A batch stopped while it concluded its slots: the ones concluded keep their sessions, calibrations and
+    outcomes (one whose outcome the record did not hold yet gets it from its session), and only the end is made."""
+    batch = _copy(whole, tmp_path)
+    record = _record(batch)
+    record["status"] = "aborted"
+    record["slots"][2].update(outcome=None, bin=None, calibration=None, parameters=None)  # stopped before its line
+    (batch / "batch.json").write_text(json.dumps(record))
+    (batch / "batch-report.html").unlink()
+    sessions = {p: b for p, b in _tree(batch).items() if p.parts[0] != "batch.json"}
+    assert main(["run", "--resume", str(batch), "--time-scale", "0"]) == 0
+    printed = capsys.readouterr()
+    assert "no slot to record, only the end of the batch" in printed.err
+    assert "0 PASS, 0 FAIL, 8 NO LIMITS, 0 FAULT" in printed.out, printed.out
+    assert {p: b for p, b in _tree(batch).items() if p in sessions} == sessions  # nothing of a slot rewritten
+    ended = _record(batch)
+    assert ended["status"] == "complete" and (batch / "batch-report.html").is_file()
+    assert ended["resumes"][0]["slots"] == []
+    assert ended["slots"] == _record(whole)["slots"]
+
+
 def test_a_finished_batch_is_not_resumed(whole, capsys):
     before = _tree(whole)
     assert main(["run", "--resume", str(whole), "--time-scale", "0"]) == 2
@@ -194,13 +215,18 @@ def test_one_slots_session_is_not_resumed_alone(stopped, tmp_path, capsys):
     assert _tree(batch) == before
 
 
-def test_a_slot_quarantined_before_the_interruption_stays_quarantined(tmp_path, capsys):
+@pytest.mark.parametrize("known_by", ["the record", "its session only"])
+def test_a_slot_quarantined_before_the_interruption_stays_quarantined(tmp_path, capsys, known_by):
     rig = yaml.safe_load((RIGS / "sim-fixture.yaml").read_text())
     rig["faults"] = {"slots": {3: {"dead_after_s": 55.0}}}  # slot 3 stops answering during pose 4
     (tmp_path / "rig.yaml").write_text(yaml.safe_dump(rig))
     batch = _interrupt(tmp_path / "out", tmp_path / "rig.yaml", 4)  # Ctrl-C during pose 5
     bad = _record(batch)["slots"][3]
     assert bad["outcome"] == "FAULT" and "step 4 (-X up)" in bad["reason"], bad
+    if known_by == "its session only":  # stopped before the record said so: the quarantine's error event does
+        record = _record(batch)
+        record["slots"][3].update(outcome=None, bin=None, reason=None)
+        (batch / "batch.json").write_text(json.dumps(record))
     slot3 = batch / bad["session"]
     before = (slot3 / "session.yaml").read_bytes(), (slot3 / "samples.csv").read_bytes()
     assert main(["run", "--resume", str(batch), "--time-scale", "0"]) == 3  # a unit did not pass
