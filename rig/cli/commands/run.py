@@ -26,7 +26,7 @@ def add_parser(sub) -> None:
     r.add_argument("--rig", default=None, help="'sim' (default) or a rig file")
     r.add_argument("--out", default="sessions", help="sessions directory (default: sessions/)")
     r.add_argument("--seed", type=int, default=None, help="simulated rig: seed of the hidden sensor parameters")
-    r.add_argument("--resume", metavar="DIR", default=None, help="continue an interrupted session")
+    r.add_argument("--resume", metavar="DIR", default=None, help="continue an interrupted session, or a fixture batch (its directory)")
     r.add_argument("--time-scale", type=float, default=None,
                    help="simulated rig: clock speed-up (0 = virtual time, as fast as possible)")
     r.add_argument("--strict", action="store_true",
