@@ -71,6 +71,8 @@ def sync(server: History, timeout_s: float = BUSY_TIMEOUT_S) -> int:
     with open_db(path, timeout_s=timeout_s, create=False) as box:
         for (cid,) in box.query("SELECT id FROM calibrations ORDER BY id"):
             row = box.write(stored_row, cid)
+            if row is None:  # sent by another command of this rig meanwhile
+                continue
             server.write(_send, row)
             box.write(_forget, cid)
             sent += 1

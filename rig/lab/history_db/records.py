@@ -49,8 +49,7 @@ def insert(tx, row: dict) -> Stored:
     tx.execute("INSERT INTO sensors (sensor_key, model, address, identity, serial, first_seen) "
                "VALUES (:key, :model, :address, :identity, :serial, :first_seen) ON CONFLICT (sensor_key) DO NOTHING",
                {**{k: s[k] for k in SENSOR_COLUMNS}, "first_seen": row["calibration"]["recorded_at"]})
-    cid = tx.execute(f"INSERT INTO calibrations ({', '.join(c)}) VALUES ({', '.join(':' + k for k in c)}) "
-                     "RETURNING id", c)[0][0]
+    cid = tx.insert_id(f"INSERT INTO calibrations ({', '.join(c)}) VALUES ({', '.join(':' + k for k in c)})", c)
     tx.execute_many("INSERT INTO parameters (calibration_id, name, value, sigma, unit) "
                     "VALUES (:cid, :name, :value, :sigma, :unit)",
                     [{"cid": cid, "name": n, "value": v, "sigma": sg, "unit": u} for n, v, sg, u in row["parameters"]])
@@ -63,10 +62,13 @@ def set_seal(tx, seal: str, session_path: str, session_id) -> None:
                "AND seal IS NULL", {"seal": seal, "path": session_path, "sid": session_id})
 
 
-def stored_row(tx, cid: int) -> dict:
+def stored_row(tx, cid: int) -> dict | None:
     """Calibration ``cid`` as :func:`insert` takes it (``sensor``, ``calibration``, ``parameters``): what the outbox
-    sends on."""
-    (c,) = tx.execute("SELECT * FROM calibrations WHERE id = :cid", {"cid": cid})
+    sends on; None when there is no such row (another command on this rig sent it meanwhile)."""
+    found = tx.execute("SELECT * FROM calibrations WHERE id = :cid", {"cid": cid})
+    if not found:
+        return None
+    c = found[0]
     cal = {k: c[k] for k in c.keys() if k not in ("id", "sensor_key")}
     (s,) = tx.execute("SELECT sensor_key AS key, model, address, identity, serial FROM sensors "
                       "WHERE sensor_key = :key", {"key": c["sensor_key"]})

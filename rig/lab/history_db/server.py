@@ -10,6 +10,7 @@ never stored twice."""
 from __future__ import annotations
 
 import sqlite3
+import time
 
 import sqlalchemy as sa
 from sqlalchemy.pool import NullPool
@@ -22,6 +23,10 @@ from rig.lab.history_db.sqlite_file import translate as sqlite_translate
 WRITER_LOCK = 0x72696768
 #: SQLSTATEs of a wait that ran out or a transaction the server broke off to let another through: try again
 _BUSY = {"55P03", "40P01", "40001", "57014", "55006"}
+#: a server whose connection attempt ran into the connect timeout is not asked again for this long by this process:
+#: one command (the record, the seal, the acceptance limit, the report) waits once, not once per use
+SLOW_FAILURE_S = 60.0
+_slow_failures: dict[str, tuple[float, str]] = {}
 
 
 class Row(tuple):
@@ -65,7 +70,7 @@ def engine(url: str, timeout_s: float):
         return eng
     ms = int(timeout_s * 1000)
     return sa.create_engine(u, poolclass=NullPool, connect_args={
-        "connect_timeout": max(2, min(10, int(timeout_s))), "options": f"-c lock_timeout={ms}",
+        "connect_timeout": max(2, min(5, int(timeout_s))), "options": f"-c lock_timeout={ms}",
         "application_name": "rig"})
 
 
@@ -81,14 +86,24 @@ class Server:
     def __init__(self, url: str, timeout_s: float) -> None:
         self.url, self.where, self.path, self.timeout_s = url, masked(url), None, timeout_s
         self._text = sa.text
+        failed = _slow_failures.get(url)
+        if failed is not None and time.monotonic() - failed[0] < SLOW_FAILURE_S:
+            raise HistoryUnreachable(failed[1])
+        started = time.monotonic()
         try:
             self.engine = engine(url, timeout_s)
             self.dialect = self.engine.dialect.name
             self.conn = self.engine.connect()
         except sa.exc.ArgumentError as exc:
             raise HistoryCorrupt(self.where, f"not a history database URL ({first_line(exc)})") from None
-        except (sa.exc.SQLAlchemyError, ImportError) as exc:
-            raise translate(exc, self.where) from None
+        except ImportError as exc:  # the driver (psycopg) is an extra: the record waits in the outbox meanwhile
+            raise HistoryUnreachable(f"{self.where}: the database driver is not installed ({first_line(exc)}; "
+                                     "pip install 'rig-calibration[postgresql]')") from None
+        except sa.exc.SQLAlchemyError as exc:
+            error = translate(exc, self.where)
+            if isinstance(error, HistoryUnreachable) and time.monotonic() - started > 1.0:
+                _slow_failures[url] = (time.monotonic(), str(error))
+            raise error from None
         self.same = "IS NOT DISTINCT FROM" if self.dialect == "postgresql" else "IS"
         self.row_order = "ctid" if self.dialect == "postgresql" else "rowid"
 
@@ -137,3 +152,7 @@ class Server:
         """Inside :meth:`write`'s transaction: run ``sql`` once per row of parameters."""
         if rows:
             self.conn.execute(self._text(sql), rows)
+
+    def insert_id(self, sql: str, params: dict) -> int:
+        """Inside :meth:`write`'s transaction: run the ``INSERT`` ``sql``; the new row's id."""
+        return self.execute(sql + " RETURNING id", params)[0][0]

@@ -97,3 +97,8 @@ class SqliteFile:
     def execute_many(self, sql: str, rows: list[dict]) -> None:
         """Inside :meth:`write`'s transaction: run ``sql`` once per row of parameters."""
         self.conn.executemany(sql, rows)
+
+    def insert_id(self, sql: str, params: dict) -> int:
+        """Inside :meth:`write`'s transaction: run the ``INSERT`` ``sql``; the new row's id (``lastrowid``: no
+        ``RETURNING``, which SQLite has only since 3.35)."""
+        return self.conn.execute(sql, params).lastrowid

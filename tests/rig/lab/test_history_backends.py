@@ -11,6 +11,7 @@ import subprocess
 import sys
 import textwrap
 import threading
+import time
 
 import pytest
 
@@ -70,6 +71,15 @@ def test_a_calibration_round_trips_and_is_recorded_once(session, history):
     assert list(records[0].parameters) == [p[0] for p in row["parameters"]]
     assert records[0].info["rig"] == json.loads(row["calibration"]["rig"])
     assert records[0].info["seal"] is not None  # rig run sealed the session; the seal was copied
+
+
+def test_a_file_named_by_url_goes_through_sqlalchemy_and_reads_back_by_path(session, tmp_path):
+    db = tmp_path / "h.sqlite"
+    _record(session, f"sqlite:///{db}")
+    _record(session, db)  # the same calibration, by path (sqlite3): the same row
+    with open_history(f"sqlite:///{db}") as h:
+        assert type(h.db).__name__ == "Server" and h.query("PRAGMA journal_mode")[0][0] == "wal"
+        assert [s["n"] for s in list_sensors(h)] == [1]
 
 
 WRITER = textwrap.dedent("""
@@ -184,6 +194,21 @@ def test_record_calibration_never_raises_for_a_server(tmp_path, monkeypatch):
     with pytest.raises(HistoryLocked) as exc:
         open_history(url)
     assert "cannot reach the history server" in str(exc.value) and "secret" not in str(exc.value)
+
+
+def test_a_server_that_does_not_answer_is_waited_for_once(session, tmp_path, monkeypatch):
+    """A host that takes the connection and never answers (a server hung, a firewall dropping): the connect timeout
+    once, then the record, its seal and every other use in the same process go to the outbox at once."""
+    monkeypatch.setenv("RIG_HISTORY_OUTBOX", str(tmp_path / "outbox"))
+    with socket.create_server(("127.0.0.1", 0)) as silent:
+        url = f"postgresql+psycopg://rig@127.0.0.1:{silent.getsockname()[1]}/rig"
+        started = time.monotonic()
+        warning = record_calibration(session, session / "calibration.yaml", history=url, timeout_s=2)
+        took = time.monotonic() - started
+        assert "history server not reached" in warning and "timeout" in warning and outbox.pending(url) == 1
+        started = time.monotonic()
+        assert "outbox" in record_calibration(session, session / "calibration.yaml", history=url, verdict="PASS")
+        assert time.monotonic() - started < 1.0 < took
 
 
 # ---------------------------------------------------------------------------------------------- the outbox
