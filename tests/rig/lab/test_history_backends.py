@@ -95,7 +95,7 @@ WRITER = textwrap.dedent("""
 
 
 def test_two_concurrent_writers_lose_nothing_and_store_a_shared_record_once(session, history):
-    open_history(history).close()
+    """Both start on an empty database: they race to create the schema too (one migrates, the other waits)."""
     procs = [subprocess.Popen([sys.executable, "-c", WRITER, str(session), history, f"rig-{i}"], cwd=REPO,
                               stderr=subprocess.PIPE, text=True) for i in range(2)]
     for p in procs:
