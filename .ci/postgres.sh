@@ -39,7 +39,10 @@ if [ ! -f "$DATA/PG_VERSION" ]; then
   as_user "$BIN/initdb" -D "$DATA" -U "$USER_NAME" -A trust --no-sync -E UTF8 >/dev/null
 fi
 if ! as_user "$BIN/pg_ctl" -D "$DATA" status >/dev/null 2>&1; then
-  as_user "$BIN/pg_ctl" -D "$DATA" -l "$DATA/server.log" -w -t 30 \
-    -o "-p $PORT -k $DATA -c listen_addresses=127.0.0.1 -c fsync=off -c max_connections=100" start >&2
+  if ! as_user "$BIN/pg_ctl" -D "$DATA" -l "$DATA/server.log" -w -t 30 \
+      -o "-p $PORT -k $DATA -c listen_addresses=127.0.0.1 -c fsync=off -c max_connections=100" start >&2; then
+    echo "postgres.sh: the server did not start on 127.0.0.1:$PORT: $( (grep -E "FATAL|ERROR|PANIC" "$DATA/server.log" || tail -n 1 "$DATA/server.log") 2>/dev/null | tail -n 1)" >&2
+    exit 1
+  fi
 fi
 echo "export RIG_TEST_POSTGRES_URL=postgresql+psycopg://$USER_NAME@127.0.0.1:$PORT/postgres"
