@@ -73,3 +73,15 @@ def fresh_database(url: str):
         with admin.connect() as c:
             c.exec_driver_sql(f"DROP DATABASE IF EXISTS {name} WITH (FORCE)")
         admin.dispose()
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def history(request, tmp_path, monkeypatch):
+    """A history's location, once a SQLite file and once a fresh PostgreSQL database; the outbox in ``tmp_path``.
+    A test module imports it (``from postgres_server import history``) to run on both backends."""
+    monkeypatch.setenv("RIG_HISTORY_OUTBOX", str(tmp_path / "outbox"))
+    if request.param == "sqlite":
+        yield str(tmp_path / "h.sqlite")
+        return
+    with fresh_database(require_server()) as url:
+        yield url

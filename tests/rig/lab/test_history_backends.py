@@ -23,7 +23,7 @@ from rig.lab.history_db.location import outbox_path
 from rig.lab.history_db.server import WRITER_LOCK
 
 from conftest import PROCEDURES, REPO
-from postgres_server import fresh_database, require_server
+from postgres_server import fresh_database, history, require_server  # noqa: F401 - history: a fixture
 
 
 @pytest.fixture(scope="module")
@@ -33,17 +33,6 @@ def session(tmp_path_factory):
                  "--quiet"]) == 0
     (s,) = [p for p in out.iterdir() if p.is_dir()]
     return s
-
-
-@pytest.fixture(params=["sqlite", "postgresql"])
-def history(request, tmp_path, monkeypatch):
-    """The history's location: a SQLite file, or a fresh PostgreSQL database; the outbox in ``tmp_path``."""
-    monkeypatch.setenv("RIG_HISTORY_OUTBOX", str(tmp_path / "outbox"))
-    if request.param == "sqlite":
-        yield str(tmp_path / "h.sqlite")
-        return
-    with fresh_database(require_server()) as url:
-        yield url
 
 
 def _record(session, history, **kw):

@@ -1,6 +1,6 @@
 """A history record is idempotent (issue 34 item 9): the same calibration of the same session recorded twice
 (``rig history --record`` twice, ``rig solve`` twice, a solve then a record) is one row; a re-solve that differs
-is a row of its own, and ``store_calibration`` says which it was."""
+is a row of its own, and ``store_calibration`` says which it was. Each on a SQLite file and on PostgreSQL."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from rig.cli import main
 from rig.lab import list_sensors, open_history, record_calibration, sensor_history, store_calibration
 
 from conftest import PROCEDURES, REPO
+from postgres_server import history  # noqa: F401 - a fixture (both backends)
 
 
 @pytest.fixture(scope="module")
@@ -32,8 +33,8 @@ def _rows(db) -> int:
         return h.query("SELECT COUNT(*) FROM calibrations")[0][0]
 
 
-def test_recording_one_calibration_twice_is_one_row(session, tmp_path):
-    db = tmp_path / "h.sqlite"
+def test_recording_one_calibration_twice_is_one_row(session, tmp_path, history):
+    db = history
     first = store_calibration(session, session / "calibration.yaml", history=db)
     again = store_calibration(session, session / "calibration.yaml", history=db)
     assert not first.already and again.already
@@ -45,9 +46,9 @@ def test_recording_one_calibration_twice_is_one_row(session, tmp_path):
         assert h.query("SELECT COUNT(*) FROM parameters")[0][0] == 9
 
 
-def test_a_re_solve_with_the_same_numbers_is_the_same_calibration(session, tmp_path):
+def test_a_re_solve_with_the_same_numbers_is_the_same_calibration(session, tmp_path, history):
     """rig solve writes a new ``created`` time: the same numbers of the same session are still one row."""
-    db = tmp_path / "h.sqlite"
+    db = history
     store_calibration(session, session / "calibration.yaml", history=db)
     cal = calfile.read(session / "calibration.yaml")
     later = cal.model_copy(update={"created": "2099-01-01T00:00:00+00:00"})
@@ -55,8 +56,8 @@ def test_a_re_solve_with_the_same_numbers_is_the_same_calibration(session, tmp_p
     assert again.already and _rows(db) == 1
 
 
-def test_a_re_solve_that_differs_is_a_new_row_and_history_shows_both(session, tmp_path):
-    db = tmp_path / "h.sqlite"
+def test_a_re_solve_that_differs_is_a_new_row_and_history_shows_both(session, tmp_path, history):
+    db = history
     store_calibration(session, session / "calibration.yaml", history=db)
     cal = calfile.read(session / "calibration.yaml")
     a = cal.accelerometer
@@ -71,15 +72,15 @@ def test_a_re_solve_that_differs_is_a_new_row_and_history_shows_both(session, tm
         assert len(sensor_history(h, sensor["sensor_key"])) == 3
 
 
-def test_another_sensor_id_is_another_record(session, tmp_path):
-    db = tmp_path / "h.sqlite"
+def test_another_sensor_id_is_another_record(session, tmp_path, history):
+    db = history
     store_calibration(session, session / "calibration.yaml", history=db)
     assert not store_calibration(session, session / "calibration.yaml", history=db, sensor_id="SN-1").already
     assert _rows(db) == 2
 
 
-def test_rig_solve_twice_then_history_record_is_one_row(session, tmp_path, monkeypatch, capsys):
-    db = tmp_path / "h.sqlite"
+def test_rig_solve_twice_then_history_record_is_one_row(session, tmp_path, monkeypatch, capsys, history):
+    db = history
     monkeypatch.setenv("RIG_HISTORY", str(db))
     for name in ("a.yaml", "b.yaml"):
         assert main(["solve", str(session), "-o", str(tmp_path / name)]) == 0
@@ -102,8 +103,8 @@ WRITER = textwrap.dedent("""
 """)
 
 
-def test_two_writers_recording_the_same_calibration_leave_one_row(session, tmp_path):
-    db = tmp_path / "h.sqlite"
+def test_two_writers_recording_the_same_calibration_leave_one_row(session, tmp_path, history):
+    db = history
     open_history(db).close()
     procs = [subprocess.Popen([sys.executable, "-c", WRITER, str(session), str(db)], cwd=REPO,
                               stderr=subprocess.PIPE, text=True) for _ in range(2)]
