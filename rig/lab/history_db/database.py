@@ -65,6 +65,9 @@ def open_db(location=None, *, timeout_s: float = BUSY_TIMEOUT_S, create: bool = 
         if (version or 0) > SCHEMA_VERSION:
             raise HistoryCorrupt(db.where, f"history schema version {version} is newer than this software's "
                                            f"({SCHEMA_VERSION}); upgrade rig")
+        if version is None and db.path is not None:  # a new file: the steps and the stamp, no Alembic to import
+            db.create()
+            version = db.version()
         if version != SCHEMA_VERSION:
             from rig.lab.history_db.migrate import upgrade
 

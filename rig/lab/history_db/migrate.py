@@ -1,5 +1,7 @@
 """Bringing a history's schema to :data:`~rig.lab.history_db.schema.SCHEMA_VERSION` with Alembic (imported only
-when a migration is needed: a history at the current version is checked with one query and opened without it).
+when a migration is needed: a history at the current version is checked with one query and opened without it,
+and a new SQLite file is created by :meth:`~rig.lab.history_db.sqlite_file.SqliteFile.create`, the same steps
+stamped at the head revision).
 
 A history written before Alembic (a ``schema_version`` table, no ``alembic_version``) is stamped at its version
 first, then upgraded like any other. The whole migration is one transaction holding the writers' lock (SQLite

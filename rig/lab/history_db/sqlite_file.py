@@ -8,6 +8,7 @@ import sqlite3
 from pathlib import Path
 
 from rig.lab.history_db.errors import HistoryCorrupt, HistoryError, HistoryLocked, first_line
+from rig.lab.history_db.schema import ALEMBIC_TABLE, MIGRATIONS, SCHEMA_VERSION, VERSION_TABLE, revision
 
 
 def translate(exc: sqlite3.Error, path: Path) -> HistoryError:
@@ -102,3 +103,20 @@ class SqliteFile:
         """Inside :meth:`write`'s transaction: run the ``INSERT`` ``sql``; the new row's id (``lastrowid``: no
         ``RETURNING``, which SQLite has only since 3.35)."""
         return self.conn.execute(sql, params).lastrowid
+
+    def create(self) -> None:
+        """Create the schema in a new file, without Alembic (a first record starts as fast as any other): every
+        step of :data:`MIGRATIONS` and the Alembic revision they make, stamped, in one ``BEGIN IMMEDIATE``
+        transaction; what Alembic makes of an empty file (``tests/rig/lab/test_history_backends.py`` compares
+        the two). Nothing when another process created it meanwhile."""
+        def steps(tx) -> None:
+            if tx.version() is not None:
+                return
+            tx.conn.execute(VERSION_TABLE)
+            for version, sqls in MIGRATIONS:
+                for sql in sqls:
+                    tx.conn.execute(sql)
+                tx.conn.execute("INSERT INTO schema_version (version) VALUES (?)", (version,))
+            tx.conn.execute(ALEMBIC_TABLE)
+            tx.conn.execute("INSERT INTO alembic_version (version_num) VALUES (?)", (revision(SCHEMA_VERSION),))
+        self.write(steps)
