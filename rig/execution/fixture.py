@@ -19,32 +19,45 @@ turntable, an interrupt) stops the motors and leaves the engine, as in the one-s
 step of the slots it resumes (``SlotRun.first_step``, each slot's own: an interruption between two slots'
 recordings of one pose leaves them one step apart); a slot records only the steps it has not finished.
 
-Static poses with a fixed dwell run on a fixture, and temperature set-points and prompts once for every slot
-(:data:`SHARED_STEPS`); rate steps, ramps and accuracy-targeted dwells not yet (:func:`check_fixture_procedure`,
-before anything moves); a flagged step is recorded flagged, not measured again.
+**Targeted dwells** (a dwell of ``sem_g``, or a procedure with an accuracy ``target:``): one motion, and the dwell at
+a pose goes on until every live slot has met its own rule (the slowest unit decides; a quarantined slot no longer
+counts). Each slot's rule is the one-sensor run's on its own samples: ``sem_stop_index`` for ``sem_g`` (bounded by
+the dwell's ``max_seconds``), its own :class:`~rig.execution.executors.target_policy.TargetPolicy` for a target
+(its own plan, time cap and refusal; decided at every block of its samples while the pose lasts, so the stats
+recorded describe exactly the samples recorded). A slot that met its rule early goes on capturing while the
+others finish: its session holds the whole dwell (its achieved standard error is below its target).
+
+Static poses, targeted or not, run on a fixture, and temperature set-points and prompts once for every slot
+(:data:`SHARED_STEPS`); rate steps and ramps not yet (:func:`check_fixture_procedure`, before anything moves); a
+flagged step is recorded flagged, not measured again.
 """
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Callable
+
+import numpy as np
 
 from drivers.sensors.base import SampleBlock, SensorError
 from rig.config.procedure import PlannedStep, Procedure
 from rig.devices.fixture import Slot
 from rig.devices.rig import Rig
 from rig.errors import RigInputError
-from rig.execution.capture import Capture, _join, expected_samples, loss_counters, nominal_dwell_s, poll_interval_s
+from rig.execution.capture import (Capture, _join, expected_samples, loss_counters, nominal_dwell_s, poll_interval_s,
+                                   sem_stop_index)
 from rig.execution.checks import check_step
-from rig.execution.context import EngineOptions, RunAborted, RunContext
+from rig.execution.context import EngineOptions, RunAborted, RunContext, RunError
 from rig.execution.engine import Engine
 from rig.execution.executors import prompt, static, temperature
+from rig.execution.executors.target_policy import TargetPolicy
 from rig.execution.motion import move_to, stop_motors
 from rig.execution.operator import Operator
 from rig.execution.settle import SettleDetector, SettleRule
 
 #: the step executors a fixture runs (PlannedStep.executor)
-FIXTURE_EXECUTORS = ("static", "thermal", "prompt")
+FIXTURE_EXECUTORS = ("static", "targeted", "thermal", "prompt")
 
 
 #: a step check's problems that say the chip itself failed (its outputs on a rail, or frozen): a slot that shows
@@ -55,17 +68,15 @@ CHIP_FAILURES = ("saturated on", "stuck reading on")
 def check_fixture_procedure(procedure: Procedure) -> None:
     """Refuse (RigInputError, one line) a procedure a fixture cannot run yet, before anything moves."""
     for step in procedure.expanded_steps():
-        static_ok = step.executor != "static" or (step.dwell is not None and step.dwell.sem_g is None)
         if step.executor == "prompt" and step.mount is not None and step.mount.name != "x+z+":
             raise RigInputError(procedure.path, step.source_line, "steps",
                                 f"step {step.index + 1} ({step.name}) turns the sensor in its fixture (mount:): a fixture's "
                                 "slots keep their mountings (a reversal runs on a one-sensor rig, docs/uncertainty.md)")
-        if step.executor not in FIXTURE_EXECUTORS or not static_ok:
-            what = step.executor if step.executor != "static" else "an uncertainty-targeted dwell"
+        if step.executor not in FIXTURE_EXECUTORS:
             raise RigInputError(procedure.path, step.source_line, "steps",
-                                f"step {step.index + 1} ({step.name}) is {what}: a fixture runs static poses with a "
-                                "dwell of seconds or samples, temperature set-points and prompts only (docs/fixture.md, "
-                                "\"A fixture run\")")
+                                f"step {step.index + 1} ({step.name}) is {step.executor}: a fixture runs static poses "
+                                "(a dwell of seconds, samples or sem_g, or an accuracy target's), temperature "
+                                "set-points and prompts only (docs/fixture.md, \"A fixture run\")")
 
 
 @dataclass
@@ -115,6 +126,13 @@ class _SlotCapture:
     problems: list[str] = field(default_factory=list)
     parts: list[SampleBlock] = field(default_factory=list)
     t_capture_s: float = 0.0
+    #: a targeted dwell (sem_g or target): this slot's own rule has said stop (the pose waits for the others)
+    met: bool = False
+    #: a target: the slot's policy, the sample count of its next decision and of its last, and its first stop
+    policy: TargetPolicy | None = None
+    next_n: int = 0
+    decided_n: int = 0
+    first_stop: tuple[float, str] | None = None
 
     @property
     def n(self) -> int:
@@ -181,8 +199,11 @@ class FixtureEngine:
                     SHARED_STEPS[step.executor](self, step)
                     continue
                 move_to(self.ctx, step)
-                captures = capture_slots(self.ctx, step, [r for r in self.runs if r.due(step)], self._fault)
-                for cap in captures:
+                due = [r for r in self.runs if r.due(step)]
+                if step.executor == "targeted":
+                    self._targeted(step, due)
+                    continue
+                for cap in capture_slots(self.ctx, step, due, self._fault):
                     if cap.run.live:
                         self._record(step, cap)
         except KeyboardInterrupt:
@@ -230,6 +251,33 @@ class FixtureEngine:
         for run in (r for r in self.runs if r.due(step)):
             run.ctx.recorder.complete_step(step.index, {"t_end_s": run.ctx.session_time()})
 
+    def _targeted(self, step: PlannedStep, due: list[SlotRun]) -> None:
+        """A pose of a procedure with an accuracy target, for every slot that records it: each slot's own policy
+        (the one-sensor :mod:`~rig.execution.executors.targeted` executor's, from its own session on a resume)
+        decides its dwell, the pose lasts until every live slot's has said stop; a pose with its own dwell
+        (``given``) is captured as stated and joins each slot's plan. After the last pose each slot's prediction
+        is concluded (its ``target`` event, a line naming the slot)."""
+        for run in due:
+            if run.ctx.target is None:
+                run.ctx.target = TargetPolicy.for_run(run.ctx)
+        with _slot_lines(due):  # a policy's warnings name its slot
+            captures = capture_slots(self.ctx, step, due, self._fault)
+        for cap in captures:
+            if not cap.run.live:
+                continue
+            policy = cap.run.ctx.target
+            if step.dwell_rule == "given":
+                recorded = self._record(step, cap)
+            else:
+                recorded = self._record(step, cap, keep_n=cap.decided_n, expected=0,
+                                        extra={"target": _target_stats(cap, step)})
+            if recorded is not None:
+                policy.commit(step, *recorded)
+        with _slot_lines(due):
+            for run in due:
+                if run.live and run.ctx.target.is_last(step):
+                    run.ctx.target.conclude()
+
     def _fault(self, run: SlotRun, step: PlannedStep, exc: BaseException) -> None:
         run.fault = f"step {step.index + 1} ({step.name}): {exc}"
         run.fault_step = step.index
@@ -241,16 +289,22 @@ class FixtureEngine:
             pass
         self.on_fault(run, exc)
 
-    def _record(self, step: PlannedStep, cap: _SlotCapture) -> None:
+    def _record(self, step: PlannedStep, cap: _SlotCapture, *, keep_n: int | None = None, expected: int | None = None,
+                extra: dict | None = None) -> tuple[SampleBlock, str] | None:
+        """Check one slot's capture and record it into its session (its first ``keep_n`` samples, default the
+        dwell's bound; checked against ``expected`` samples, default what the dwell asks for, 0: decided while
+        capturing; ``extra`` stats); return the samples and the step's status, None when the slot was quarantined
+        instead."""
         ctx = cap.run.ctx
         sensor = ctx.rig.sensor
-        samples = _join(cap.parts, cap.n_target)
+        samples = _join(cap.parts, cap.n_target if keep_n is None else keep_n)
+        n_expected = expected_samples(step, sensor.sample_rate_hz) if expected is None else expected
         overflows, dropped = (now - then for now, then in zip(loss_counters(sensor), cap.since))
         problems = list(cap.problems)
         if overflows > 0:
             problems.append(f"sensor FIFO overflowed {overflows} time(s), {dropped} samples lost: "
                             f"{ctx.rig.explain_lost_samples().reason}")
-        check = check_step(samples.accel_counts, samples.temp_c, cap.n_target, sensor.has_temperature,
+        check = check_step(samples.accel_counts, samples.temp_c, n_expected, sensor.has_temperature,
                            ctx.options.limits)
         problems += check.problems
         status = "complete" if not problems else "flagged"
@@ -259,12 +313,14 @@ class FixtureEngine:
             ctx.warn(step, f"slot {cap.run.slot.index}: step {step.index + 1} ({step.name}) flagged and left out of "
                            "the solve: " + "; ".join(problems))
         try:
-            static._record(ctx, step, Capture(samples, cap.settle_s, problems), 1, problems, status)
+            static._record(ctx, step, Capture(samples, cap.settle_s, problems), 1, problems, status, extra)
         except SensorError as exc:  # its magnetometer did not answer
             self._fault(cap.run, step, exc)
-            return
+            return None
         if broken:  # the chip's outputs are on a rail or frozen: this unit is quarantined, the motion goes on
             self._fault(cap.run, step, SensorError("; ".join(broken) + ": the sensor's outputs failed"))
+            return None
+        return samples, status
 
 
 def capture_slots(ctx: RunContext, step: PlannedStep, runs: list[SlotRun],
@@ -272,8 +328,10 @@ def capture_slots(ctx: RunContext, step: PlannedStep, runs: list[SlotRun],
     """Start every slot's sensor, then poll them all until each has settled and captured the step's dwell.
 
     Each slot's settling (``step.settle``) and dwell are judged on its own samples; one poll reads every slot
-    still capturing, in slot order, every ``poll_interval_s`` of the fastest-filling FIFO. A slot whose sensor
-    fails is handed to ``fault`` and left out. Returns the captures of the slots still live, stopped.
+    still capturing, in slot order, every ``poll_interval_s`` of the fastest-filling FIFO. A targeted dwell
+    (``sem_g``, or a target's pose: its slot's ``ctx.target`` decides) ends once every live slot's own rule has
+    said stop (:func:`_advance`). A slot whose sensor fails (or whose target is refused at its first look) is
+    handed to ``fault`` and left out. Returns the captures of the slots still live, stopped.
     """
     clock = ctx.rig.clock
     s = step.settle
@@ -292,11 +350,15 @@ def capture_slots(ctx: RunContext, step: PlannedStep, runs: list[SlotRun],
             continue
         detector = SettleDetector(rule, sensor.sample_rate_hz, sensor.accel_lsb_per_g)
         detector.start(t_start)
-        caps.append(_SlotCapture(run, detector, since, expected_samples(step, sensor.sample_rate_hz)))
+        policy = run.ctx.target if step.dwell_rule == "target" else None
+        caps.append(_SlotCapture(run, detector, since, 0 if policy is not None else
+                                 expected_samples(step, sensor.sample_rate_hz), policy=policy,
+                                 next_n=policy.min_n if policy is not None else 0))
     if not caps:
         return []
     poll = min(poll_interval_s(c.run.ctx.rig.sensor) for c in caps)
     dwell_timeout_s = 2.0 * max(nominal_dwell_s(step, c.run.ctx.rig.sensor.sample_rate_hz) for c in caps) + 5.0
+    targeted = step.dwell_rule == "target" or step.dwell.sem_g is not None
     while any(c.phase != "done" and c.run.live for c in caps):
         clock.sleep(poll)
         for cap in caps:
@@ -307,7 +369,13 @@ def capture_slots(ctx: RunContext, step: PlannedStep, runs: list[SlotRun],
             except SensorError as exc:
                 fault(cap.run, step, exc)
                 continue
-            _advance(cap, step, block, clock.now(), t_start, rule.timeout_s, dwell_timeout_s)
+            try:
+                _advance(cap, step, block, clock.now(), t_start, rule.timeout_s, dwell_timeout_s)
+            except RunError as exc:  # its target refused at the first look: this unit, not the batch
+                fault(cap.run, step, exc)
+        if targeted and all(c.met for c in caps if c.run.live):  # the slowest unit has decided: the pose ends
+            for cap in caps:
+                cap.phase = "done"
         ctx.progress(step, "capture")
     for cap in caps:
         if cap.run.live:
@@ -340,8 +408,88 @@ def _advance(cap: _SlotCapture, step: PlannedStep, block: SampleBlock, now_s: fl
         return
     if len(block.t_s):
         cap.parts.append(block)
+    if cap.policy is not None:
+        _decide(cap, step)
+    elif step.dwell.sem_g is not None:
+        _sem_met(cap, step)
     if (cap.n_target and cap.n >= cap.n_target) or now_s - cap.t_capture_s > dwell_timeout_s:
-        cap.phase = "done"
+        cap.phase, cap.met = "done", True
+
+
+def _sem_met(cap: _SlotCapture, step: PlannedStep) -> None:
+    """A ``sem_g`` dwell: the slot has met its rule once the standard error of its mean is within ``sem_g`` on
+    every axis (``sem_stop_index``, the one-sensor capture's), or its dwell reached ``max_seconds``: then it
+    stops capturing (``n_target``, the dwell's bound; a slot short of ``sem_g`` by then is recorded as a
+    one-sensor run records it)."""
+    sensor = cap.run.ctx.rig.sensor
+    limit_n = int(round(step.dwell.max_seconds * sensor.sample_rate_hz))
+    if cap.n >= limit_n:
+        cap.n_target, cap.met = limit_n, True
+    elif not cap.met and sem_stop_index(np.concatenate([p.accel_counts for p in cap.parts]), sensor.accel_lsb_per_g,
+                                        step.dwell.sem_g) is not None:
+        cap.met = True
+        cap.n_target = limit_n  # it goes on capturing while the others finish, never beyond the dwell's bound
+
+
+def _decide(cap: _SlotCapture, step: PlannedStep) -> None:
+    """A target's pose: the slot's policy decides at every ``block_n`` of its samples (from ``min_n`` on), on
+    exactly the first n samples and their session times (as the one-sensor capture); the first stop makes the
+    slot met (it goes on being decided while the pose lasts)."""
+    policy, ctx = cap.policy, cap.run.ctx
+    if cap.n < cap.next_n:
+        return
+    joined = _join(cap.parts, 0)
+    while cap.n >= cap.next_n:
+        n = cap.next_n
+        decision = policy.decide(step, joined.accel_counts[:n], joined.t_s[:n] - ctx.t0_s)
+        cap.decided_n = n
+        if decision.stop and cap.first_stop is None:
+            cap.first_stop = (n / policy.rate, decision.reason)
+            cap.met = True
+        cap.next_n += policy.block_n
+
+
+def _target_stats(cap: _SlotCapture, step: PlannedStep) -> dict:
+    """The slot's target stats as the one-sensor run records them (its last decision: the recorded dwell, the
+    prediction with every sample recorded), with when its own rule first said stop (``own_stop_s``, s of dwell;
+    ``stop`` its reason when its last decision would have gone on) and how long the pose was held after that for
+    the slots still going (``held_s``); a slot stopped by the time-out only has neither."""
+    stats = cap.policy.step_stats(step)
+    if cap.first_stop is not None:
+        own_s, reason = cap.first_stop
+        stats["stop"] = stats.get("stop") or reason
+        stats["own_stop_s"] = own_s
+        stats["held_s"] = max(float(stats.get("dwell_s", own_s)) - own_s, 0.0)
+    return stats
+
+
+@contextmanager
+def _slot_lines(runs: list[SlotRun]):
+    """While inside: each run's operator prefixes its lines with the slot (:class:`_SlotOperator`)."""
+    kept = [run.ctx.operator for run in runs]
+    for run in runs:
+        run.ctx.operator = _SlotOperator(run.ctx.operator, f"slot {run.slot.index} ({run.slot.serial}): ")
+    try:
+        yield
+    finally:
+        for run, operator in zip(runs, kept):
+            run.ctx.operator = operator
+
+
+class _SlotOperator:
+    """The operator, with one slot's lines prefixed (``slot 3 (SIM-3): ``): a slot's policy says what it concludes."""
+
+    def __init__(self, operator: Operator, prefix: str) -> None:
+        self._operator, self._prefix = operator, prefix
+
+    def info(self, message: str) -> None:
+        self._operator.info(self._prefix + message)
+
+    def warn(self, message: str) -> None:
+        self._operator.warn(self._prefix + message)
+
+    def __getattr__(self, name):
+        return getattr(self._operator, name)
 
 
 __all__ = ["FixtureEngine", "SlotRun", "capture_slots", "check_fixture_procedure"]
