@@ -6,8 +6,14 @@ points. Each point's variance is ``2 sigma^2_model(tau)^2 / edf(tau)``, with Gre
 freedom for the noise that dominates the model there (:func:`calib.noise.allan.with_edf`); the
 weights and the degrees of freedom are re-evaluated from the fit until it settles. The covariance of
 the ``c_j`` is ``(A^T W A)^-1``, scaled by chi2/dof when the points scatter more than their degrees
-of freedom say (Birge). A figure's confidence interval is that of its ``c_j`` (95 %, clipped at 0),
-square-rooted; a term the non-negative fit puts at 0 has an upper bound only.
+of freedom say (Birge): it gives each figure's 1-sigma. The iterated weights make the fit the maximum of
+the likelihood that treats each Allan variance as chi-squared with its degrees of freedom (a gamma
+variable about the model: weights ``edf / (2 model^2)``), and a figure's 95 % interval is that
+likelihood's profile interval (:func:`_profile_interval`), square-rooted. At long averaging times a
+point has 4-10 degrees of freedom, so a squared figure's likelihood is skewed: a walk fitted low can be
+several times larger, hardly much smaller, which the symmetric interval ``c +- 1.96 sigma`` (used before
+2026-11-26) did not say. Both are widened by :data:`CORRELATION_INFLATION`; a term the fit puts at 0 has
+an upper bound only.
 """
 
 from __future__ import annotations
@@ -16,7 +22,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import nnls
+from scipy.optimize import brentq, nnls
 
 from calib.errors import CalibError
 from calib.noise.allan import AllanCurve, with_edf
@@ -26,9 +32,16 @@ from calib.noise.terms import DEFAULT_TERMS, TERMS, NoiseFigures
 FIT_TAU_MIN_S = 0.1
 #: two-sided 95 % normal quantile of the stated intervals
 Z95 = 1.959963984540054
+#: the profile likelihood's 95 % interval: where twice the log-likelihood falls by chi2(1)'s 95 % quantile
+CHI2_1_95 = Z95**2
 #: a rate ramp asked "where seen" is kept when its squared figure stands this many sigma above 0
 RAMP_SEEN_SIGMA = 3.0
 ITERATIONS = 4
+#: at most this many Newton steps when the profile likelihood re-fits the other terms
+PROFILE_ITERATIONS = 100
+#: the likelihood never lets a model fall below this share of the Allan variance measured (a point the model
+#: misses by a factor 1e9 counts as missed; the floor keeps the arithmetic finite)
+MODEL_FLOOR = 1e-9
 #: the fit weighs the octave points as independent; overlapping Allan variances at neighbouring averaging
 #: times are correlated, so the covariance of each squared figure is scaled by this factor (the spread of
 #: (fitted - true) / stated sigma on synthetic noise of known terms, 60 units with N, B, K drawn 0.5-2x the
@@ -114,13 +127,97 @@ def _solve(curve: AllanCurve, sel: np.ndarray, terms) -> tuple[np.ndarray, np.nd
     return c, cov, chi2_dof, curve
 
 
-def _term_fit(term: str, c: float, var: float) -> TermFit:
+def _term_fit(term: str, c: float, var: float, lo_c: float, hi_c: float) -> TermFit:
+    """The figure sqrt(c), its 1-sigma from var(c) (delta method) and its interval from that of c, [lo_c, hi_c]."""
     s = math.sqrt(max(var, 0.0))
     value = math.sqrt(max(c, 0.0))
-    lo = math.sqrt(max(c - Z95 * s, 0.0))
-    hi = math.sqrt(max(c + Z95 * s, 0.0))
     sigma = s / (2 * value) if value > 0 else math.sqrt(s)
-    return TermFit(term, value, sigma, lo, hi)
+    return TermFit(term, value, sigma, math.sqrt(max(min(lo_c, c), 0.0)), math.sqrt(max(hi_c, c, 0.0)))
+
+
+def _deviance(avar: np.ndarray, model: np.ndarray, edf: np.ndarray) -> float:
+    """Minus the log-likelihood, plus a constant that makes it 0 at a perfect fit, of Allan variances ``avar``
+    that are chi-squared with ``edf`` degrees of freedom about ``model``: gamma variables of mean ``model``
+    and shape ``edf / 2``."""
+    r = avar / np.maximum(model, MODEL_FLOOR * avar)
+    return float(np.sum(0.5 * edf * (r - np.log(r) - 1.0)))
+
+
+def _refit(avar: np.ndarray, a: np.ndarray, offset: np.ndarray, edf: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The squared figures (>= 0) of design ``a`` that maximise the chi-squared likelihood of ``avar`` about
+    ``offset + a x``, from ``x``: projected Newton steps (the observed information where it is positive
+    definite, else the expected one), halved until the deviance falls, variables at 0 that the gradient
+    pushes below it held there."""
+    scale = np.min(avar[:, None] / np.maximum(a, 1e-300), axis=0)  # each term's size where it first matters
+    b = a * scale[None, :]
+    u = np.maximum(x / scale, 0.0)
+    k = 0.5 * edf
+
+    def dev(u):
+        r = avar / np.maximum(offset + b @ u, MODEL_FLOOR * avar)
+        return float(np.sum(k * (r - np.log(r) - 1.0)))
+
+    d = dev(u)
+    for _ in range(PROFILE_ITERATIONS):
+        m = np.maximum(offset + b @ u, MODEL_FLOOR * avar)
+        r = avar / m
+        g = b.T @ (k * (1.0 - r) / m)
+        free = ~((u <= 0.0) & (g > 0.0))
+        if not free.any():
+            break
+        bf = b[:, free]
+        h = bf.T @ (bf * (k * (2.0 * r - 1.0) / m**2)[:, None])
+        if np.any(np.linalg.eigvalsh(h) <= 0.0):
+            h = bf.T @ (bf * (k / m**2)[:, None])
+        step = np.zeros_like(u)
+        step[free] = -np.linalg.solve(h, g[free])
+        for _ in range(40):
+            trial = np.maximum(u + step, 0.0)
+            d_trial = dev(trial)
+            if d_trial <= d:
+                break
+            step *= 0.5
+        else:
+            break
+        done = d - d_trial <= 1e-10 * (1.0 + d)
+        u, d = trial, d_trial
+        if done:
+            break
+    return u * scale
+
+
+def _profile_interval(avar: np.ndarray, a: np.ndarray, edf: np.ndarray, c: np.ndarray, j: int,
+                      threshold: float) -> tuple[float, float]:
+    """The interval of the squared figure ``c[j]`` where twice the profile log-likelihood stays within
+    ``threshold`` of its maximum (the other squared figures, >= 0, re-fitted at each value of ``c[j]``).
+
+    ``avar`` (M,) the Allan variances, ``a`` (M, J) the design, ``edf`` (M,) their degrees of freedom, ``c``
+    (J,) the fitted squared figures.
+    """
+    others = [k for k in range(a.shape[1]) if k != j]
+    c_best = _refit(avar, a, np.zeros(len(avar)), edf, c.copy())
+    nll_min = min(_deviance(avar, a @ c_best, edf), _deviance(avar, a @ c, edf))
+
+    def excess(v: float) -> float:
+        offset = a[:, j] * v
+        x = _refit(avar, a[:, others], offset, edf, c[others].copy()) if others else np.zeros(0)
+        return 2.0 * (_deviance(avar, offset + a[:, others] @ x, edf) - nll_min) - threshold
+
+    c_hat = float(c_best[j]) if _deviance(avar, a @ c_best, edf) < _deviance(avar, a @ c, edf) else float(c[j])
+    lo = 0.0
+    if c_hat > 0 and excess(0.0) > 0:
+        lo = brentq(excess, 0.0, c_hat, xtol=1e-6 * c_hat, rtol=1e-6)
+    # a step of the size at which the term alone would give the largest Allan variance measured
+    step = max(c_hat, float(np.max(avar) / np.max(a[:, j])))
+    hi = c_hat + step
+    for _ in range(60):
+        if excess(hi) > 0:
+            break
+        step *= 2.0
+        hi = c_hat + step
+    else:
+        return lo, math.inf
+    return lo, brentq(excess, c_hat, hi, xtol=1e-6 * (hi - c_hat), rtol=1e-6)  # xtol: c is tiny in SI units
 
 
 def fit_terms(curve: AllanCurve, terms=DEFAULT_TERMS, ramp: str = "seen", tau_min_s: float = FIT_TAU_MIN_S) -> NoiseFit:
@@ -140,7 +237,12 @@ def fit_terms(curve: AllanCurve, terms=DEFAULT_TERMS, ramp: str = "seen", tau_mi
         c2, cov2, chi2_2, fitted2 = _solve(curve, sel, with_r)
         if c2[-1] > RAMP_SEEN_SIGMA * math.sqrt(cov2[-1, -1]):
             terms, c, cov, chi2_dof, fitted = with_r, c2, cov2, chi2_2, fitted2
-    fits = {t: _term_fit(t, c[j], cov[j, j] * CORRELATION_INFLATION[t] ** 2) for j, t in enumerate(terms)}
+    fits = {}
+    for j, t in enumerate(terms):
+        inflation = CORRELATION_INFLATION[t] ** 2
+        lo, hi = _profile_interval(fitted.adev[sel] ** 2, _design(fitted.tau_s[sel], terms), fitted.edf[sel], c,
+                                   j, CHI2_1_95 * inflation * max(chi2_dof, 1.0))
+        fits[t] = _term_fit(t, c[j], cov[j, j] * inflation, lo, hi)
     figures = NoiseFigures(**{t: f.value for t, f in fits.items()})
     model = np.sqrt(figures.avar(fitted.tau_s[sel]))
     max_rel = float(np.max(np.abs(fitted.adev[sel] / model - 1.0)))
