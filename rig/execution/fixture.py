@@ -27,9 +27,15 @@ the dwell's ``max_seconds``), its own :class:`~rig.execution.executors.target_po
 recorded describe exactly the samples recorded). A slot that met its rule early goes on capturing while the
 others finish: its session holds the whole dwell (its achieved standard error is below its target).
 
-Static poses, targeted or not, run on a fixture, and temperature set-points and prompts once for every slot
-(:data:`SHARED_STEPS`); rate steps and ramps not yet (:func:`check_fixture_procedure`, before anything moves); a
-flagged step is recorded flagged, not measured again.
+**Ramps** (:mod:`~rig.execution.executors.ramp`): the chamber is set ramping once for every slot, each slot's
+session records the start with its own thermometer's reading; each pose of the ramp is one motion, captured by
+every live slot while the chamber moves, and its stats add ``ramp`` with the temperature rate that slot's own
+thermometer saw over its capture (the one-sensor ramp's). A resume inside a ramp restores the chamber from the
+first live slot's record of the leg (the one-sensor engine's restore).
+
+Static poses, targeted or not, and the poses of a ramp run on a fixture, and temperature set-points, a ramp's
+start and prompts once for every slot (:data:`SHARED_STEPS`); rate steps not yet (:func:`check_fixture_procedure`,
+before anything moves); a flagged step is recorded flagged, not measured again.
 """
 
 from __future__ import annotations
@@ -50,14 +56,14 @@ from rig.execution.capture import (Capture, _join, expected_samples, loss_counte
 from rig.execution.checks import check_step
 from rig.execution.context import EngineOptions, RunAborted, RunContext, RunError
 from rig.execution.engine import Engine
-from rig.execution.executors import prompt, static, temperature
+from rig.execution.executors import prompt, ramp, static, temperature
 from rig.execution.executors.target_policy import TargetPolicy
 from rig.execution.motion import move_to, stop_motors
 from rig.execution.operator import Operator
 from rig.execution.settle import SettleDetector, SettleRule
 
 #: the step executors a fixture runs (PlannedStep.executor)
-FIXTURE_EXECUTORS = ("static", "targeted", "thermal", "prompt")
+FIXTURE_EXECUTORS = ("static", "targeted", "ramp", "thermal", "prompt")
 
 
 #: a step check's problems that say the chip itself failed (its outputs on a rail, or frozen): a slot that shows
@@ -76,7 +82,7 @@ def check_fixture_procedure(procedure: Procedure) -> None:
             raise RigInputError(procedure.path, step.source_line, "steps",
                                 f"step {step.index + 1} ({step.name}) is {step.executor}: a fixture runs static poses "
                                 "(a dwell of seconds, samples or sem_g, or an accuracy target's), temperature "
-                                "set-points and prompts only (docs/fixture.md, \"A fixture run\")")
+                                "set-points, ramps and prompts only (docs/fixture.md, \"A fixture run\")")
 
 
 @dataclass
@@ -106,6 +112,11 @@ class FanOut:
     def __init__(self, runs: list[SlotRun], where) -> None:
         self.runs = runs
         self.session_dir = where
+
+    @property
+    def info(self):
+        """The first live slot's session manifest: what a resume's restore reads (a ramp's last capture)."""
+        return next(r.ctx.recorder.info for r in self.runs if r.live)
 
     def event(self, kind: str, **fields) -> None:
         for run in self.runs:
@@ -195,13 +206,16 @@ class FixtureEngine:
                 self.rig.begin_step(step.index)
                 if not any(r.live for r in self.runs):
                     break
-                if step.executor in SHARED_STEPS:  # the chamber or the operator: one for every slot
-                    SHARED_STEPS[step.executor](self, step)
+                if step.kind in SHARED_STEPS:  # the chamber or the operator: one for every slot
+                    SHARED_STEPS[step.kind](self, step)
                     continue
                 move_to(self.ctx, step)
                 due = [r for r in self.runs if r.due(step)]
                 if step.executor == "targeted":
                     self._targeted(step, due)
+                    continue
+                if step.executor == "ramp":
+                    self._ramp_pose(step, due)
                     continue
                 for cap in capture_slots(self.ctx, step, due, self._fault):
                     if cap.run.live:
@@ -213,6 +227,44 @@ class FixtureEngine:
             stop_motors(self.rig, soft=False)
             raise
         return self.runs
+
+    def _thermal(self, step: PlannedStep) -> None:
+        """A thermal step: a ramp's start (:meth:`_ramp_start`) or a set-point (:meth:`_temperature`)."""
+        (self._ramp_start if step.ramp is not None else self._temperature)(step)
+
+    def _ramp_start(self, step: PlannedStep) -> None:
+        """A ramp's start: the chamber set ramping once (the run never waits for it); every live slot's session
+        records the step with its own thermometer's reading (a slot whose thermometer fails is faulted)."""
+        plan = step.ramp
+        ramp.set_ramp(self.ctx, step, plan.from_c if plan.from_given else None)
+        for run in (r for r in self.runs if r.due(step)):
+            try:
+                start_c = float(run.ctx.rig.sensor.read_temperature_c())
+                run.ctx.event("ramp", step=step.index, leg=plan.leg, start_c=start_c, to_c=plan.to_c,
+                              rate_c_per_min=plan.rate_c_per_min, captures=plan.captures)
+                run.ctx.recorder.complete_step(step.index, {"t_end_s": run.ctx.session_time(), "temp_c": start_c,
+                                                            "ramp": plan.to_manifest()})
+            except SensorError as exc:
+                self._fault(run, step, exc)
+
+    def _ramp_pose(self, step: PlannedStep, due: list[SlotRun]) -> None:
+        """A pose of a ramp: captured by every slot that records it while the chamber moves (the progress names
+        the ramp), each slot's stats adding ``ramp`` with the rate its own thermometer saw (C/min)."""
+        plan = step.ramp
+        operator = self.ctx.operator
+        self.ctx.operator = ramp.RampProgress(operator, plan, self.ctx.session_time, None)
+        try:
+            captures = capture_slots(self.ctx, step, due, self._fault)
+        finally:
+            self.ctx.operator = operator
+        for cap in captures:
+            if cap.run.live:
+                samples = _join(cap.parts, cap.n_target)
+                self._record(step, cap, extra={"ramp": {**plan.to_manifest(), "temp_rate_c_per_min":
+                                                        ramp.slope_c_per_min(samples.t_s, samples.temp_c)}})
+        if plan.capture == plan.captures:
+            operator.info(f"ramp {plan.leg} ({plan.from_c:g} -> {plan.to_c:g} C at {plan.rate_c_per_min:g} C/min): "
+                          f"{plan.captures} captures done")
 
     def _temperature(self, step: PlannedStep) -> None:
         """A temperature set-point: the chamber is set once, the wait reads a live slot's thermometer (the next one
@@ -495,5 +547,5 @@ class _SlotOperator:
 __all__ = ["FixtureEngine", "SlotRun", "capture_slots", "check_fixture_procedure"]
 
 
-#: the steps a fixture runs once for every slot (the shared chamber, the one operator), by executor
-SHARED_STEPS = {"thermal": FixtureEngine._temperature, "prompt": FixtureEngine._prompt}
+#: the steps a fixture runs once for every slot (the shared chamber, the one operator), by kind
+SHARED_STEPS = {"thermal": FixtureEngine._thermal, "prompt": FixtureEngine._prompt}
