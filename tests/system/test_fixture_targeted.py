@@ -172,3 +172,43 @@ def test_a_sem_g_dwell_lasts_until_every_slot_reaches_it_or_its_bound(tmp_path):
         assert all(s["status"] == "complete" and s["stats"]["n_samples"] == 400 for s in steps)
     assert np.all(_sem_g(batch / record["slots"][1]["session"]) > 200e-6)  # not reached, recorded at the bound
     assert np.all(_sem_g(batch / record["slots"][0]["session"]) < 200e-6)
+
+
+def test_a_slot_whose_target_is_out_of_reach_at_its_first_look_is_quarantined_and_the_others_go_on(tmp_path):
+    """Twice the noise: its first 0.5 s show the 0.03 deg target out of reach within max_seconds 90, which stops
+    a one-sensor run; on a fixture that unit is FAULT with the same words and the other unit meets its target."""
+    batch, record, lines = _batch(tmp_path, RAPID, 2, noisy={1: 2.0})
+    quiet, noisy = record["slots"]
+    assert quiet["outcome"] == "NO LIMITS" and noisy["outcome"] == "FAULT", record
+    assert noisy["reason"].startswith("step 1 (+Z up): target cannot be met within max_seconds 90"), noisy
+    (concluded,) = _events(batch, quiet, "target")
+    assert concluded["met"] is True
+    assert any(line.startswith("slot 1 (SIM-1): FAULT at step 1 (+Z up): target cannot be met") for line in lines)
+
+
+def test_a_targeted_batch_stopped_mid_run_resumes_each_slot_from_its_own_recorded_poses(tmp_path):
+    """Ctrl-C at the 4th pose of six_position_rapid.yaml on 2 slots: the resume rebuilds each slot's policy from
+    its own session (TargetPolicy.for_run) and every slot still meets its target."""
+    from rig.execution.context import RunAborted
+    from rig.workflow.run import run_procedure
+
+    class CtrlCAt(SilentOperator):
+        def progress(self, progress) -> None:
+            if progress.index == 3 and progress.phase == "capture":
+                raise KeyboardInterrupt
+
+    try:
+        run_procedure(str(RAPID), rig_spec=str(_rig_file(tmp_path, 2)), out_dir=tmp_path / "o", seed=SEED,
+                      time_scale=0, ui=CtrlCAt(), history=str(tmp_path / "h.sqlite"))
+        raise AssertionError("not stopped")
+    except RunAborted as stopped:
+        batch = Path(stopped.session_dir)
+    before = [_steps(batch, e)[:3] for e in json.loads((batch / "batch.json").read_text())["slots"]]
+    run_procedure(None, resume_dir=str(batch), time_scale=0, history=str(tmp_path / "h.sqlite"))
+    record = json.loads((batch / "batch.json").read_text())
+    assert record["status"] == "complete" and [s["outcome"] for s in record["slots"]] == ["NO LIMITS"] * 2
+    for entry, kept in zip(record["slots"], before):
+        steps = _steps(batch, entry)
+        assert steps[:3] == kept and all(s["status"] == "complete" for s in steps)  # the first poses untouched
+        (concluded,) = _events(batch, entry, "target")
+        assert concluded["met"] is True
