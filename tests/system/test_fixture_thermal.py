@@ -66,7 +66,7 @@ def test_a_thermal_ramp_on_a_fixture_captures_every_unit_on_the_move_in_temperat
     """procedures/thermal_ramp.yaml, shortened (27.6 -> 33.6 -> 27.6 C at 3 C/min, 3 s dwells: the six faces
     cycled while each leg lasts), on 3 slots: the chamber set ramping once per leg, each slot's session records
     each ramp start with its own thermometer and each pose with the rate its own thermometer saw (up, then down),
-    and each unit's calibration carries the ramp's thermal terms."""
+    and each unit's calibration carries the ramp's thermal terms, its bias tempco within 4 sigma of its hidden one."""
     from conftest import PROCEDURES
     text = (PROCEDURES / "thermal_ramp.yaml").read_text()
     for old, new in {"dwell: {seconds: 10}": "dwell: {seconds: 3}", "to_c: 52.6": "to_c: 33.6",
@@ -103,6 +103,11 @@ def test_a_thermal_ramp_on_a_fixture_captures_every_unit_on_the_move_in_temperat
         cal = calfile.read(session / "calibration.yaml").accelerometer
         assert cal.temperature is not None and {e["name"] for e in cal.effects} == {"thermal_gradient",
                                                                                    "scale_tempco"}
+        tempco = np.asarray(cal.temperature.coefficients, float)[:, 0]  # each unit's own, counts/C per axis
+        sigma = np.asarray(cal.sigma["temperature"]["coefficients"], float)[:, 0]
+        truth = yaml.safe_load((session / "sim_truth.yaml").read_text())["accelerometer"]
+        true = np.asarray(truth["bias_tempco_g_per_c"]) * cal.lsb_per_g
+        assert np.all(np.abs(tempco - true) < 4 * sigma), (s["slot"], tempco, true, sigma)
     # every slot read its own thermometer at each ramp's start: the same chamber, each its own chip's reading
     assert np.allclose(starts, starts[0], atol=1.0) and len({tuple(s) for s in starts}) == 3
 
