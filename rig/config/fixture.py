@@ -6,7 +6,9 @@ unit's serial. :class:`FixtureConfig` checks the slots against each other, in th
 refusal one line at the slot's key: two chips answering at one address on one segment of a bus (the
 MPU-9150's AK8975 at 0x0C counts: the driver opens its bypass), duplicate serials, a rate some chip
 cannot run at, and a bus whose slots need more than half its wire time at ``rate_hz``
-(:mod:`rig.config.bus_budget`).
+(:mod:`rig.config.bus_budget`). A run checks the budget again at the rate its procedure asks for, on the slots
+it reads (:meth:`FixtureConfig.over_budget`; :func:`rig.execution.fixture.check_fixture_bus`, before anything
+moves): the simulated bus has no wire time, so nothing else would refuse it.
 
 The multiplexer policy the checks assume (and the engine keeps): one channel of one multiplexer is
 connected at a time, so chips on different channels, or behind different multiplexers, never answer
@@ -225,6 +227,11 @@ class FixtureConfig(Strict):
             out.setdefault(s.bus, []).append(i)
         return out
 
+    def over_budget(self, rate_hz: float, slots=None, what: str = "its {n} slots") -> "BudgetProblem | None":
+        """The first bus that cannot carry its slots (``slots``: these indexes only) at ``rate_hz``, Hz
+        (:func:`over_budget`); None when every bus carries them."""
+        return over_budget(self, rate_hz, slots, what)
+
     def loads(self, rate_hz: float | None = None) -> dict[str, bus_budget.BusLoad]:
         """Bus -> its wire-time load at ``rate_hz`` (default the section's ``rate_hz``)."""
         rate = self.rate_hz if rate_hz is None else rate_hz
@@ -271,20 +278,40 @@ def _rates(fx: FixtureConfig):
 
 
 def _budget(fx: FixtureConfig):
-    for bus, load in fx.loads().items():
+    problem = fx.over_budget(fx.rate_hz)
+    return None if problem is None else fail(problem.message, at=("slots", Index(problem.slot), "bus"))
+
+
+@dataclasses.dataclass(frozen=True)
+class BudgetProblem:
+    """A bus that cannot carry its slots at a rate: the first slot beyond the limit (its index in the fixture)
+    and the one-line refusal with the numbers (docs/fixture.md, "Bus budget")."""
+
+    slot: int
+    message: str
+
+
+def over_budget(fx: FixtureConfig, rate_hz: float, indexes=None, what: str = "its {n} slots") -> BudgetProblem | None:
+    """The first bus whose slots (``indexes``: these slots only; default all) need more than
+    :data:`~rig.config.bus_budget.MAX_BUS_SHARE` of its wire time at ``rate_hz`` (Hz); None when every bus carries
+    them. ``what`` names the slots in the message (``{n}``: how many)."""
+    chosen = set(range(len(fx.slots)) if indexes is None else indexes)
+    for bus, all_idx in fx.buses().items():
+        idx = [i for i in all_idx if i in chosen]
+        if not idx:
+            continue
+        load = bus_budget.bus_load([(fx.slots[i].model, fx.slots[i].mux) for i in idx], rate_hz, fx.bus_clock_hz)
         over = load.first_over()
         if over is None:
             continue
-        idx = fx.buses()[bus]
         n = len(idx)
         best = _highest_rate(fx, idx)
         lower = f"or at most {fmt(best)} Hz for these {n}" if best is not None else "no rate of these chips fits"
-        fits = over  # the slots before the first one over the limit
-        return fail(f"bus {bus} cannot carry its {n} slots at {fmt(fx.rate_hz)} Hz: "
-                    f"{load.total_bits_per_s / 1000:.0f} kbit/s of wire time of its {fx.bus_clock_hz // 1000} "
-                    f"kbit/s ({100 * load.share:.0f} %; a fixture may plan {100 * bus_budget.MAX_BUS_SHARE:.0f} %): "
-                    f"it carries the first {fits} at this rate, {lower} (docs/fixture.md, \"Bus budget\")",
-                    at=("slots", Index(idx[over]), "bus"))
+        return BudgetProblem(idx[over], (
+            f"bus {bus} cannot carry {what.format(n=n)} at {fmt(rate_hz)} Hz: "
+            f"{load.total_bits_per_s / 1000:.0f} kbit/s of wire time of its {fx.bus_clock_hz // 1000} "
+            f"kbit/s ({100 * load.share:.0f} %; a fixture may plan {100 * bus_budget.MAX_BUS_SHARE:.0f} %): "
+            f"it carries the first {over} at this rate, {lower} (docs/fixture.md, \"Bus budget\")"))
     return None
 
 

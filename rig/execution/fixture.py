@@ -35,7 +35,8 @@ first live slot's record of the leg (the one-sensor engine's restore).
 
 Static poses, targeted or not, and the poses of a ramp run on a fixture, and temperature set-points, a ramp's
 start and prompts once for every slot (:data:`SHARED_STEPS`); rate steps not yet (:func:`check_fixture_procedure`,
-before anything moves); a flagged step is recorded flagged, not measured again.
+before anything moves); a flagged step is recorded flagged, not measured again. A run whose slots their bus cannot
+carry at the procedure's rate is refused before anything moves (:func:`check_fixture_bus`).
 """
 
 from __future__ import annotations
@@ -83,6 +84,36 @@ def check_fixture_procedure(procedure: Procedure) -> None:
                                 f"step {step.index + 1} ({step.name}) is {step.executor}: a fixture runs static poses "
                                 "(a dwell of seconds, samples or sem_g, or an accuracy target's), temperature "
                                 "set-points, ramps and prompts only (docs/fixture.md, \"A fixture run\")")
+
+
+def check_fixture_bus(procedure: Procedure, fixture, slots: list[int] | None = None, *, what: str = "its {n} slots"
+                      ) -> None:
+    """Refuse (RigInputError, one line with the numbers, at the procedure's ``sensor.sample_rate_hz``) a run whose
+    slots one bus cannot carry at the rate the procedure reads them at, before anything moves.
+
+    The rig file's own check (:class:`rig.config.fixture.FixtureConfig`) is at its ``rate_hz``; a run reads every
+    slot at the procedure's rate, which may be higher (``six_position_rapid.yaml``: 200 Hz). ``fixture``: the rig
+    file's section; ``slots``: the indexes the run reads (a re-test's, a resume's; default all); ``what`` names
+    them in the message (``{n}``: how many). The simulated bus has no wire time: this is what refuses there what
+    the hardware could not carry.
+    """
+    problem = fixture.over_budget(procedure_rate_hz(procedure), slots, what)
+    if problem is not None:
+        raise RigInputError(procedure.path, _line_of_rate(procedure), "sensor.sample_rate_hz", problem.message)
+
+
+def procedure_rate_hz(procedure: Procedure) -> float:
+    """The highest output rate the procedure's steps read the sensors at, Hz: every step captures at the rate of
+    its ``sensor:`` section (a step sets no rate of its own), so that rate decides."""
+    return float(procedure.sensor.sample_rate_hz)
+
+
+def _line_of_rate(procedure: Procedure) -> int | None:
+    """The line of the procedure's ``sample_rate_hz`` (None: not given, the default)."""
+    for number, line in enumerate(procedure.text.splitlines(), start=1):
+        if "sample_rate_hz" in line.split("#", 1)[0]:
+            return number
+    return None
 
 
 @dataclass
@@ -385,13 +416,24 @@ def capture_slots(ctx: RunContext, step: PlannedStep, runs: list[SlotRun],
     said stop (:func:`_advance`). A slot whose sensor fails (or whose target is refused at its first look) is
     handed to ``fault`` and left out. Returns the captures of the slots still live, stopped.
     """
-    clock = ctx.rig.clock
     s = step.settle
     rule = SettleRule(window_s=s.window_s, threshold_g=s.threshold_g, mean_tol_sigma=s.mean_tol_sigma,
                       timeout_s=s.timeout_s, min_s=s.min_s)
-    caps: list[_SlotCapture] = []
-    t_start = clock.now()
+    t_start = ctx.rig.clock.now()
     ctx.progress(step, "settle")
+    caps = _start_captures(step, runs, rule, t_start, fault)
+    if not caps:
+        return []
+    _poll_until_done(ctx, step, caps, rule, t_start, fault)
+    _stop_captures(step, caps, fault)
+    return [c for c in caps if c.run.live]
+
+
+def _start_captures(step: PlannedStep, runs: list[SlotRun], rule: SettleRule, t_start_s: float,
+                    fault: Callable[[SlotRun, PlannedStep, BaseException], None]) -> list[_SlotCapture]:
+    """Start each slot's sensor and its settle detector (from ``t_start_s``, s); a slot whose sensor does not
+    start is handed to ``fault`` and left out."""
+    caps: list[_SlotCapture] = []
     for run in runs:
         sensor = run.ctx.rig.sensor
         try:
@@ -401,13 +443,19 @@ def capture_slots(ctx: RunContext, step: PlannedStep, runs: list[SlotRun],
             fault(run, step, exc)
             continue
         detector = SettleDetector(rule, sensor.sample_rate_hz, sensor.accel_lsb_per_g)
-        detector.start(t_start)
+        detector.start(t_start_s)
         policy = run.ctx.target if step.dwell_rule == "target" else None
         caps.append(_SlotCapture(run, detector, since, 0 if policy is not None else
                                  expected_samples(step, sensor.sample_rate_hz), policy=policy,
                                  next_n=policy.min_n if policy is not None else 0))
-    if not caps:
-        return []
+    return caps
+
+
+def _poll_until_done(ctx: RunContext, step: PlannedStep, caps: list[_SlotCapture], rule: SettleRule,
+                     t_start_s: float, fault: Callable[[SlotRun, PlannedStep, BaseException], None]) -> None:
+    """Read every live slot still capturing, one poll at a time (the fastest-filling FIFO's interval), until each
+    has its dwell, or every live slot's targeted rule has said stop."""
+    clock = ctx.rig.clock
     poll = min(poll_interval_s(c.run.ctx.rig.sensor) for c in caps)
     dwell_timeout_s = 2.0 * max(nominal_dwell_s(step, c.run.ctx.rig.sensor.sample_rate_hz) for c in caps) + 5.0
     targeted = step.dwell_rule == "target" or step.dwell.sem_g is not None
@@ -422,20 +470,24 @@ def capture_slots(ctx: RunContext, step: PlannedStep, runs: list[SlotRun],
                 fault(cap.run, step, exc)
                 continue
             try:
-                _advance(cap, step, block, clock.now(), t_start, rule.timeout_s, dwell_timeout_s)
+                _advance(cap, step, block, clock.now(), t_start_s, rule.timeout_s, dwell_timeout_s)
             except RunError as exc:  # its target refused at the first look: this unit, not the batch
                 fault(cap.run, step, exc)
         if targeted and all(c.met for c in caps if c.run.live):  # the slowest unit has decided: the pose ends
             for cap in caps:
                 cap.phase = "done"
         ctx.progress(step, "capture")
+
+
+def _stop_captures(step: PlannedStep, caps: list[_SlotCapture],
+                   fault: Callable[[SlotRun, PlannedStep, BaseException], None]) -> None:
+    """Stop each live slot's sensor; one that fails to stop is handed to ``fault``."""
     for cap in caps:
         if cap.run.live:
             try:
                 cap.run.ctx.rig.sensor.stop()
             except SensorError as exc:
                 fault(cap.run, step, exc)
-    return [c for c in caps if c.run.live]
 
 
 def _advance(cap: _SlotCapture, step: PlannedStep, block: SampleBlock, now_s: float, t_start_s: float,
@@ -544,7 +596,8 @@ class _SlotOperator:
         return getattr(self._operator, name)
 
 
-__all__ = ["FixtureEngine", "SlotRun", "capture_slots", "check_fixture_procedure"]
+__all__ = ["FixtureEngine", "SlotRun", "capture_slots", "check_fixture_bus", "check_fixture_procedure",
+           "procedure_rate_hz"]
 
 
 #: the steps a fixture runs once for every slot (the shared chamber, the one operator), by kind

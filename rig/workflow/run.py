@@ -14,7 +14,7 @@ from rig.devices.rig import describe_sensor
 from rig.execution.context import EngineOptions, RunAborted, wall_per_rig_s
 from rig.execution.estimate import step_durations_s
 from rig.execution.engine import check_before_recording
-from rig.execution.fixture import check_fixture_procedure
+from rig.execution.fixture import check_fixture_bus, check_fixture_procedure
 from rig.execution.operator import Operator, SilentOperator
 from rig.planning.kinematics import STAGE_AXES
 from rig.lab.batch_record import BATCH_FILE, is_batch, read_batch
@@ -82,6 +82,14 @@ def run_procedure(procedure_path: str | None, *, rig_spec: str | None = None, ou
         rig.close()
         raise RigInputError(None, None, "--slots", "a re-test of some slots needs a rig file with a fixture: section "
                             "(docs/fixture.md); this rig has one sensor")
+    return _run_one_sensor(procedure, procedure_path, rig, out_dir=out_dir, seed=seed, operator=operator,
+                           solve=solve, options=options, history=history)
+
+
+def _run_one_sensor(procedure, procedure_path, rig, *, out_dir, seed: int, operator: Operator, solve: bool,
+                    options: EngineOptions, history) -> RunResult:
+    """A one-sensor rig file: the checks before anything moves, a new session (locked), the engine, the pipeline
+    tail; the rig is closed and the lock released on every way out."""
     lock = SessionLock(None)
     try:
         new = NewSession(Path(out_dir), new_session_id(procedure.name, seed), Path(procedure_path).read_text(),
@@ -142,6 +150,8 @@ def _run_fixture(procedure, procedure_path, rig, *, out_dir, seed: int, operator
         new = NewSession(Path(out_dir), new_session_id(procedure.name, seed), Path(procedure_path).read_text(),
                          str(procedure_path), extra={"seed": rig.seed})
         check_fixture_procedure(procedure)
+        check_fixture_bus(procedure, rig.fixture.config, slots,
+                          what="its {n} slots" if slots is None else "the {n} slots of this re-test")
         check_before_recording(procedure, rig, operator)
         announce_duration(procedure, rig, operator)
         return run_batch(procedure, rig, new, operator, options=options, solve=solve, history=history,
@@ -207,6 +217,8 @@ def _resume_batch(batch_dir, *, rig_spec, seed, operator: Operator, time_scale, 
                 procedure = load_procedure_text(info.procedure.text or "", info.procedure.file or "<session>")
                 first = min(_first_unfinished(m) for _, _, m in plan.resumed)
                 check_fixture_procedure(procedure)
+                check_fixture_bus(procedure, rig.fixture.config, [slot.index for slot, _, _ in plan.resumed],
+                                  what="the {n} slots this resume reads")
                 check_before_recording(procedure, rig, operator, first_step=first, start_deg={
                     name: rig.axes[name].stage.get_position_deg() for name in STAGE_AXES})
             operator.info(f"resuming batch {batch_dir}: " + (", ".join(

@@ -64,6 +64,14 @@ def test_eight_mpu9150_slots_at_1_khz_need_three_buses_worth_and_only_the_first_
     assert load.first_over(1.0) == 2  # even the whole wire time carries two
 
 
+def test_eight_mpu9150_slots_at_the_rapid_procedures_200_hz_use_62_percent_and_six_fit():
+    # a poll every 0.09125 s (73/4 samples at 200 Hz), again 19 samples: 2835 bit times a poll
+    load = bus_load([("MPU-9150", 0x70)] * 8, 200.0)
+    assert load.total_bits_per_s == pytest.approx(8 * 2835 / 0.09125)
+    assert round(load.total_bits_per_s / 1000) == 249 and load.share == pytest.approx(0.6214, abs=1e-4)
+    assert load.first_over(MAX_BUS_SHARE) == 6 and max_slots("MPU-9150", 200.0) == 6
+
+
 @pytest.mark.parametrize("model,rate,muxed,slots", [("MPU-9150", 100.0, True, 12), ("MPU-9150", 1000.0, True, 1),
                                                     ("MPU-9150", 100.0, False, 13), ("ADXL345", 100.0, True, 19),
                                                     ("ADXL345", 3200.0, True, 0)])
