@@ -24,7 +24,7 @@ interval, calib.noise.fit; ``--units 60 --chip-units 20`` and ``--units 120 --ch
 source (seeds)                  N      B      K      all three   target (>= 90 % per term)
 ==============================  =====  =====  =====  ==========  =================================
 synthetic, 60 (1000-1059)       97 %   98 %   97 %   92 %        met
-synthetic, 120 (5000-5119)      97 %   95 %   99 %   91 %        met
+synthetic, 120 (5000-5119)      97 %   95 %   98 %   90 %        met
 chip, 20 (2000-2019)            85 %   90 %   95 %   70 %        N missed (3 of 20; its interval
 chip, 20 (6000-6019)            85 %   90 %   100 %  75 %        is +-1.5 %, the AR(1) truth
                                                                  approximate)
