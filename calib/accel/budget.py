@@ -36,7 +36,8 @@ from calib.numerics.design import SENSOR_AXES, Inputs
 from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, combined, expanded
 from calib.accel.solve import (TRIANGULAR_NAMES, MAX_WANDER_STEPS, _model_with_thermal, axis_wander_counts2,
                                wander_covariance)
-from calib.accel.rig_propagation import EPS_DEG, GROUPS, pose_shift, rig_parameters, stage_angles_deg
+from calib.accel.rig_misfit import RigMisfit, has_pose_errors, rig_misfit
+from calib.accel.rig_propagation import EPS_DEG, GROUPS, pose_shift, pose_shifts, rig_parameters, stage_angles_deg
 from calib.numerics.gravity import G0_M_S2, Gravity
 
 #: step of the thermometer's finite differences, C
@@ -194,12 +195,11 @@ def _rig_contributions_linear(linear: "LinearSolve", steps: StepMeans, rig: RigE
     k = len(steps)
     per_pose = not rig.one_direction  # lost motion: one parameter per pose and stage, each row its own
     out = []
-    for p in rig_parameters(dataclasses.replace(rig, one_direction=True), 1 if per_pose else k):
-        if p.u_deg == 0:  # a class of zero (a simulated table without its errors): nothing to propagate
-            continue
-        if p.directions is not None:  # the stage's lost motion, every pose at once (row j: pose j's own)
-            p = dataclasses.replace(p, directions=np.repeat(p.directions[:1], k, axis=0))
-        shift = pose_shift(p, angles)
+    params = [p if p.directions is None else  # the stage's lost motion, every pose at once (row j: pose j's own)
+              dataclasses.replace(p, directions=np.repeat(p.directions[:1], k, axis=0))
+              for p in rig_parameters(dataclasses.replace(rig, one_direction=True), 1 if per_pose else k)
+              if p.u_deg != 0]  # a class of zero (a simulated table without its errors): nothing to propagate
+    for p, shift in zip(params, pose_shifts(params, angles)):
         if not np.any(np.abs(shift) > 1e-12):
             continue
         r = linear.responses(_replace(steps, f_nominal_g=f - EPS_DEG * shift), EPS_DEG)  # (Q, K)
@@ -274,10 +274,21 @@ def uncertainty_section(cal: AccelCalibration, steps: StepMeans, resolve: Resolv
     uncertainty and the ``budget`` (each contribution's standard uncertainties, same keys). ``linear``: the
     solve's linear sensitivity (:func:`linear_solve`) in place of one re-solve per perturbation."""
     parts = grouped(contributions(cal, steps, resolve, rig, linear), rig)
-    return {"k": float(k), "rig": rig.source, **nest(expanded(parts, k), cal),
-            "combined_standard": nest(combined(parts), cal),
-            "budget": [{"name": c.name, "type": c.type, "source": c.source, "distribution": c.distribution,
-                        **nest(c.u, cal)} for c in parts]}
+    section = {"k": float(k), "rig": rig.source, **nest(expanded(parts, k), cal),
+               "combined_standard": nest(combined(parts), cal),
+               "budget": [{"name": c.name, "type": c.type, "source": c.source, "distribution": c.distribution,
+                           **nest(c.u, cal)} for c in parts]}
+    judged = None
+    if linear is not None and bool(np.all(steps.pose_known)):  # the residuals against noise and rig
+        if has_pose_errors(rig):
+            judged = rig_misfit(linear, steps, rig, cal.matrix_counts_per_g)
+        else:  # a table without errors (the simulated one with sim.geometry off): the solve's own judgement
+            significant, p = cal.misfit()
+            dof = cal.degrees_of_freedom()
+            judged = RigMisfit(float(cal.fit.chi2_per_dof or 0.0) * dof, dof, p, significant)
+    if judged is not None:
+        section["misfit_with_rig"] = judged.as_dict()
+    return section
 
 
 # -- the solve's linear sensitivity (docs/uncertainty.md, "Cost") ------------------------------------------------

@@ -107,10 +107,93 @@ def stage_angles_deg(f_nominal: np.ndarray) -> np.ndarray:
 
 
 def pose_shift(parameter: RigParameter, angles_deg: np.ndarray) -> np.ndarray:
-    """How far (K, 3) the parameter at ``EPS_DEG`` moves each pose's specific force, g0 per deg."""
-    k = len(angles_deg)
-    d = parameter.directions if parameter.directions is not None else np.zeros((k, 3))
-    perfect = TableGeometry().sensor_to_world(np.eye(3), angles_deg, np.zeros((k, 3)))
-    moved = parameter.geometry.sensor_to_world(np.eye(3), angles_deg, d)
-    up = np.array([0.0, 0.0, 1.0])
-    return (np.transpose(moved, (0, 2, 1)) @ up - np.transpose(perfect, (0, 2, 1)) @ up) / EPS_DEG
+    """How far (K, 3) the parameter at ``EPS_DEG`` moves each pose's specific force, g0 per deg (to first order:
+    :func:`first_order_shift`; the table's errors are hundredths of a degree)."""
+    return pose_shifts([parameter], angles_deg)[0]
+
+
+def pose_shifts(parameters: list[RigParameter], angles_deg: np.ndarray) -> list[np.ndarray]:
+    """:func:`pose_shift` of each parameter, the perfect table's chain at the poses built once."""
+    chain = _Chain(angles_deg)
+    k = len(chain.theta_deg)
+    return [chain.shift(p.geometry, p.directions if p.directions is not None else np.zeros((k, 3))) / EPS_DEG
+            for p in parameters]
+
+
+def first_order_shift(geometry: TableGeometry, angles_deg: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """The specific force's change (K, 3), g0, that ``geometry``'s errors (small: first order) make at the
+    commanded stage angles ``angles_deg`` (K, 3) after motion in ``directions`` (K, 3), against a perfect table.
+
+    ``R = S1 S2 S3 M`` and ``f = R^T e_z``: an error that turns the chain by the small rotation vector ``w``
+    between ``A`` and ``B`` (``R = A (I + [w]x) B``) moves ``f`` by ``-B^T (w x A^T e_z)``. Each stage's angular
+    error turns about its own axis after its stage, its wobble before it (in its parent frame), a bracket
+    ``b = I + [beta]x`` on both sides of its stage (``b S b^T``), the mounting after the whole chain. The same
+    chain as :meth:`calib.numerics.turntable.TableGeometry.sensor_to_world` (tests/calib/test_rig_shift.py
+    checks the two against each other); gravity and a base tilt are not pose errors and are left out."""
+    return _Chain(angles_deg).shift(geometry, directions)
+
+
+class _Chain:
+    """The perfect table's chain at the poses: ``P_i = S_1 .. S_i``, ``Q_i = S_{i+1} .. S_3`` and ``a_i = P_i^T e_z``."""
+
+    def __init__(self, angles_deg: np.ndarray) -> None:
+        self.theta_deg = np.asarray(angles_deg, float)
+        k = len(self.theta_deg)
+        stages = TableGeometry().stage_rotations(self.theta_deg, np.zeros((k, 3)))
+        prefix = [np.broadcast_to(np.eye(3), (k, 3, 3))]
+        for si in stages:
+            prefix.append(prefix[-1] @ si)
+        suffix = [None, None, None, np.broadcast_to(np.eye(3), (k, 3, 3))]
+        for i in (2, 1, 0):
+            suffix[i] = stages[i] @ suffix[i + 1]
+        self.suffix = suffix
+        self.up = [np.transpose(p, (0, 2, 1))[:, :, 2] for p in prefix]
+
+    def moved(self, w: np.ndarray, i: int) -> np.ndarray:
+        """``R = P_i (I + [w]x) Q_i``: ``-Q_i^T (w x a_i)`` (K, 3)."""
+        return -np.einsum("kji,kj->ki", self.suffix[i], _cross(w, self.up[i]))
+
+    def shift(self, geometry: TableGeometry, directions: np.ndarray) -> np.ndarray:
+        k = len(self.theta_deg)
+        out = np.zeros((k, 3))
+        beta = _bracket_vectors(geometry.non_orthogonality_deg)
+        for i, st in enumerate(geometry.stages):
+            theta = self.theta_deg[:, i]
+            if st.zero_offset_deg or st.periodic_deg or st.accumulated_deg or st.lost_motion_deg:
+                axis = np.zeros(3)
+                axis[_NOMINAL_AXES[i]] = 1.0
+                err = np.radians(st.angle_error_deg(theta, directions[:, i]))
+                out += self.moved(err[:, None] * axis[None, :], i + 1)
+            if st.wobble_deg:
+                _, p, q = _WOBBLE_AXES[i]
+                ang = np.radians(theta + st.wobble_phase_deg)
+                w = np.zeros((k, 3))
+                w[:, p], w[:, q] = np.radians(st.wobble_deg) * np.cos(ang), np.radians(st.wobble_deg) * np.sin(ang)
+                out += self.moved(w, i)
+            if beta[i] is not None:  # b S b^T = S + [beta]x S - S [beta]x
+                b = np.broadcast_to(beta[i], (k, 3))
+                out += self.moved(b, i) - self.moved(b, i + 1)
+        if any(geometry.mounting_deg):
+            m = np.radians(np.asarray(geometry.mounting_deg, float))
+            out += self.moved(np.broadcast_to(m, (k, 3)), 3)
+        return out
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (K, 3) arrays (np.cross costs 0.2 ms a call in axis handling)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
+#: each stage's nominal axis (a1 z, a2 x, a3 y) and its wobble's two tilt directions (calib.numerics.turntable)
+_NOMINAL_AXES = (2, 0, 1)
+_WOBBLE_AXES = ((2, 0, 1), (0, 1, 2), (1, 2, 0))
+
+
+def _bracket_vectors(non_orthogonality_deg) -> list:
+    """Each stage's bracket as a small rotation vector, rad (None: none): B2 = rot_y(-d12), B3 = rot_z(-d23) rot_x(d13)."""
+    d12, d23, d13 = (float(np.radians(v)) for v in non_orthogonality_deg)
+    return [None, np.array([0.0, -d12, 0.0]) if d12 else None, np.array([d13, 0.0, -d23]) if (d13 or d23) else None]

@@ -15,7 +15,7 @@ from calib.gyro.result import NONORTHOGONALITY_NAMES
 from calib.mag import MagCalibration
 from rig.cli.codes import EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, UsageError  # noqa: F401 - the commands use them
 from rig.lab.acceptance import as_lines
-from rig.lab.fit import exactly_determined
+from rig.lab.fit import exactly_determined, misfit_with_rig
 from rig.lab.units import GYRO_G_SENSITIVITY_UNIT, GYRO_NONORTHOGONALITY_UNIT, gyro_g_sensitivity_terms
 
 
@@ -119,6 +119,13 @@ def warn_if_misfit(cal, command: str) -> None:
     ``rig run`` alike (a run at chi2/dof 119 said nothing)."""
     fit = cal.accelerometer.fit
     significant, p = cal.accelerometer.misfit()
+    with_rig = misfit_with_rig(cal.accelerometer)
+    if significant and with_rig is not None and not with_rig["significant"]:
+        print(f"rig {command}: note: the fit is worse than the noise alone explains (chi2/dof {fit.chi2_per_dof:.2f}), "
+              f"as the turntable's own errors make it: with them at their budget's figures it fits (chi2/dof "
+              f"{with_rig['chi2_per_dof']:.2f}, p = {with_rig['p']:.2g}). The expanded uncertainty U holds them"
+              f"{TAKE_THEM_OUT if uncharacterised_table(cal.accelerometer) else ''}.", file=sys.stderr)
+        return
     if significant:
         print(f"rig {command}: warning: the model does not fit the data (chi2/dof {fit.chi2_per_dof:.2f}, p = {p:.2g}, "
               f"residual {fit.residual_rms_g * 1e6:.0f} ug rms): poses not where the session says (hand-placed?"
@@ -127,6 +134,9 @@ def warn_if_misfit(cal, command: str) -> None:
               file=sys.stderr)
 
 
+#: how a turntable's own errors, known only by their classes, are taken out of a calibration
+TAKE_THEM_OUT = ("; characterising the rig by reversal (procedures/characterize_reversal.yaml then rig "
+                 "characterize-rig) takes most of them out")
 #: what a misfit on a turntable whose own errors are only known by their classes may be, and what takes them out
 UNCHARACTERISED_TABLE = ("; or the turntable's own errors, which its budget holds only by their classes: characterise "
                          "the rig by reversal, procedures/characterize_reversal.yaml then rig characterize-rig")

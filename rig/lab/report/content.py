@@ -32,7 +32,7 @@ from rig.errors import RigInputError
 from rig.lab.bias_temperature import reference_view
 from rig.lab.drift import (CalibrationRecord, drift, flagged_names, history_notes, like_with_like_lines, resolve_of,
                            sensor_history)
-from rig.lab.fit import EXACTLY_DETERMINED, exactly_determined
+from rig.lab.fit import EXACTLY_DETERMINED, exactly_determined, misfit_words
 from rig.lab.history import HistoryError, default_path, open_history
 from rig.lab.identity import sensor_identity
 from rig.lab.units import (GYRO_G_SENSITIVITY_UNIT, GYRO_NONORTHOGONALITY_UNIT, gyro_g_sensitivity_terms, shown,
@@ -285,8 +285,7 @@ def fit_quality(cal) -> list[tuple[str, str]]:
                                f"({fit.samples} samples), residual {fit.residual_rms_g * 1e6:.1f} µg rms, "
                                + (EXACTLY_DETERMINED if exact else "chi2/dof "
                                   + (f"{chi2:.2f}" if math.isfinite(chi2) else "n/a (no degrees of freedom)"))
-                               + (" (beyond what the noise explains: the model misses something; see rig discover)"
-                                  if cal.accelerometer.misfit()[0] else ""))]
+                               + misfit_words(cal.accelerometer))]
     g = cal.gyroscope
     if g is not None:
         lines.append(("gyroscope", f"{g.n_steps} rate steps, residual {g.residual_rms_dps:.4f} deg/s rms, "
