@@ -82,6 +82,7 @@ def pytest_configure(config):
     protocol bytes through the same Stage driver, no pseudo-terminal threads); the tests whose point is
     the pseudo-terminal say ``transport: pty`` or start emulators themselves."""
     os.environ["RIG_HISTORY"] = str(Path(tempfile.mkdtemp(prefix="rig-test-history-")) / "history.sqlite")
+    os.environ["RIG_HISTORY_OUTBOX"] = str(Path(tempfile.mkdtemp(prefix="rig-test-outbox-")))
     os.environ["RIG_SIM_TRANSPORT"] = "memory"
     # --dist loadscope hands out modules in the order pytest_collection_modifyitems left them (heavy first), not
     # re-sorted by their number of tests (pytest-xdist's default since 3.6; the option's own name for this)

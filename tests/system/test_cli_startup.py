@@ -83,7 +83,7 @@ def test_rig_solve_imports_neither_the_simulator_nor_scipy_signal_nor_matplotlib
     code, loaded = imported_by(["solve", str(six_position_session), "-o", str(tmp_path / "cal.yaml")],
                                NEVER + ("rig.workflow.run", "rig.workflow.kinds", "rig.workflow.lifecycle",
                                         "rig.cli.commands.run", "rig.cli.commands.discover",
-                                        "pandas", "rig.lab.report", "rig.config.procedure"))
+                                        "pandas", "rig.lab.report", "rig.config.procedure", "sqlalchemy", "alembic"))
     assert (code, loaded) == (0, [])
     assert (tmp_path / "cal.yaml").is_file()
 

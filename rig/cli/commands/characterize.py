@@ -35,7 +35,8 @@ def add_parser(sub) -> None:
     c.add_argument("--record", action="store_true",
                    help="store the profile under the unit's identity beside the calibration history: later "
                         "solves of this unit use its figures instead of the family's")
-    c.add_argument("--history", default=None, help="the history database the profile is stored beside (default: "
+    c.add_argument("--history", default=None, metavar="PATH|URL",
+                   help="the history database (file or URL) the profile is stored beside (default: "
                                                    "$RIG_HISTORY, else the user's)")
     c.add_argument("--follow", action="store_true", help=outputs.FOLLOW_HELP)
 

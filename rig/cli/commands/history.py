@@ -24,8 +24,9 @@ def add_parser(sub) -> None:
     s.add_argument("--plot", default=None, metavar="FILE.png",
                    help="parameters over time with 1-sigma error bars (a directory: written inside it)")
     s.add_argument("--follow", action="store_true", help=outputs.FOLLOW_HELP)
-    s.add_argument("--history", default=None, metavar="PATH",
-                   help=f"database (default ${ENV_VAR}, else ~/.local/share/rig/history.sqlite)")
+    s.add_argument("--history", default=None, metavar="PATH|URL",
+                   help=f"database file or URL (postgresql+psycopg://user@host/db; default ${ENV_VAR}, else "
+                        "~/.local/share/rig/history.sqlite)")
     s.add_argument("--record", default=None, metavar="SESSION", help="record SESSION's calibration first")
     s.add_argument("--calibration", default=None, metavar="CALIB",
                    help="with --record: the calibration file (default SESSION/calibration.yaml)")

@@ -29,8 +29,9 @@ def add_parser(sub) -> None:
     s.add_argument("--follow", action="store_true", help=outputs.FOLLOW_HELP)
     s.add_argument("--calibration", default=None, metavar="CALIB",
                    help="the calibration to report (default SESSION/calibration.yaml)")
-    s.add_argument("--history", default=None, metavar="PATH",
-                   help=f"history database (default ${ENV_VAR}, else ~/.local/share/rig/history.sqlite)")
+    s.add_argument("--history", default=None, metavar="PATH|URL",
+                   help=f"history database file or URL (postgresql+psycopg://user@host/db; default ${ENV_VAR}, else "
+                        "~/.local/share/rig/history.sqlite)")
 
 
 def run(args) -> int:

@@ -16,7 +16,7 @@ def add_parser(sub) -> None:
     v.add_argument("session")
     v.add_argument("--allow-unsealed", action="store_true",
                    help="a session without a seal (recorded before sealing existed, or unfinished) exits 0")
-    v.add_argument("--history", default=None,
+    v.add_argument("--history", default=None, metavar="PATH|URL",
                    help="also compare with the seal the calibration history recorded (default: $RIG_HISTORY, else "
                         "the user's; skipped when there is none)")
 
