@@ -52,9 +52,10 @@ Measured 2026-11-26 (load 8-10 on 2 cores), same table, other units and sessions
 - 26 directions, units 0-7 (``--faces 26 --units 8 --sessions 200``): family biases 0.66-1.46, scales 0.90-1.54,
   misalignments 0.95-1.26, 1 of 8 within; profile biases 0.80-1.09, scales 0.96-1.17, misalignments 0.99-1.09,
   8 of 8; truth 0.91-1.10, 8 of 8;
-- one-hour six-face sessions (``--dwell 600``), units 0-2, 20 sessions a unit (the ratios' own sampling error
-  about 16 %): all nine parameters, family 0.52-1.78 (unit 1's z bias 0.52), recording 0.68-1.36, truth
-  0.68-1.16; unit 0 alone with 100 sessions: family 1.01-1.84, truth 0.91-1.13.
+- one-hour six-face sessions (``--dwell 600 --ways family,recording,truth``), units 0-5, 20 sessions a unit (the
+  ratios' own sampling error about 16 %): all nine parameters, family 0.52-1.78 (unit 1's z bias 0.52),
+  recording 0.60-1.36, truth 0.68-1.24; units 1-5, share of the 45 ratios within 0.8-1.25: family 58 %,
+  recording 64 %, truth 91 %; unit 0 alone with 100 sessions: family 1.01-1.84, truth 0.91-1.13.
 
 The target stopping rule's coverage: benchmarks/bench_target_coverage.py.
 """
