@@ -41,6 +41,8 @@ DEFERRED: tuple[tuple[str, str, str], ...] = (
     ("allantools", "calib.noise.allan", "the Allan deviation and its intervals, only when rig characterize computes one"),
     ("distributed", "rig.archive.resolve", "the Dask executor (an optional extra), only when rig resolve --executor dask"),
     ("dask", "rig.archive.resolve", "the Dask executor's configuration, only when rig resolve --executor dask"),
+    ("rig.archive.fleet_page", "rig.cli.commands.fleet",
+     "the fleet's figure and HTML page (matplotlib, the report's renderer), only when --plot or -o is given"),
     ("rig.lab.history_db.server", "rig.lab.history_db.database", "SQLAlchemy, only when the history is a URL (a server)"),
     ("rig.lab.history_db.migrate", "rig.lab.history_db.database", "Alembic, only when a history's schema is older"),
 )
