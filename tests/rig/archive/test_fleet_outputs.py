@@ -7,7 +7,10 @@ line, exit 2, and nothing is written (never into the results, the archive or a s
 from __future__ import annotations
 
 import json
+import os
+import shutil
 import struct
+import subprocess
 
 import pytest
 
@@ -64,6 +67,30 @@ def test_the_page_holds_the_table_the_outliers_the_figure_and_the_provenance(res
     assert __version__ in provenance and "sessions 4" in provenance and "failed 1" in provenance
     (failed,) = page.rows["failed-table"][1:]
     assert "accelerometer" in failed[0] and failed[1] == "1" and failed[2] == "mag-only"
+
+
+def test_chromium_draws_the_page_its_header_and_the_figure_s_outliers(results, tmp_path):
+    """The report's browser check (tests/system/test_report_browser.py) once on the fleet page: skipped without
+    Chromium, failed when CI is set."""
+    exe = shutil.which("chromium") or shutil.which("chromium-browser")
+    if exe is None:
+        if os.environ.get("CI"):
+            pytest.fail("CI is set but headless Chromium is not installed (.ci/run installs it)")
+        pytest.skip("headless Chromium is not installed (Debian: apt-get install chromium)")
+    from PIL import Image  # matplotlib's own dependency
+
+    assert _rig("fleet", results / "old", "--threshold", "0.5", "-o", tmp_path / "fleet.html")[0] == 0
+    shot = tmp_path / "shot.png"
+    proc = subprocess.run([exe, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--hide-scrollbars",
+                           "--disable-background-networking", f"--user-data-dir={tmp_path / 'profile'}",
+                           f"--screenshot={shot}", "--window-size=1280,2400", (tmp_path / "fleet.html").as_uri()],
+                          capture_output=True, text=True, timeout=180)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    with Image.open(shot) as im:
+        seen = dict((rgb, n) for n, rgb in im.convert("RGB").getcolors(1 << 20))
+    assert seen.get((15, 42, 68), 0) > 10000  # the header's colour: the style sheet applied
+    red = sum(n for (r, g, b), n in seen.items() if r > 170 and g < 110 and b < 110)
+    assert red > 100  # about tab:red (the figure is scaled to the page): the outliers circled and labelled
 
 
 def test_against_draws_each_change_in_combined_sigmas_and_its_page_says_both_provenances(results, tmp_path):
