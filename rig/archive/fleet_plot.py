@@ -41,10 +41,12 @@ def session_label(session_id: str, chars: int = LABEL_CHARS) -> str:
 
 
 def _label(ax, marked: list[tuple[float, float, str, float]]) -> None:
-    """Label the ``MAX_LABELS`` points of largest |z| of ``marked`` ((x, y, session id, z)) with their session."""
-    for x, y, sid, _ in sorted(marked, key=lambda m: -abs(m[3]))[:MAX_LABELS]:
-        ax.annotate(session_label(sid), (x, y), xytext=(5, 3), textcoords="offset points", fontsize=6.5,
-                    color=OUTLIER_COLOUR)
+    """Label the ``MAX_LABELS`` points of largest |z| of ``marked`` ((x, y, session id, z)) with their session (the
+    others counted in the corner)."""
+    chosen = sorted(sorted(marked, key=lambda m: -abs(m[3]))[:MAX_LABELS], key=lambda m: m[1])
+    for k, (x, y, sid, _) in enumerate(chosen):  # neighbours in height alternate right and left of their point
+        ax.annotate(session_label(sid), (x, y), xytext=(5 if k % 2 == 0 else -5, 3), textcoords="offset points",
+                    fontsize=6.5, color=OUTLIER_COLOUR, ha="left" if k % 2 == 0 else "right")
     if len(marked) > MAX_LABELS:
         ax.text(0.99, 0.01, f"{len(marked) - MAX_LABELS} more not labelled", transform=ax.transAxes, ha="right",
                 va="bottom", fontsize=6.5, color=OUTLIER_COLOUR)
