@@ -26,7 +26,7 @@ def _steps(truth: NoiseFigures, n_steps: int, seconds: float, seed: int) -> list
 
 def test_one_record_pools_to_its_own_overlapping_allan_variance():
     (y,) = _steps(FAMILY, 1, 600.0, 1)
-    pooled = pooled_allan([y], RATE_HZ)
+    pooled = pooled_allan([y], RATE_HZ, tau_min_s=0.1)
     curve = allan_curve(y, RATE_HZ, tau_min_s=0.1)
     assert np.allclose(pooled.tau_s, curve.tau_s) and np.allclose(pooled.avar, curve.adev**2, rtol=1e-9)
 
