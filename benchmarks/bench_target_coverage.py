@@ -27,7 +27,8 @@ apart; a unit the family's run refuses is not run with its profile either.
     python benchmarks/bench_target_coverage.py [--units 100] [--seed 1] [--ways family,profile]
 
 Measured 2026-11-26 on the shared 2-core machine (load 8-10; ``--units 60 --seed 1`` in two parts, ``--units 40
---seed 61``, ``--units 40 --seed 101``: 9-14 min per 40 units):
+--seed 61``, ``--units 40 --seed 101``: 9-14 min per 40 units; the profiles fitted from 0.1 s, before
+calib.noise.fit.FIT_TAU_MIN_S became 0.6 s):
 
 ==========  ==============================  ===========================================================
 way         true error within the bound     refused (out of reach within max_seconds)

@@ -57,6 +57,10 @@ Measured 2026-11-26 (load 8-10 on 2 cores), same table, other units and sessions
   recording 0.60-1.36, truth 0.68-1.24; units 1-5, share of the 45 ratios within 0.8-1.25: family 58 %,
   recording 64 %, truth 91 %; unit 0 alone with 100 sessions: family 1.01-1.84, truth 0.91-1.13.
 
+With the fit from 0.6 s (calib.noise.fit.FIT_TAU_MIN_S, 2026-11-26; ``--ways profile``): units 0-7 biases 0.81-1.25,
+scales 0.98-1.03, misalignments 0.88-1.02, 8 of 8 within; units 8-15 biases 0.72-1.06, scales 0.91-0.99,
+misalignments 0.89-1.00, 6 of 8.
+
 The target stopping rule's coverage: benchmarks/bench_target_coverage.py.
 """
 
