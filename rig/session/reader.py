@@ -346,8 +346,6 @@ def _parse_whole(text: "_Body", header: list[str], known: list[str]) -> dict[str
     if text.quoted or known != header or not text.body.strip():
         return None
     reader = _whole_reader()
-    if reader == "pandas" and text.first_ragged(len(header)) is not None:
-        return None  # pandas pads a short row with NaN: refused (with its line) by the caller
     try:
         values = (_pandas_whole(text.body) if reader == "pandas" else
                   np.loadtxt(io.BytesIO(text.body), delimiter=",", dtype=float, comments=None, ndmin=2,
@@ -356,6 +354,8 @@ def _parse_whole(text: "_Body", header: list[str], known: list[str]) -> dict[str
         return None
     if values.ndim != 2 or values.shape[1] != len(header):
         return None
+    if reader == "pandas" and len(values) != text.n_records():
+        return None  # pandas skipped a line of spaces (numpy's refuses it): refused, with its line, by the caller
     return {c: values[:, j] for j, c in enumerate(known)}
 
 
@@ -377,7 +377,8 @@ def _whole_reader() -> str:
 
 def _pandas_whole(body: bytes) -> np.ndarray:
     """Every cell of ``body`` (data lines, no header) as float64 by pandas' C reader; ValueError for an empty or
-    non-numeric cell or a row wider than the first (no NA values: an empty cell is refused, as numpy's does)."""
+    non-numeric cell, a row shorter than the first (its missing cells are empty) or wider (no NA values: an empty
+    cell is refused, as numpy's does). A line of spaces it skips as blank: the caller counts the rows."""
     import pandas as pd  # loaded already (_whole_reader)
 
     return pd.read_csv(io.BytesIO(body), header=None, dtype=_FLOAT64, na_filter=False, engine="c",
@@ -473,6 +474,10 @@ class _Body:
     @property
     def n_lines(self) -> int:
         return len(self._ends)
+
+    def n_records(self) -> int:
+        """The lines that are not blank (no character but a carriage return): the data rows."""
+        return int(np.count_nonzero(~self._lines()[1]))
 
     def _lines(self) -> tuple[np.ndarray, np.ndarray]:
         """Start of every line, and whether it is blank (every line ends with a newline)."""

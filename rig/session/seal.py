@@ -495,52 +495,58 @@ def _checker(path: Path, name: str, links: list, key: str, range_key: str, seal,
     # holds them is checked against the seal), so the whole file's hash would check the same bytes a second time
     covered = sealed and bool(links) and seal.get(f"{prefix}_bytes") == links[-1][1][range_key][1]
     whole = _Unused() if covered else hashlib.sha256()
-    line = 1
     pos, head = 0, None
     for index, stats in links:
         start, end = (int(x) for x in stats[range_key])
         step = _key(name, index)
         if head is None:
-            lines = _Lines()
-            _, origin = yield from fed.take(start, (lines, whole), keep=True)
+            _, origin = yield from fed.take(start, (whole,), keep=True)
             if len(origin) != start:
                 raise SealBroken(path, 1, step, f"the file is shorter ({size} bytes) than the sealed recording")
             if name == _FILES[0] and not _header_ok(origin, doc):
                 raise SealBroken(path, 1, "header", "the header line differs from the recorded columns")
-            head, pos, line = hashlib.sha256(origin).digest(), start, line + lines.n
+            head, pos = hashlib.sha256(origin).digest(), start
         if start != pos:
             raise SealBroken(path, None, step, f"the chain of {what} is broken before {_this(doc, index)}: its "
                              f"{what} start at byte {start}, the previous step's end at {pos}")
         h = hashlib.sha256(head)
-        lines = _Lines(h)
-        got, _ = yield from fed.take(end - start, (lines, whole))
+        got, _ = yield from fed.take(end - start, (h, whole))
         if got != end - start:
-            raise SealBroken(path, line, step, f"the {what} of {_this(doc, index)} are cut short (the file ends at "
-                             f"byte {size}, the step's {what} end at {end}): {_changed(sealed)}")
+            raise SealBroken(path, _line_at(path, start), step, f"the {what} of {_this(doc, index)} are cut short (the "
+                             f"file ends at byte {size}, the step's {what} end at {end}): {_changed(sealed)}")
         if h.hexdigest() != stats[key]:
-            raise SealBroken(path, line, step, f"the {what} of {_this(doc, index)} differ from {_what(sealed)}: "
-                             f"{_changed(sealed)}")
-        head, pos, line = h.digest(), end, line + lines.n
+            raise SealBroken(path, _line_at(path, start), step, f"the {what} of {_this(doc, index)} differ from "
+                             f"{_what(sealed)}: {_changed(sealed)}")
+        head, pos = h.digest(), end
     if not sealed:
         return
     total = int(seal[f"{prefix}_bytes"])
     last = _key(name, links[-1][0]) if links else None
     after = "after the last step" if links else "of the file"
-    lines = _Lines()
-    rest, _ = yield from fed.take(max(total - pos, 0), (lines, whole))
+    rest, _ = yield from fed.take(max(total - pos, 0), (whole,))
     if pos + rest < total:
         raise SealBroken(path, None, last, f"{total - pos - rest} bytes of the sealed {what} are missing at the "
                          f"end ({after}): removed after the recording was sealed")
     if not covered and whole.hexdigest() != seal[f"{prefix}_sha256"]:
-        raise SealBroken(path, line if links else None, last,
+        raise SealBroken(path, _line_at(path, pos) if links else None, last,
                          f"the {what} {after} differ from the seal: {_changed(True)}")
     if size > total:
-        line += lines.n
         _, extra = yield from fed.take(min(size - total, 64 * 1024), keep=True)
         step = _step_of(extra, doc) if name == _FILES[0] else _event_step(extra)
-        raise SealBroken(path, line, _key(name, step) if step is not None else last,
+        raise SealBroken(path, _line_at(path, total), _key(name, step) if step is not None else last,
                          f"{size - total} bytes of {what} added after the recording was sealed (the sealed file "
                          f"ended at byte {total})")
+
+
+def _line_at(path: Path, offset: int) -> int:
+    """The 1-based line of ``path`` that starts at byte ``offset`` (1 + the newlines before it): read again, only for
+    an error's message (a check that passes counts no lines)."""
+    n, left = 1, offset
+    with open(path, "rb") as fh:
+        while left > 0 and (chunk := fh.read(min(_CHUNK, left))):
+            n += chunk.count(b"\n")
+            left -= len(chunk)
+    return n
 
 
 def _what(sealed: bool) -> str:
@@ -557,18 +563,6 @@ class _Unused:
 
     def update(self, chunk: bytes) -> None:
         pass
-
-
-class _Lines:
-    """Counts newlines while passing bytes on to a hash (None: counting only)."""
-
-    def __init__(self, h=None) -> None:
-        self.h, self.n = h, 0
-
-    def update(self, chunk: bytes) -> None:
-        self.n += chunk.count(b"\n")
-        if self.h is not None:
-            self.h.update(chunk)
 
 
 def _copy(fh, n: int | None, *sinks) -> int:
