@@ -29,6 +29,8 @@ from rig.workflow.lifecycle import NewSession
 from conftest import PROCEDURES, RIGS
 
 RAPID = PROCEDURES / "six_position_rapid.yaml"
+#: the line of the rapid procedure's sensor section (where its sample rate is stated)
+RAPID_SENSOR_LINE = next(i for i, line in enumerate(RAPID.read_text().splitlines(), 1) if line.startswith("sensor:"))
 EIGHT_AT_200_HZ = ("sensor.sample_rate_hz: bus sim cannot carry its 8 slots at 200 Hz: 249 kbit/s of wire time of "
                    "its 400 kbit/s (62 %; a fixture may plan 50 %): it carries the first 6 at this rate, or at most "
                    "142.857 Hz for these 8 (docs/fixture.md, \"Bus budget\")")
@@ -53,7 +55,7 @@ def test_eight_slots_at_the_rapid_procedures_200_hz_are_refused_before_anything_
                  "--time-scale", "0"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2
-    assert err == [f"rig run: {RAPID}:14: {EIGHT_AT_200_HZ}"], err
+    assert err == [f"rig run: {RAPID}:{RAPID_SENSOR_LINE}: {EIGHT_AT_200_HZ}"], err
     assert not (tmp_path / "out").exists()
 
 
