@@ -134,6 +134,9 @@ def warn_if_misfit(cal, command: str) -> None:
               file=sys.stderr)
 
 
+#: ``--history`` of the commands that record a calibration (``rig run``, ``rig solve``)
+HISTORY_HELP = ("the calibration history to record into: a database file or URL (postgresql+psycopg://user@host/db; "
+                "default $RIG_HISTORY, else ~/.local/share/rig/history.sqlite)")
 #: how a turntable's own errors, known only by their classes, are taken out of a calibration
 TAKE_THEM_OUT = ("; characterising the rig by reversal (procedures/characterize_reversal.yaml then rig "
                  "characterize-rig) takes most of them out")

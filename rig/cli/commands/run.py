@@ -9,7 +9,7 @@ import shlex
 import signal
 import sys
 
-from rig.cli.common import (EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, ZRO_NOT_STORED, UsageError, format_calibration, present,
+from rig.cli.common import (EXIT_FAILURE, EXIT_OK, EXIT_REJECTED, HISTORY_HELP, ZRO_NOT_STORED, UsageError, format_calibration, present,
                             warn_if_misfit)
 from rig.analysis.solve import static_gyro
 from rig.cli.console import ConsoleUI
@@ -36,6 +36,8 @@ def add_parser(sub) -> None:
     r.add_argument("--quiet", action="store_true", help="print only warnings and the result")
     r.add_argument("--slots", type=_slot_list, default=None, metavar="N,N,...",
                    help="a fixture rig: run only these slots (a re-test of some units; docs/fixture.md)")
+    r.add_argument("--history", default=None, metavar="PATH|URL",
+                   help=HISTORY_HELP)
 
 
 def run(args) -> int:
@@ -64,7 +66,7 @@ def _run_and_report(args, stop: SignalStop) -> int:
     try:
         result = run_procedure(args.procedure, rig_spec=args.rig, out_dir=args.out, seed=args.seed,
                                resume_dir=args.resume, ui=ui, time_scale=args.time_scale,
-                               clock="strict" if args.strict else None, slots=args.slots)
+                               clock="strict" if args.strict else None, slots=args.slots, history=args.history)
     except RunAborted as exc:
         ui.close()
         where = getattr(exc, "session_dir", None)

@@ -12,7 +12,7 @@ from calib.mag import MagCalibration
 from rig.analysis.solve import (ABSENT_ACCEL, accelerometer_absent, magnetometer_units, refuse_misplaced_poses,
                                 solve_present_sensors, static_gyro)
 from rig.cli import outputs
-from rig.cli.common import (EXIT_OK, ZRO_NOT_STORED, Stages, UsageError, format_calibration, format_magnetometer, json_default, parse_thermal,
+from rig.cli.common import (EXIT_OK, HISTORY_HELP, ZRO_NOT_STORED, Stages, UsageError, format_calibration, format_magnetometer, json_default, parse_thermal,
                             present, report_warnings, warn_if_misfit)
 from rig.session import load_session
 from rig.workflow.conclude import conclude
@@ -35,6 +35,7 @@ def add_parser(sub) -> None:
                    help="replace SESSION/calibration.yaml (otherwise a re-solve is written beside it)")
     s.add_argument("--no-record", action="store_true",
                    help="an exploratory re-solve: write the calibration file, record nothing in the history")
+    s.add_argument("--history", default=None, metavar="PATH|URL", help=HISTORY_HELP)
 
 
 #: a session longer than this many steps, or with more than this many bytes of samples, is solved with its stages
@@ -79,7 +80,7 @@ def run(args) -> int:
     stages(f"solving {len(session.info.steps)} steps")
     with outputs.writing(out):  # an error writing the file names the path given
         conclusion = conclude(session, out=out.path, model=args.model, method=args.method, thermal=thermal,
-                              report=False, record=not args.no_record)
+                              report=False, record=not args.no_record, history=args.history)
     stages("done: calibration written and recorded")
     verdict_code = present("solve", conclusion, quiet=args.json)
     cal, path = conclusion.calibration, conclusion.calibration_path
