@@ -13,7 +13,6 @@ import json
 from pathlib import Path
 
 import pytest
-import yaml
 
 from rig.cli import main
 from rig.config.procedure import load_procedure
@@ -22,11 +21,11 @@ from rig.devices import open_rig_file
 from rig.errors import RigInputError
 from rig.execution.context import RunAborted
 from rig.execution.fixture import check_fixture_bus
-from rig.execution.operator import SilentOperator
 from rig.workflow.batch import run_batch
 from rig.workflow.lifecycle import NewSession
 
 from conftest import PROCEDURES, RIGS
+from fixture_runs import CtrlCAt, fixture_rig_file
 
 RAPID = PROCEDURES / "six_position_rapid.yaml"
 #: the line of the rapid procedure's sensor section (where its sample rate is stated)
@@ -34,16 +33,6 @@ RAPID_SENSOR_LINE = next(i for i, line in enumerate(RAPID.read_text().splitlines
 EIGHT_AT_200_HZ = ("sensor.sample_rate_hz: bus sim cannot carry its 8 slots at 200 Hz: 249 kbit/s of wire time of "
                    "its 400 kbit/s (62 %; a fixture may plan 50 %): it carries the first 6 at this rate, or at most "
                    "142.857 Hz for these 8 (docs/fixture.md, \"Bus budget\")")
-
-
-def _rig_with(tmp_path: Path, n: int) -> Path:
-    """``rigs/sim-fixture.yaml`` with its first ``n`` slots, in virtual time."""
-    doc = yaml.safe_load((RIGS / "sim-fixture.yaml").read_text())
-    doc["fixture"]["slots"] = doc["fixture"]["slots"][:n]
-    doc["sim"]["time_scale"] = 0
-    path = tmp_path / f"fixture-{n}.yaml"
-    path.write_text(yaml.safe_dump(doc))
-    return path
 
 
 def _tree(d: Path) -> dict:
@@ -60,7 +49,7 @@ def test_eight_slots_at_the_rapid_procedures_200_hz_are_refused_before_anything_
 
 
 def test_six_slots_run_the_rapid_procedure_every_unit_calibrated(tmp_path, capsys):
-    code = main(["run", str(RAPID), "--rig", str(_rig_with(tmp_path, 6)), "--out", str(tmp_path / "out"),
+    code = main(["run", str(RAPID), "--rig", str(fixture_rig_file(tmp_path, 6)), "--out", str(tmp_path / "out"),
                  "--seed", "3", "--time-scale", "0", "--quiet"])
     printed = capsys.readouterr()
     assert code == 0, printed.err
@@ -83,25 +72,13 @@ def test_a_retest_is_judged_on_the_slots_it_runs(tmp_path, capsys):
         check_fixture_bus(load_procedure(RAPID), fixture)
 
 
-class CtrlCAt(SilentOperator):
-    """An operator who presses Ctrl-C when the capture of step ``index`` (from 0) starts."""
-
-    def __init__(self, index: int) -> None:
-        super().__init__()
-        self.index = index
-
-    def progress(self, progress) -> None:
-        if progress.index == self.index and progress.phase == "capture":
-            raise KeyboardInterrupt
-
-
 def test_a_batch_recorded_beyond_the_budget_is_not_resumed(tmp_path, capsys):
     """A batch of 8 slots at 200 Hz recorded without the check (as before it existed), stopped at its 2nd pose: its
     resume reads the 8 slots at the rate the sessions recorded, and is refused before anything is touched."""
     procedure_path = tmp_path / "p.yaml"
     procedure_path.write_text("format: rig-procedure/1\nname: p\nsensor: {accel_range_g: 4, sample_rate_hz: 200}\n"
                               "dwell: {seconds: 1}\nsteps:\n  - pose: \"+Z up\"\n  - pose: \"-Z up\"\n")
-    rig_path = _rig_with(tmp_path, 8)
+    rig_path = fixture_rig_file(tmp_path, 8)
     procedure = load_procedure(procedure_path)
     rig = open_rig_file(load_rig_file(rig_path), seed=3, time_scale=0)
     new = NewSession(tmp_path / "out", "old-batch", procedure_path.read_text(), str(procedure_path),

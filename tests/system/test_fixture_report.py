@@ -12,9 +12,7 @@ from __future__ import annotations
 
 import io
 import json
-import os
 import re
-import shutil
 import sys
 from html.parser import HTMLParser
 from pathlib import Path
@@ -24,6 +22,7 @@ import yaml
 
 from rig.cli import main
 
+from browser import headless_chromium
 from conftest import PROCEDURES, RIGS
 
 #: what each slot of the module's batch is sorted into
@@ -221,11 +220,7 @@ def test_chromium_renders_the_batch_page_its_red_badge_and_its_figure(batch, tmp
     Chromium, failed when CI is set."""
     from test_report_browser import BADGE_FAIL, MARKER_BLUE, browse, pixels
 
-    exe = shutil.which("chromium") or shutil.which("chromium-browser")
-    if exe is None:
-        if os.environ.get("CI"):
-            pytest.fail("CI is set but headless Chromium is not installed (.ci/run installs it)")
-        pytest.skip("headless Chromium is not installed (Debian: apt-get install chromium)")
+    exe = headless_chromium()
     page = batch["dir"] / "batch-report.html"
     dom = browse(exe, page, tmp_path)
     assert "4 NOT GOOD" in dom and dom.count("sensor fault") >= 2

@@ -26,26 +26,14 @@ import yaml
 from calib.file import calibration as calfile
 from rig.cli import main
 from rig.execution.context import RunAborted
-from rig.execution.operator import SilentOperator
 from rig.session import load_session
 from rig.workflow.run import run_procedure
 
 from conftest import PROCEDURES, REPO, RIGS
+from fixture_runs import CtrlCAt
 
 SIX = str(PROCEDURES / "six_position.yaml")
 SEED = 3
-
-
-class CtrlCAt(SilentOperator):
-    """An operator who presses Ctrl-C when the capture of step ``index`` (from 0) starts."""
-
-    def __init__(self, index: int) -> None:
-        super().__init__()
-        self.index = index
-
-    def progress(self, progress) -> None:
-        if progress.index == self.index and progress.phase == "capture":
-            raise KeyboardInterrupt
 
 
 def _interrupt(out: Path, rig: Path, at_index: int) -> Path:

@@ -22,7 +22,8 @@ from rig.workflow.batch import run_batch
 from rig.workflow.lifecycle import NewSession
 from rig.workflow.run import new_session_id  # also wires the simulated rig kind (rig.workflow.kinds)
 
-from conftest import PROCEDURES, RIGS
+from conftest import PROCEDURES
+from fixture_runs import CtrlCAt, fixture_rig_file
 
 SEED = 3
 RAPID = PROCEDURES / "six_position_rapid.yaml"
@@ -42,15 +43,6 @@ class Lines(SilentOperator):
         self.lines.append(message)
 
 
-def _rig_file(tmp: Path, n_slots: int) -> Path:
-    doc = yaml.safe_load((RIGS / "sim-fixture.yaml").read_text())
-    doc["fixture"]["slots"] = doc["fixture"]["slots"][:n_slots]
-    doc["sim"]["time_scale"] = 0
-    path = tmp / f"fixture-{n_slots}.yaml"
-    path.write_text(yaml.safe_dump(doc))
-    return path
-
-
 def _noisier(rig, index: int, factor: float) -> None:
     """Slot ``index``'s hidden sensor gets ``factor`` times its white noise (its ``sim_truth.yaml`` says so): the
     simulated chip behind its multiplexer channel, reached as the bus reaches it."""
@@ -68,7 +60,7 @@ def _noisier(rig, index: int, factor: float) -> None:
 def _batch(tmp: Path, procedure_path: Path, n_slots: int, noisy: dict[int, float] | None = None):
     """A fixture run in process (what ``rig run`` does for a fixture), with some slots' sensors noisier."""
     procedure = load_procedure(procedure_path)
-    rig = open_rig_file(load_rig_file(_rig_file(tmp, n_slots)), seed=SEED, time_scale=0)
+    rig = open_rig_file(load_rig_file(fixture_rig_file(tmp, n_slots)), seed=SEED, time_scale=0)
     operator = Lines()
     try:
         for index, factor in (noisy or {}).items():
@@ -192,14 +184,9 @@ def test_a_targeted_batch_stopped_mid_run_resumes_each_slot_from_its_own_recorde
     from rig.execution.context import RunAborted
     from rig.workflow.run import run_procedure
 
-    class CtrlCAt(SilentOperator):
-        def progress(self, progress) -> None:
-            if progress.index == 3 and progress.phase == "capture":
-                raise KeyboardInterrupt
-
     try:
-        run_procedure(str(RAPID), rig_spec=str(_rig_file(tmp_path, 2)), out_dir=tmp_path / "o", seed=SEED,
-                      time_scale=0, ui=CtrlCAt(), history=str(tmp_path / "h.sqlite"))
+        run_procedure(str(RAPID), rig_spec=str(fixture_rig_file(tmp_path, 2)), out_dir=tmp_path / "o", seed=SEED,
+                      time_scale=0, ui=CtrlCAt(3), history=str(tmp_path / "h.sqlite"))
         raise AssertionError("not stopped")
     except RunAborted as stopped:
         batch = Path(stopped.session_dir)

@@ -15,6 +15,7 @@ from calib.file import calibration as calfile
 from rig.cli import main
 
 from conftest import RIGS
+from fixture_runs import CtrlCAt
 
 FACES = '  - pose: "+Z up"\n  - pose: "+X up"\n  - pose: "-Z up"\n  - pose: "-X up"\n  - pose: "+Y up"\n  - pose: "-Y up"\n'
 PROCEDURE = ("format: rig-procedure/1\nname: fixture_thermal\nsensor: {model: MPU-9150, accel_range_g: 4, "
@@ -117,14 +118,8 @@ def test_a_fixture_batch_stopped_inside_a_ramp_resumes_it_from_the_legs_last_cap
     temperature of the leg's last capture (the first live slot's record) and ramping on, every slot's session says
     so (a restored ``temperature`` event) and ends complete."""
     from rig.execution.context import RunAborted
-    from rig.execution.operator import SilentOperator
     from rig.workflow.run import run_procedure
     from conftest import PROCEDURES
-
-    class CtrlCAt(SilentOperator):
-        def progress(self, progress) -> None:
-            if progress.index == 8 and progress.phase == "capture":
-                raise KeyboardInterrupt
 
     text = (PROCEDURES / "thermal_ramp.yaml").read_text()
     for old, new in {"dwell: {seconds: 10}": "dwell: {seconds: 3}", "to_c: 52.6": "to_c: 30.6",
@@ -137,7 +132,7 @@ def test_a_fixture_batch_stopped_inside_a_ramp_resumes_it_from_the_legs_last_cap
     (tmp_path / "rig.yaml").write_text(yaml.safe_dump(rig))
     try:
         run_procedure(str(tmp_path / "ramp.yaml"), rig_spec=str(tmp_path / "rig.yaml"), out_dir=tmp_path / "o", seed=4,
-                      time_scale=0, ui=CtrlCAt(), history=str(tmp_path / "h.sqlite"))
+                      time_scale=0, ui=CtrlCAt(8), history=str(tmp_path / "h.sqlite"))
         raise AssertionError("not stopped")
     except RunAborted as stopped:
         batch = stopped.session_dir

@@ -8,7 +8,6 @@ Without Chromium the tests skip, unless the environment variable ``CI`` is set: 
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 from pathlib import Path
@@ -21,6 +20,7 @@ from calib.file.parameters import sensor_parameters
 from rig.lab.units import shown
 from rig.lab.report import write_report
 
+from browser import headless_chromium
 from html_page import Page
 
 
@@ -32,14 +32,7 @@ MARKER_RED, MARKER_BLUE = (214, 39, 40), (31, 119, 180)
 
 @pytest.fixture(scope="module")
 def chromium() -> str:
-    exe = shutil.which("chromium") or shutil.which("chromium-browser")
-    if exe is None:
-        if os.environ.get("CI"):
-            pytest.fail("CI is set but headless Chromium is not installed (.ci/run installs the Debian package "
-                        "chromium): the report's browser test must run in CI")
-        pytest.skip("headless Chromium is not installed (Debian: apt-get install chromium); "
-                    "the report's browser test needs it")
-    return exe
+    return headless_chromium()
 
 
 def browse(exe: str, page: Path, tmp: Path, *, screenshot: Path | None = None) -> str:

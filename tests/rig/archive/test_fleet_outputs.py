@@ -7,8 +7,6 @@ line, exit 2, and nothing is written (never into the results, the archive or a s
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import struct
 import subprocess
 
@@ -19,6 +17,7 @@ from rig.archive.fleet import fleet, unit_values
 from rig.archive.fleet_plot import fleet_figure, session_label
 from rig.archive.resolve import resolve_archive
 
+from browser import headless_chromium
 from html_page import Page
 from test_archive import _rig, archive, sessions  # noqa: F401 - the archive tests' fixtures: 3 units and a failed one
 
@@ -72,11 +71,7 @@ def test_the_page_holds_the_table_the_outliers_the_figure_and_the_provenance(res
 def test_chromium_draws_the_page_its_header_and_the_figure_s_outliers(results, tmp_path):
     """The report's browser check (tests/system/test_report_browser.py) once on the fleet page: skipped without
     Chromium, failed when CI is set."""
-    exe = shutil.which("chromium") or shutil.which("chromium-browser")
-    if exe is None:
-        if os.environ.get("CI"):
-            pytest.fail("CI is set but headless Chromium is not installed (.ci/run installs it)")
-        pytest.skip("headless Chromium is not installed (Debian: apt-get install chromium)")
+    exe = headless_chromium()
     from PIL import Image  # matplotlib's own dependency
 
     assert _rig("fleet", results / "old", "--threshold", "0.5", "-o", tmp_path / "fleet.html")[0] == 0
