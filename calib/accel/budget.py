@@ -34,7 +34,7 @@ from calib.accel.result import MISALIGNMENT_NAMES, AccelCalibration
 from calib.errors import CalibError
 from calib.numerics.design import SENSOR_AXES, Inputs
 from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, combined, expanded
-from calib.accel.solve import (TRIANGULAR_NAMES, MAX_WANDER_STEPS, _model_with_thermal, axis_wander_counts2,
+from calib.accel.solve import (TRIANGULAR_NAMES, _model_with_thermal, axis_wander_counts2, weighs_wander,
                                wander_covariance)
 from calib.accel.rig_misfit import RigMisfit, has_pose_errors, rig_misfit
 from calib.accel.rig_propagation import EPS_DEG, GROUPS, pose_shift, pose_shifts, rig_parameters, stage_angles_deg
@@ -381,7 +381,7 @@ def linear_solve(cal: AccelCalibration, steps: StepMeans) -> LinearSolve:
                                                  subsets)
         maps = dict(zip(SENSOR_AXES, avg_maps))
     else:
-        wander = steps.bias_stability is not None and len(steps) <= MAX_WANDER_STEPS  # the solve's own weights
+        wander = weighs_wander(steps)  # the solve's own weights
         w_axes = axis_wander_counts2(steps) if wander else None
         c_inv_y = {}
         for j, a in enumerate(SENSOR_AXES):  # one factorisation of C per axis: C^-1 [D, y]

@@ -31,7 +31,7 @@ import numpy as np
 
 from calib.accel.inputs import StepMeans
 from calib.accel.rig_propagation import pose_shifts, rig_parameters, stage_angles_deg
-from calib.accel.solve import MAX_WANDER_STEPS, axis_wander_counts2, wander_covariance
+from calib.accel.solve import axis_wander_counts2, wander_covariance, weighs_wander
 from calib.numerics.budget import RigErrors
 from calib.numerics.design import MISFIT_LEVEL, SENSOR_AXES, misfit
 
@@ -74,7 +74,7 @@ def noise_covariances(steps: StepMeans) -> list[np.ndarray]:
     standard errors, and the bias wander between their windows where the solve took it (at most
     :data:`~calib.accel.solve.MAX_WANDER_STEPS` steps, a bias stability known)."""
     sem = np.asarray(steps.sem_counts, float)
-    wander = steps.bias_stability is not None and len(steps) <= MAX_WANDER_STEPS
+    wander = weighs_wander(steps)
     w_axes = axis_wander_counts2(steps) if wander else None
     return [wander_covariance(steps, sem[:, j], w_axes[j]) if wander else np.diag(sem[:, j] ** 2)
             for j in range(len(SENSOR_AXES))]

@@ -185,7 +185,7 @@ def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> A
     # the wander's covariance is dense (K, K) per axis: beyond MAX_WANDER_STEPS steps (a 10,000-step session: 0.8 GB a
     # matrix, 24 GB with the solve's copies) the steps are weighed by their own errors and the bias sigma gets the
     # chip's bias-stability term instead (docs/methods.md, "Step uncertainty")
-    wander = steps.bias_stability is not None and len(steps) <= MAX_WANDER_STEPS
+    wander = weighs_wander(steps)
     w_axes = axis_wander_counts2(steps) if wander else None  # (3, K, K): the same for the three axes unless a unit's
     fits = {}                                                 # own figures differ per axis (docs/noise.md)
     for j, a in enumerate(SENSOR_AXES):
@@ -200,6 +200,12 @@ def _solve_linear(steps: StepMeans, model: str, thermal, t0_c, method: str) -> A
 
 #: the most steps whose bias wander is weighed as a dense (K, K) covariance (32 MB a matrix)
 MAX_WANDER_STEPS = 2000
+
+
+def weighs_wander(steps: StepMeans) -> bool:
+    """Whether the solve weighs ``steps`` with the bias wander's covariance: a bias stability known and at most
+    :data:`MAX_WANDER_STEPS` steps (the budget and the misfit judgement weigh them as the solve did)."""
+    return steps.bias_stability is not None and len(steps) <= MAX_WANDER_STEPS
 
 
 def wander_covariance(steps: StepMeans, sem_counts: np.ndarray, w_counts2: np.ndarray | None = None) -> np.ndarray:
