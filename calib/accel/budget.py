@@ -37,7 +37,7 @@ from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, combined, 
 from calib.accel.solve import (TRIANGULAR_NAMES, _model_with_thermal, axis_wander_counts2, weighs_wander,
                                wander_covariance)
 from calib.accel.rig_misfit import RigMisfit, has_pose_errors, rig_misfit
-from calib.accel.rig_propagation import EPS_DEG, GROUPS, pose_shift, pose_shifts, rig_parameters, stage_angles_deg
+from calib.accel.rig_propagation import EPS_DEG, GROUPS, pose_shifts, rig_parameters, stage_angles_deg
 from calib.numerics.gravity import G0_M_S2, Gravity
 
 #: step of the thermometer's finite differences, C
@@ -178,8 +178,8 @@ def rig_contributions(resolve: Resolve, steps: StepMeans, base: dict[str, float]
     angles = stage_angles_deg(steps.f_nominal_g)
     f = np.asarray(steps.f_nominal_g, float)
     out = []
-    for p in rig_parameters(rig, len(steps)):
-        shift = pose_shift(p, angles)
+    params = rig_parameters(rig, len(steps))
+    for p, shift in zip(params, pose_shifts(params, angles)):  # one chain of the table for every parameter
         if p.u_deg == 0 or not np.any(np.abs(shift) > 1e-12):
             continue
         moved = _replace(steps, f_nominal_g=f - EPS_DEG * shift)  # the data saw f + shift; the solve assumes f

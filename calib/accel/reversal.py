@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib.accel.inputs import StepMeans
-from calib.accel.rig_propagation import EPS_DEG, RigParameter, pose_shift, rig_parameters, stage_angles_deg
+from calib.accel.rig_propagation import EPS_DEG, RigParameter, pose_shifts, rig_parameters, stage_angles_deg
 from calib.errors import CalibError
 from calib.numerics.budget import RigErrors
 
@@ -76,7 +76,8 @@ class Characterisation:
         f = np.asarray(steps.f_nominal_g, float)
         angles = stage_angles_deg(f)
         params = {p.name: p for p in rig_parameters(rig, len(f))}
-        shift = sum(g * pose_shift(params[n], angles) for n, g in self.estimate_deg.items())
+        names = list(self.estimate_deg)
+        shift = sum(self.estimate_deg[n] * s for n, s in zip(names, pose_shifts([params[n] for n in names], angles)))
         fields = {k: getattr(steps, k) for k in steps.__dataclass_fields__}
         return StepMeans(**{**fields, "f_nominal_g": f + shift})
 
@@ -142,7 +143,7 @@ def _aliased(mountings, f, angles, m0, a, w, normal, rig: RigErrors) -> np.ndarr
               and p.u_deg > 0]
     if not others:
         return np.zeros_like(normal)
-    shifts = np.array([pose_shift(p, angles) for p in others])
+    shifts = np.array(pose_shifts(others, angles))
     columns = _design(mountings, f, shifts, m0)[0][:, 12:]
     gain = np.linalg.solve(normal, (a * w[:, None]).T @ columns) * np.array([p.u_deg for p in others])
     return gain @ gain.T
@@ -153,7 +154,7 @@ def characterise(mountings: list[Mounting], rig: RigErrors) -> Characterisation:
     f = _check(mountings)
     params: list[RigParameter] = [p for p in rig_parameters(rig, len(f)) if p.name in CHARACTERISED]
     angles = stage_angles_deg(f)
-    shifts = np.array([pose_shift(p, angles) for p in params])  # (J, K, 3) per deg
+    shifts = np.array(pose_shifts(params, angles))  # (J, K, 3) per deg
     names = [p.name for p in params]
     m0 = np.eye(3) * float(np.median(np.abs(mountings[0].steps.mean_counts)))
     x = None
