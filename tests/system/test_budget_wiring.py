@@ -5,26 +5,16 @@ one-line errors."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 import shutil
 
 import numpy as np
 import pytest
 import yaml
 
-from rig.cli import main
-
 from conftest import DATASETS, NO_DATASETS, PROCEDURES, RIGS
+from cli_run import rig_in_process as rig
 
 QUANTITIES = ("bias_counts", "scale_counts_per_g")
-
-
-def rig(*args) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in args])
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")

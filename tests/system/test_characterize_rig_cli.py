@@ -5,21 +5,11 @@ ignored, and the rig terms say so."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 
 import yaml
 
-from rig.cli import main
-
 from conftest import PROCEDURES, RIGS
-
-
-def rig(*args) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in args])
-    return code, out.getvalue(), err.getvalue()
+from cli_run import rig_in_process as rig
 
 
 def run(procedure, rig_file, out_dir, *more) -> tuple:

@@ -9,8 +9,6 @@ interpreter's start-up per command).
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 from functools import cache
 from pathlib import Path
@@ -22,9 +20,9 @@ import yaml
 from calib.file import calibration as calfile
 from calib.discovery.effects import LIBRARY
 from rig.analysis.discover import discover_session
-from rig.cli import main
 
 from conftest import PROCEDURES, RIGS
+from cli_run import rig_in_process as _rig
 
 SEED = 5
 #: effect -> (value in the rig file, truth of the estimate in the effect's reported unit)
@@ -50,14 +48,6 @@ def _rig_file(tmp: Path, name: str, effects: dict | None) -> Path:
     path = tmp / f"{name}.yaml"
     path.write_text(yaml.safe_dump(doc))
     return path
-
-
-def _rig(*args) -> tuple[int, str, str]:
-    """``rig ARGS`` in this process (the command line's main()): (exit code, stdout, stderr)."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in args])
-    return code, out.getvalue(), err.getvalue()
 
 
 def _run(tmp: Path, name: str, procedure: str, effects: dict | None) -> Path:

@@ -9,16 +9,13 @@ that separate them; run on the same rig, its session names the hysteresis with n
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 from pathlib import Path
 
 import yaml
 
-from rig.cli import main
-
 from conftest import PROCEDURES, RIGS
+from cli_run import rig_in_process as _rig
 
 FACES = ["+Z up", "+X up", "-Z up", "-X up", "+Y up", "-Y up"]
 
@@ -36,13 +33,6 @@ def _procedure(tmp: Path) -> Path:
     path = tmp / "heat_then_cool.yaml"
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path
-
-
-def _rig(*args) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in args])
-    return code, out.getvalue(), err.getvalue()
 
 
 def _run(tmp: Path, procedure: Path, seed: int, name: str, effects=None) -> Path:

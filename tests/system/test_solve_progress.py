@@ -3,23 +3,14 @@ inputs); a short one's stay as they were, and the progress never changes what st
 
 from __future__ import annotations
 
-import contextlib
-import io
 
 import pytest
 
-from rig.cli import main
 from rig.cli.commands import discover as discover_command
 from rig.cli.commands import solve as solve_command
 
 from conftest import PROCEDURES
-
-
-def _rig(*args) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in args])
-    return code, out.getvalue(), err.getvalue()
+from cli_run import rig_in_process as _rig
 
 
 @pytest.fixture(scope="module")

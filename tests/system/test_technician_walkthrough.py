@@ -5,7 +5,6 @@ rig in virtual time."""
 
 from __future__ import annotations
 
-import contextlib
 import io
 import json
 import os
@@ -18,7 +17,6 @@ import sys
 import pytest
 
 from calib.file import calibration as calfile
-from rig.cli import main
 from rig.cli.outputs import reader_left_unread
 from rig.config.procedure import load_procedure
 from rig.devices.bringup import OPEN_HINTS
@@ -26,14 +24,7 @@ from rig.execution.estimate import temperature_step_s
 from rig.session import load_session
 
 from conftest import REPO
-
-
-def rig(*args) -> tuple[int, str, str]:
-    """``rig ARGS`` in this process: (exit code, stdout, stderr)."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in args])
-    return code, out.getvalue(), err.getvalue()
+from cli_run import rig_in_process as rig
 
 
 @pytest.fixture(autouse=True)

@@ -8,23 +8,14 @@ calibration in the simulator's units and agree with the hidden truth within the 
 
 from __future__ import annotations
 
-import contextlib
-import io
 
 import numpy as np
 import yaml
 
 from calib.file import calibration as calfile
-from rig.cli import main
 
 from conftest import PROCEDURES
-
-
-def _rig(*args) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in args])
-    return code, out.getvalue(), err.getvalue()
+from cli_run import rig_in_process as _rig
 
 
 def test_the_twin_of_a_gyro_session_carries_its_gyroscope_calibration(tmp_path):

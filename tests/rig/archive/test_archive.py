@@ -5,8 +5,6 @@ cannot be solved as a failed row, and every bad input is one line, exit 2."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 import shutil
 
 import numpy as np
@@ -15,17 +13,10 @@ import pytest
 from rig.analysis.solve import calibrate_session
 from rig.archive.resolve import read_results, resolve_archive
 from rig.archive.store import archive_sessions, extract_session
-from rig.cli import main
 from rig.session import load_session
 
 from conftest import PROCEDURES
-
-
-def _rig(*args) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in args])
-    return code, out.getvalue(), err.getvalue()
+from cli_run import rig_in_process as _rig
 
 
 @pytest.fixture(scope="module")

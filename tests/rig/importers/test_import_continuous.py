@@ -4,26 +4,17 @@ its samples, within 3 sigma of the truth; without the option the import names it
 
 from __future__ import annotations
 
-import contextlib
-import io
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from rig.analysis.solve import solve_present_sensors
-from rig.cli import main
 from rig.session import load_session
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "calib"))
 from mag_turning import turning_recording
-
-
-def _rig(*args) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in args])
-    return code, out.getvalue(), err.getvalue()
+from cli_run import rig_in_process as _rig
 
 
 def _write(path: Path, rec: dict, label: bool = False) -> Path:
