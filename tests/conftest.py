@@ -3,12 +3,19 @@
 from __future__ import annotations
 
 import os
+import signal
 import tempfile
 from pathlib import Path
 
 import pytest
 
-from rig.workflow import kinds  # noqa: F401 - the suite is wired as the workflows are (rig.composition): rig kinds, sim:/faults:
+# BLAS on one thread per test process, set before numpy loads (subprocesses and xdist's workers inherit it): the
+# suite runs one process per core, and the calibration's small matrices gain nothing from threads; two OpenBLAS
+# threads per worker on two busy cores made the discovery search's 6x6 triangular solves 16 ms each, not 0.02 ms
+for _blas_threads in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_blas_threads, "1")
+
+from rig.workflow import kinds  # noqa: E402,F401 - after the BLAS threads; the suite is wired as the workflows are (rig.composition): rig kinds, sim:/faults:
 
 REPO = Path(__file__).resolve().parents[1]
 PROCEDURES = REPO / "procedures"
@@ -84,6 +91,10 @@ def pytest_configure(config):
     os.environ["RIG_HISTORY"] = str(Path(tempfile.mkdtemp(prefix="rig-test-history-")) / "history.sqlite")
     os.environ["RIG_HISTORY_OUTBOX"] = str(Path(tempfile.mkdtemp(prefix="rig-test-outbox-")))
     os.environ["RIG_SIM_TRANSPORT"] = "memory"
+    # a shell without job control starts a background job (`pytest ... &`) with SIGINT ignored, and the ignored
+    # signal is inherited by every program the tests start: the tests of Ctrl-C need it to reach them
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     # --dist loadscope hands out modules in the order pytest_collection_modifyitems left them (heavy first), not
     # re-sorted by their number of tests (pytest-xdist's default since 3.6; the option's own name for this)
     if hasattr(config.option, "loadscopereorder"):
