@@ -23,7 +23,7 @@ import yaml
 from pydantic import (BeforeValidator, ConfigDict, Field, FiniteFloat, NonNegativeInt, StrictBool, field_validator,
                       with_config)
 from pydantic.json_schema import SkipJsonSchema
-from typing_extensions import Annotated, TypedDict
+from typing_extensions import Annotated, NotRequired, TypedDict
 
 from calib.file import yamlsafe
 from calib.file.apply import CalibratedRecording, Recording, apply_calibration
@@ -105,13 +105,18 @@ class NoiseUsed(TypedDict):
 
 @with_config(ConfigDict(extra="forbid"))
 class NoiseRecord(TypedDict):
-    """Written only when the unit's own noise profile (``rig-noise/1``) replaced the chip family's figures."""
+    """Written only when the unit's own figures replaced the chip family's (docs/noise.md). ``source``: either
+    ``unit profile`` (its newest ``rig-noise/1`` profile: ``measured_at`` its date, ``session`` the session
+    characterised) or ``recording`` (no profile: the solved session's own static steps, the family's figures as
+    the prior: ``measured_at`` and ``session`` the solved session's, ``steps`` and ``seconds`` what they rest on)."""
 
     source: Text
     sensor_key: Text
     measured_at: Text
     session: OptionalText
     sensors: dict[str, NoiseUsed]
+    steps: NotRequired[NonNegativeInt]
+    seconds: NotRequired[FiniteFloat]
 
 
 class CalibrationFile(CalibrationSection):
@@ -153,7 +158,8 @@ class CalibrationFile(CalibrationSection):
     acceptance: Optional[AcceptanceRecord] = Field(
         None, description="the procedure's accept: limits, each check and the verdict (absent: no limits)")
     noise: Optional[NoiseRecord] = Field(
-        None, description="the unit's noise profile the sigmas used instead of the family's figures (absent: the family's)")
+        None, description="the unit's own noise figures the sigmas used instead of the family's: its noise profile or "
+        "its recording's static steps (absent: the family's)")
     extra: SkipJsonSchema[dict] = Field(default_factory=dict, exclude=True)
 
     #: written only when present (files without them are the common case and stay as they were)
@@ -223,7 +229,7 @@ def _drop_nan_defaults(node: Any) -> Any:
 
 def write_json_schema(path=None) -> Path:
     """Write :func:`json_schema` to ``path`` (default ``docs/schemas/calibration.schema.json``)."""
-    p = Path(path) if path is not None else Path(__file__).resolve().parents[1] / "docs/schemas/calibration.schema.json"
+    p = Path(path) if path is not None else Path(__file__).resolve().parents[2] / "docs/schemas/calibration.schema.json"
     p.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(p, json.dumps(json_schema(), indent=2, allow_nan=False) + "\n")
     return p

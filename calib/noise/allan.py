@@ -18,6 +18,12 @@ from calib.errors import CalibError
 
 #: the averaging times end where fewer than this many independent clusters remain
 MAX_TAU_FRACTION = 1.0 / 4.0
+#: the averaging times the fit starts at by default, s: shorter ones see the chip's low-pass filter. Its correlation
+#: makes an Allan variance fall short of N^2 / tau by a share that shrinks as 1 / tau; from 0.1 s the MPU-9150's
+#: 44 Hz filter at 100 Hz pulled the fitted N 0.4-0.5 % low, outside its +-0.65 % interval in 3 of 20 units (two
+#: sets of 20 simulated units); from 0.6 s (the first octave point 0.64 s at 100 Hz) the ratio is 1.000, sd 0.004,
+#: inside its +-1.35 % interval in 40 of 40 (benchmarks/bench_allan.py)
+FIT_TAU_MIN_S = 0.6
 #: confidence level of the intervals (1 sigma)
 CI_LEVEL = 0.6826894921370859
 

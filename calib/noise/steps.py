@@ -7,6 +7,14 @@ walk. The figures follow from the likelihood of those variances (chi-squared wit
 freedom: each step is an independent record) times a log-normal prior on the squared floor and walk about the
 family's (:func:`fit_with_prior`): where the steps are too short to see the wander the answer stays the family's,
 where they are long enough it moves to the unit's.
+
+When that is worth doing is a rule of its own (:func:`steps_show_wander`): the longest averaging time the steps
+reach (a quarter of the longest step, on the octave grid) must be at least :data:`REACH_OF_CROSSING` of the
+crossing of the steps' white noise and the family's floor, ``(N / B)^2``; shorter steps leave the prior (measured:
+on six 10 s steps the posterior is the prior within 1 %). And an answer within :data:`NEAR_PRIOR` of the prior on
+every figure is the prior's (:func:`moved_off`). The module needs numpy alone (its own small Newton minimiser, no
+scipy), so a solve that asks whether its steps are long enough loads nothing more; Greenhall's degrees of freedom
+(allantools) are loaded only when the fit runs.
 """
 
 from __future__ import annotations
@@ -15,15 +23,22 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize
-
 from calib.errors import CalibError
-from calib.noise.allan import MAX_TAU_FRACTION, edf_for
-from calib.noise.fit import FIT_TAU_MIN_S
+from calib.noise.allan import FIT_TAU_MIN_S, MAX_TAU_FRACTION, edf_for
 from calib.noise.terms import TERMS, NoiseFigures
 
 #: the prior's spread: ln of a unit's figure over the family's, 1 sigma (0.5-2x the family is +-0.87 sigma)
 PRIOR_SD_LN = 0.8
+#: the steps are long enough to move the figures off the prior when the longest averaging time they reach is at
+#: least this share of the crossing of their white noise and the prior's floor, ``(N / B)^2`` (an MPU-9150 at
+#: 100 Hz, N about 340 ug/rtHz through its 44 Hz filter, floor 28 ug: a crossing of about 145 s, so steps of
+#: 164 s or more, whose quarter reaches the 41 s octave). Measured on six steps of units 0.5x and 2x their family
+#: (8 sessions each): at 60 s steps (reach 0.07 of the crossing) the floor's posterior scatters by 0.55-0.62 in ln
+#: about a mean moved by -0.15..+0.38 of ln 2; at 300 s (0.28) it lands at 0.70x and 2.09x the family's (sd 0.31,
+#: 0.11); at 600 s (0.57) at 0.57x and 1.92x.
+REACH_OF_CROSSING = 0.25
+#: an answer within this share of the prior on every figure (B and K) is the prior's: the steps did not move it
+NEAR_PRIOR = 0.10
 
 
 @dataclass(frozen=True)
@@ -55,11 +70,23 @@ class PooledAllan:
         return total
 
 
-def _avar_terms(y: np.ndarray, m: int) -> tuple[float, int]:
-    """Sum of squared second differences of the phase of ``y`` at ``m`` samples, and how many."""
-    x = np.concatenate([[0.0], np.cumsum(y)])
+def _phase(y: np.ndarray) -> np.ndarray:
+    """The phase (running sum, from 0) of rate-like samples ``y``."""
+    return np.concatenate([[0.0], np.cumsum(y)])
+
+
+def _avar_terms(x: np.ndarray, m: int) -> tuple[float, int]:
+    """Sum of squared second differences of the phase ``x`` at ``m`` samples, and how many. (``np.einsum``, not
+    ``d @ d``: BLAS's threads make a 60,000-sample dot product 12 ms on a busy machine, the sum 0.05 ms.)"""
     d = x[2 * m:] - 2.0 * x[m:-m] + x[:-2 * m]
-    return float(d @ d), len(d)
+    return float(np.einsum("i,i->", d, d)), len(d)
+
+
+def _octaves(n_max: int, rate_hz: float, tau_min_s: float) -> list[int]:
+    """The octave cluster sizes m (samples) from ``tau_min_s`` (s) up to a quarter of ``n_max`` samples."""
+    m_max = int(n_max * MAX_TAU_FRACTION)
+    return [int(m) for m in 2 ** np.arange(int(np.log2(max(m_max, 1))) + 1)
+            if m / rate_hz >= tau_min_s * (1 - 1e-9)]
 
 
 def pooled_allan(records, rate_hz: float, tau_min_s: float = FIT_TAU_MIN_S) -> PooledAllan:
@@ -70,16 +97,15 @@ def pooled_allan(records, rate_hz: float, tau_min_s: float = FIT_TAU_MIN_S) -> P
     if not ys:
         raise CalibError("no static step holds 16 samples: the steps' own noise cannot be estimated")
     lengths = np.array([len(y) for y in ys])
-    m_max = int(lengths.max() * MAX_TAU_FRACTION)
-    ms = [m for m in 2 ** np.arange(int(np.log2(max(m_max, 1))) + 1) if m / rate_hz >= tau_min_s * (1 - 1e-9)]
+    xs = [_phase(y) for y in ys]
     tau, avar, count, use = [], [], [], []
-    for m in ms:
+    for m in _octaves(int(lengths.max()), rate_hz, tau_min_s):
         s, k, row = 0.0, 0, []
-        for y in ys:
+        for y, x in zip(ys, xs):
             ok = len(y) * MAX_TAU_FRACTION >= m
             row.append(ok)
             if ok:
-                ss, kk = _avar_terms(y, int(m))
+                ss, kk = _avar_terms(x, m)
                 s, k = s + ss, k + kk
         if k:
             t = m / rate_hz
@@ -113,8 +139,85 @@ def fit_with_prior(pooled: PooledAllan, prior: NoiseFigures, sd_ln: float = PRIO
             pen[0] = 0.0  # N: no prior
             return dev + 0.5 * float(np.sum(pen * (z - np.log(c0[keep])))), g + pen
 
-        x = minimize(f, x, jac=True, method="L-BFGS-B").x
+        x = _minimise(f, x)
         c = np.zeros(3)
         c[keep] = np.exp(x)
         alpha = np.array([TERMS[names[j]][2] for j in np.argmax(a * c[None, :], axis=1)])
     return NoiseFigures(N=math.sqrt(c[0]), B=math.sqrt(c[1]), K=math.sqrt(c[2]))
+
+
+#: the longest step of :func:`_minimise` in any parameter (ln of a squared figure: a factor of e^3 = 20)
+MAX_STEP = 3.0
+
+
+def _minimise(f, x0: np.ndarray, iterations: int = 100) -> np.ndarray:
+    """The minimum of the smooth ``f(x) -> (value, gradient)`` of a few parameters near ``x0``: Newton's steps on
+    the gradient's forward-difference Hessian, damped (Levenberg) until the step, at most :data:`MAX_STEP` in any
+    parameter, descends (Armijo) to a finite value. Stops when a step changes ``x`` by less than 1e-9 or the value
+    by less than 1e-12 of itself."""
+    x = np.array(x0, float)
+    fx, g = f(x)
+    lam = 0.0
+    for _ in range(iterations):
+        h = np.empty((len(x), len(x)))
+        for j in range(len(x)):
+            e = np.zeros(len(x))
+            e[j] = 1e-6
+            h[:, j] = (f(x + e)[1] - g) / 1e-6
+        h = 0.5 * (h + h.T)
+        while True:
+            try:
+                step = -np.linalg.solve(h + lam * np.eye(len(x)), g)
+            except np.linalg.LinAlgError:
+                step = None
+            if step is not None and float(g @ step) < 0:
+                step *= min(1.0, MAX_STEP / float(np.max(np.abs(step))))
+                with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+                    f_new, g_new = f(x + step)
+                if np.isfinite(f_new) and np.all(np.isfinite(g_new)) and f_new <= fx + 1e-4 * float(g @ step):
+                    break
+            lam = max(4.0 * lam, 1e-6 * (1.0 + float(np.abs(np.diag(h)).max())))
+            if lam > 1e12:
+                return x
+        lam *= 0.25
+        converged = float(np.max(np.abs(step))) < 1e-9 or fx - f_new <= 1e-12 * max(abs(fx), 1.0)
+        x, fx, g = x + step, f_new, g_new
+        if converged:
+            break
+    return x
+
+
+def white_noise(record, rate_hz: float, tau_min_s: float = FIT_TAU_MIN_S) -> float:
+    """N (unit/sqrt(Hz)) of one record (n,), unit: ``sqrt(tau avar(tau))`` at the first octave averaging time from
+    ``tau_min_s`` (s), where the white noise dominates; its first 64 such clusters' worth of samples suffice.
+    NaN for a record shorter than four such clusters."""
+    y = np.asarray(record, float)
+    ms = _octaves(len(y), rate_hz, tau_min_s)
+    if not ms:
+        return math.nan
+    y = y[: 64 * ms[0]] - np.mean(y[: 64 * ms[0]])
+    s, k = _avar_terms(_phase(y), ms[0])
+    return math.sqrt(s / (2.0 * k * ms[0] ** 2) * ms[0] / rate_hz)
+
+
+def reach_s(longest_samples: int, rate_hz: float, tau_min_s: float = FIT_TAU_MIN_S) -> float:
+    """The longest averaging time (s) the pooled Allan variance of steps whose longest holds ``longest_samples``
+    samples reaches (the octave at or below a quarter of it); 0 when none."""
+    ms = _octaves(int(longest_samples), rate_hz, tau_min_s)
+    return ms[-1] / rate_hz if ms else 0.0
+
+
+def steps_show_wander(records, rate_hz: float, prior: NoiseFigures) -> bool:
+    """Whether static steps ``records`` (a list of (n_i,) arrays of one axis) are long enough to move the floor
+    off ``prior``'s: the longest averaging time they reach is at least :data:`REACH_OF_CROSSING` of the crossing of
+    their own white noise (the longest step's) and the prior's floor. False without a prior floor."""
+    if not records or prior.B <= 0:
+        return False
+    longest = max(records, key=len)
+    n = white_noise(longest, rate_hz)
+    return math.isfinite(n) and reach_s(len(longest), rate_hz) >= REACH_OF_CROSSING * (n / prior.B) ** 2
+
+
+def moved_off(figures: NoiseFigures, prior: NoiseFigures, share: float = NEAR_PRIOR) -> bool:
+    """Whether ``figures``' B or K lies more than ``share`` away from ``prior``'s (a prior figure of 0 stays 0)."""
+    return any(p > 0 and abs(f / p - 1.0) > share for f, p in ((figures.B, prior.B), (figures.K, prior.K)))

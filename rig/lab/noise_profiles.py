@@ -218,8 +218,13 @@ def use_unit_profile(session, history=None) -> dict | None:
     key, profile, used = found
     session.unit_noise = used
     return {"source": "unit profile", "sensor_key": key, "measured_at": profile.measured_at,
-            "session": profile.session,
-            "sensors": {s: {"unit": b.unit, "bias_instability": b.bias_instability, "random_walk": b.random_walk_per_rts,
-                            "flicker_corner_s": b.flicker_corner_s,
-                            "bias_instability_xyz": [a.bias_instability for a in b.axes],
-                            "random_walk_xyz": [a.random_walk_per_rts for a in b.axes]} for s, b in used.items()}}
+            "session": profile.session, "sensors": figures_used(used)}
+
+
+def figures_used(used: dict) -> dict:
+    """The calibration file's ``noise.sensors``: per sensor of ``used`` (sensor -> its
+    :class:`~calib.numerics.stability.AxisStability`) its unit, B (registry convention) and K as the RMS over the axes
+    and per axis (x, y, z), and the flicker corner (s)."""
+    return {s: {"unit": b.unit, "bias_instability": b.bias_instability, "random_walk": b.random_walk_per_rts,
+                "flicker_corner_s": b.flicker_corner_s, "bias_instability_xyz": [a.bias_instability for a in b.axes],
+                "random_walk_xyz": [a.random_walk_per_rts for a in b.axes]} for s, b in used.items()}

@@ -22,6 +22,7 @@ from rig.analysis.solve import calibrate_session
 from rig.lab.acceptance import judge
 from rig.lab.history import record_calibration
 from rig.lab.noise_profiles import use_unit_profile
+from rig.lab.recording_noise import use_recording_noise
 from rig.session import Session
 
 
@@ -79,7 +80,8 @@ def conclude(session: Session, *, out=None, model: str | None = None, method: st
 
     Raises CalibError (the session cannot be solved), SessionFormatError; nothing is written then.
     """
-    noise = use_unit_profile(session, history)  # the unit's own noise figures when it was characterised
+    # the unit's own noise figures when it was characterised, else its steps' own when they are long enough to show them
+    noise = use_unit_profile(session, history) or use_recording_noise(session)
     cal = calibrate_session(session.path, model=model, method=method, thermal=thermal, session=session)
     if noise is not None:
         cal = cal.model_copy(update={"noise": noise})

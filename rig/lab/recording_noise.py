@@ -1,0 +1,120 @@
+"""Without a noise profile, the recording speaks first (issue 28 item 5; docs/noise.md, "Without a profile"): a
+session's bias wander estimated from its own static steps, the chip family's figures as the prior
+(:mod:`calib.noise.steps`), and attached the way a unit's profile is (``Session.unit_noise``, read by the
+adapter's stability lookups), for the accelerometer and, in a session with rate steps, the gyroscope whose rate
+solve weighs its steps with the same wander.
+
+The rules, each tested (tests/rig/lab/test_recording_noise.py):
+
+- a unit's profile comes first: the pipeline asks this module only when there is none;
+- the family's figures stay (nothing attached, no ``noise:`` in the calibration file, as without this module) for a
+  sensor the chip registry states no figures for, for a session recorded on a temperature ramp (the bias follows
+  the temperature within each step: drift, not noise), when the steps are too short to show the wander
+  (:func:`calib.noise.steps.steps_show_wander` on no axis: an MPU-9150 at 100 Hz needs steps of 164 s or more),
+  and when the answer is the prior within :data:`calib.noise.steps.NEAR_PRIOR` on every axis and figure;
+- otherwise each axis's floor (as B in the registry's convention, ``/`` :data:`calib.noise.terms.REGISTRY_B_FLOOR`)
+  and walk K are used, with the family's flicker corner, and the calibration file's ``noise:`` says ``source:
+  recording``, the figures, and the static steps and seconds they rest on.
+
+Cost: the length rule reads 64 clusters of 0.64 s of the longest static step only (about 0.1 ms on a
+six-position session); the fit runs only on steps that pass it (a few ms a sensor, plus allantools' import for
+Greenhall's degrees of freedom, about 0.3 s on a quiet machine, once per process).
+"""
+
+from __future__ import annotations
+
+from datetime import datetime, timezone
+from types import SimpleNamespace
+
+import numpy as np
+
+from calib.noise.steps import fit_with_prior, moved_off, pooled_allan, steps_show_wander
+from calib.noise.terms import REGISTRY_B_FLOOR, NoiseFigures
+from calib.numerics.stability import AxisStability, BiasStability
+from rig.lab.identity import sensor_identity
+from rig.lab.noise_profiles import figures_used
+from rig.session.adapter import chip_stability, on_ramp, recorded_chip
+
+#: sensor -> its samples' column (counts)
+COLUMNS = {"accel": "accel_counts", "gyro": "gyro_counts"}
+
+
+def _counts_per_unit(session, sensor: str) -> float | None:
+    """Counts per g (accelerometer) or per deg/s (gyroscope) of the session's sensor, or None."""
+    return session.lsb_per_g if sensor == "accel" else session.info.rig.sensor.gyro_lsb_per_dps
+
+
+def _sensors(session) -> list[str]:
+    """The sensors whose wander the solve weighs: the accelerometer; the gyroscope when the session has complete
+    rate steps (its rate solve) and gyroscope samples."""
+    rate = any(s.kind == "rate" and s.status == "complete" for s in session.info.steps)
+    return ["accel"] + (["gyro"] if rate and "gyro_counts" in session.samples and _counts_per_unit(session, "gyro")
+                        else [])
+
+
+def axis_records(session, sensor: str, idx: list[int]) -> list[list[np.ndarray]]:
+    """Per axis (x, y, z), the static steps ``idx``'s samples of ``sensor`` in its unit (g, deg/s), each step a
+    (n_i,) array; a step with a non-finite sample is left out."""
+    values = session.samples[COLUMNS[sensor]]
+    step = session.samples["step"]
+    order = np.argsort(step, kind="stable")
+    lo, hi = np.searchsorted(step[order], idx, "left"), np.searchsorted(step[order], idx, "right")
+    blocks = [values[order[a:b]].astype(float) / _counts_per_unit(session, sensor) for a, b in zip(lo, hi)]
+    blocks = [b for b in blocks if len(b) and np.all(np.isfinite(b))]
+    return [[b[:, j] for b in blocks] for j in range(3)]
+
+
+def longest_step(session, sensor: str, idx: list[int]) -> list[np.ndarray]:
+    """Per axis, the samples of ``sensor`` (its unit) in the static step of ``idx`` that holds the most (one pass
+    over the step column: no sort)."""
+    step = session.samples["step"]
+    counts = np.bincount(step.astype(np.int64), minlength=max(idx) + 1)
+    rows = step == max(idx, key=lambda i: counts[i])
+    block = session.samples[COLUMNS[sensor]][rows].astype(float) / _counts_per_unit(session, sensor)
+    return [block[:, j] for j in range(3)] if np.all(np.isfinite(block)) else [[], [], []]
+
+
+def estimate(records: list[list[np.ndarray]], rate_hz: float, family: BiasStability) -> AxisStability | None:
+    """The wander per axis from ``records`` (per axis, the static steps' samples, in ``family.unit``) at
+    ``rate_hz`` (Hz), the ``family``'s figures (registry convention) as the prior; None where the family's stay
+    (the steps too short on every axis, or the answer within :data:`calib.noise.steps.NEAR_PRIOR` of the prior on
+    every axis)."""
+    prior = NoiseFigures(B=family.bias_instability * REGISTRY_B_FLOOR, K=family.random_walk_per_rts)
+    if not any(steps_show_wander(axis, rate_hz, prior) for axis in records):
+        return None
+    fits = [fit_with_prior(pooled_allan(axis, rate_hz), prior) for axis in records]
+    if not any(moved_off(f, prior) for f in fits):
+        return None
+    return AxisStability.of(BiasStability(f.B / REGISTRY_B_FLOOR, f.K, family.flicker_corner_s, family.unit)
+                            for f in fits)
+
+
+def use_recording_noise(session) -> dict | None:
+    """Attach the wander ``session``'s own static steps show (``Session.unit_noise``, per sensor) and return the
+    calibration file's ``noise`` record (``source: recording``); None (nothing attached: the family's figures) by
+    the module's rules. Call only when the unit has no profile."""
+    chip = recorded_chip(session)
+    idx = session.static_step_indices(unknown_pose=True)
+    if chip is None or not idx or on_ramp(session):
+        return None
+    rate_hz = float(session.info.rig.sensor.sample_rate_hz)
+    used, rested = {}, None
+    for sensor in _sensors(session):
+        family = chip_stability(chip, sensor)
+        if family is None:
+            continue
+        prior = NoiseFigures(B=family.bias_instability * REGISTRY_B_FLOOR, K=family.random_walk_per_rts)
+        if not any(steps_show_wander([axis], rate_hz, prior) for axis in longest_step(session, sensor, idx)):
+            continue  # the cheap rule first, on the longest step alone: a six-position session stops here
+        records = axis_records(session, sensor, idx)
+        found = estimate(records, rate_hz, family)
+        if found is not None:
+            used[sensor] = found
+            rested = rested or (len(records[0]), sum(len(r) for r in records[0]) / rate_hz)
+    if not used:
+        return None
+    session.unit_noise = used
+    key = sensor_identity(session.info.to_dict(), SimpleNamespace(sensor=None))["key"]
+    created = session.info.created or datetime.now(timezone.utc).isoformat(timespec="seconds")
+    return {"source": "recording", "sensor_key": key, "measured_at": str(created), "session": session.id,
+            "sensors": figures_used(used), "steps": rested[0], "seconds": round(rested[1], 3)}
