@@ -101,7 +101,7 @@ from calib.numerics.stability import BiasStability  # noqa: E402
 from calib.discovery.search import StepContext, candidate_pvalues, discover, final_problem  # noqa: E402
 from calib.discovery.effects import heating_state  # noqa: E402
 from calib.discovery.problem import pose_blocks  # noqa: E402
-from calib.discovery.propose import POWER_TARGET, block_inputs, propose  # noqa: E402
+from calib.discovery.propose import POWER_TARGET, block_inputs, deciding, separating  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 from calib.numerics.uncertainty import step_standard_errors  # noqa: E402
 from drivers.sensors.chips import CHIPS  # noqa: E402
@@ -285,27 +285,29 @@ MATRIX_DESIGNS = {"heat_then_cool": lambda: two_legs_design((22.0, 30.0, 38.0, 4
 
 def classify(d, expected: str | None) -> str:
     """``named`` (the hidden effect named, nothing else but bias_tempco; clean: nothing but bias_tempco),
-    ``aliased`` (named one of an alias group holding it, nothing else), ``missed`` (nothing named but
-    bias_tempco: below the detectable magnitude), ``wrong`` (another name)."""
+    ``aliased`` (named one of an alias group holding it, nothing else), ``weak`` (nothing named but
+    bias_tempco, the hidden effect listed as a weak candidate), ``missed`` (nothing named but bias_tempco,
+    the hidden effect not among the weak candidates: below what the design shows), ``wrong`` (another name)."""
     names = {e.name for e in d.effects} - {"bias_tempco"}
     if expected is None:
         return "named" if not names else "wrong"
     if names == {expected}:
         return "named"
     if not names:
-        return "missed"
+        return "weak" if any(w["name"] == expected for w in d.weak) else "missed"
     group = next((g for g in d.aliases if expected in g and g[0] in names), None)
     return "aliased" if group is not None and names == {group[0]} else "wrong"
 
 
 def matrix_cell(row, seeds: int, base_seed: int = 3000) -> dict:
-    """One cell over ``seeds`` trials: counts of each outcome, the largest final-model p-value of a named
-    effect, the seconds per trial."""
+    """One cell over ``seeds`` trials: counts of each outcome (:func:`classify`), the proposals made and
+    followed (:func:`follow`), the outcome after them, the largest final-model p-value of a named effect, the
+    seconds per trial."""
     label, design_name, field, pattern, mag, expected, jump = row
     design = MATRIX_DESIGNS[design_name]()
     value = None if field is None else np.asarray(pattern, float) * mag
-    out = {"named": 0, "aliased": 0, "missed": 0, "wrong": 0, "max_p": None, "wrong_names": [], "powerful": 0, "after": 0,
-           "power": []}
+    out = {"named": 0, "aliased": 0, "weak": 0, "missed": 0, "wrong": 0, "max_p": None, "wrong_names": [],
+           "followed": 0, "powerful": 0, "power": [], "after": 0, "after_wrong": [], "unreached": 0, "right": 0}
     t0 = time.perf_counter()
     for s in range(seeds):
         jump_t = jump(design) if jump else None
@@ -316,11 +318,20 @@ def matrix_cell(row, seeds: int, base_seed: int = 3000) -> dict:
         out["max_p"] = max([out["max_p"] or 0.0] + [e.p_value for e in d.effects]) if d.effects else out["max_p"]
         if kind == "wrong":
             out["wrong_names"].append([e.name for e in d.effects])
-        if kind == "aliased":
-            after, power = run_proposal(design, steps, ctx, d, expected, (base_seed + s, field, value, jump_t))
-            out["after"] += after
-            out["powerful"] += power >= POWER_TARGET
-            out["power"].append(power)
+        right = kind == "named"
+        if kind != "wrong" and not (kind == "named" and expected is not None):
+            f = follow(design, steps, ctx, d, expected, (base_seed + s, field, value, jump_t))
+            out["unreached"] += f["unreached"]
+            if f["followed"]:
+                out["followed"] += 1
+                out["powerful"] += f["power"] >= POWER_TARGET
+                out["power"].append(f["power"])
+                out["after"] += f["after"] == "named"
+                out["max_p"] = max([out["max_p"] or 0.0] + f["p_after"]) if f["p_after"] else out["max_p"]
+                right = f["after"] == "named"
+                if f["after"] != "named":
+                    out["after_wrong"].append(f["names_after"])
+        out["right"] += right
     out["s_per_trial"] = (time.perf_counter() - t0) / seeds
     return out
 
@@ -332,38 +343,55 @@ def checked(d):
     return d
 
 
-def run_proposal(design: Design, steps, ctx, d, expected: str, trial) -> tuple[bool, float]:
-    """Propose the blocks that separate the alias pair holding ``expected``, simulate the extended design with
-    the same sensor (the trial's seed) and the same hidden effect, and discover again: (``expected`` named
-    alone (+ bias_tempco), the proposal's predicted power)."""
+def follow(design: Design, steps, ctx, d, expected: str | None, trial) -> dict:
+    """The workflow after a discovery: the proposals ``rig discover --propose`` writes (the alias pair holding
+    ``expected``; with no alias left, every weak candidate whose experiment reaches the power target within the
+    budget), their
+    blocks simulated after the design with the same sensor (the trial's seed) and the same hidden effect, and
+    the discovery of the extended session: ``followed`` (a proposal was made), ``power`` (the smallest predicted
+    power of the proposals followed), ``after`` (:func:`classify` of the extended session), ``names_after``,
+    ``unreached`` (weak candidates whose experiment does not reach the power within the budget)."""
     seed, field, value, jump_t = trial
     named = [e.name for e in d.effects]
-    pair = next((g[0], expected) for g in d.aliases if expected in g and g[0] in named)
-    prob, observable = final_problem(steps, ctx, named, d.false_alarm)
-    p = propose(prob, steps, ctx, named, pair, len(observable), d.false_alarm)
+    props = [p for p in separating(steps, ctx, d, d.false_alarm) if expected is not None and p.pair[1] == expected]
+    weak = [] if any(g[0] in named for g in d.aliases) else deciding(steps, ctx, d, d.false_alarm)
+    props += [p for p in weak if p.reached]
+    unreached = sum(not p.reached for p in weak)
+    if not props:
+        return {"followed": False, "unreached": unreached}
+    prob, _ = final_problem(steps, ctx, named, d.false_alarm)
     poses = np.unique(np.round(prob.f, 6), axis=0)
-    x, _ = block_inputs(prob, steps, ctx, p.setpoints_c, poses, float(np.median(np.diff(np.sort(steps.t_s)))))
+    setpoints = [sp for p in props for sp in p.setpoints_c]
+    x, _ = block_inputs(prob, steps, ctx, setpoints, poses, float(np.median(np.diff(np.sort(steps.t_s)))))
     more, ctx2, _ = design.extended(x).session(np.random.default_rng(seed), field, value, jump_t)
-    return classify(checked(discover(more, ctx2)), expected) == "named", p.power
+    d2 = checked(discover(more, ctx2))
+    return {"followed": True, "power": min(p.power for p in props), "after": classify(d2, expected),
+            "names_after": [e.name for e in d2.effects], "p_after": [e.p_value for e in d2.effects],
+            "unreached": unreached}
 
 
 def print_matrix(seeds: int, rows: str | None = None) -> None:
     print(f"\nthe grown hidden-effect matrix ({seeds} seeds per cell; named = the right name alone (+ bias_tempco), "
-          "aliased = in an alias group with the name used):")
-    print("| hidden | design | magnitude | named | aliased | missed | wrong | aliased: proposal power >= 0.9 | aliased: "
-          "named after the proposal | max final-model p of a named effect | s/trial |\n"
-          "|---|---|---|---|---|---|---|---|---|---|---|")
+          "aliased = in an alias group with the name used, weak = not named, listed as a weak candidate; a proposal "
+          "is followed when rig discover --propose writes one: an alias pair holding the hidden effect, a weak "
+          "candidate whose experiment reaches power 0.9 within its budget):")
+    print("| hidden | design | magnitude | named | aliased | weak | missed | wrong | proposals followed (power >= 0.9) "
+          "| right name after the proposal | right name in the end | weak: no experiment within budget "
+          "| max final-model p of a named effect | s/trial |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for i, row in enumerate(MATRIX):
         if rows and str(i) not in rows.split(","):
             continue
         c = matrix_cell(row, seeds)
-        al = c["aliased"]
-        prop = (f"{c['powerful']}/{al} (min {min(c['power']):.3f})", f"{c['after']}/{al}") if al else ("-", "-")
+        fo = c["followed"]
+        prop = (f"{fo} ({c['powerful']}/{fo}, min {min(c['power']):.3f})", f"{c['after']}/{fo}") if fo else ("0", "-")
+        if row[5] is None and fo:  # clean: what is named after following a proposal is a false alarm
+            prop = (prop[0], f"{fo - c['after']} false alarm(s) in {fo}")
         max_p = "-" if c["max_p"] is None else f"{c['max_p']:.2g}"
-        print(f"| {row[0]} | {row[1]} | {row[4]:g} | {c['named']}/{seeds} | {al}/{seeds} | {c['missed']}/{seeds} "
-              f"| {c['wrong']}/{seeds} "
-              f"| {prop[0]} | {prop[1]} | {max_p} | {c['s_per_trial']:.2f} |"
-              + (f" {c['wrong_names'][:3]}" if c["wrong"] else ""), flush=True)
+        print(f"| {row[0]} | {row[1]} | {row[4]:g} | {c['named']}/{seeds} | {c['aliased']} | {c['weak']} "
+              f"| {c['missed']} | {c['wrong']} | {prop[0]} | {prop[1]} | {c['right']}/{seeds} | {c['unreached']} "
+              f"| {max_p} | {c['s_per_trial']:.2f} |"
+              + (f" wrong: {c['wrong_names'][:3]}" if c["wrong"] else "")
+              + (f" after: {c['after_wrong'][:3]}" if c["after_wrong"] else ""), flush=True)
 
 
 def record(tmp: Path, procedure: str, seed: int, noise: str = "dlpf") -> Path:

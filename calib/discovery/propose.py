@@ -5,13 +5,22 @@ model, and the final model with B in A's place; a jump's time searched). Added s
 chamber set-point (one of the session's temperature levels, reached from the previous one, so its leg
 is known) and every pose of the session at it. The **T-optimal** criterion for a sequence of blocks is
 the non-centrality of the test between the models: fit B to what A predicts over the session and the
-added steps (the session's rows whitened by its covariance, the added steps' by their expected
-standard error: the median step standard error and the stated bias wander, independent between the
-added steps), and take the weighted residual sum of squares; and the same with A and B exchanged: the
+added steps (whitened by their joint covariance: each step's standard error, the session's own and the
+median one for an added step, plus the stated bias wander between every two steps, session and added
+alike, as the search weighs a session), and take the weighted residual sum of squares; and the same with A and B exchanged: the
 smaller of the two (``lambda``). The added steps are chosen greedily, one block at a time, the one that
 raises ``lambda`` most, until the predicted **power** of the search's test of B's columns at level
 ``false_alarm / candidates`` (a non-central chi-square; Bonferroni over the jump times for a jump)
-reaches ``POWER_TARGET`` or the block budget is spent. Pure numpy/scipy.
+reaches ``POWER_TARGET`` or the time budget (:data:`BUDGET_S`: the chamber's settling before each block
+and its steps) is spent.
+
+A **weak candidate** (:func:`calib.discovery.select.weak_candidates`: not named, some support) gets the
+same machinery with the nested pair (the final model plus the candidate at its fitted magnitude, the final
+model): ``lambda`` is the weighted residual sum of squares of the final model fitted to what the model with
+the candidate predicts (the only direction: the bigger model fits the smaller exactly), the power that of
+the search's test of the candidate's columns at ``false_alarm / candidates``, within the same time budget. The design magnitude is the
+fitted one, not the minimum detectable one: the fitted magnitude is what the data suggest, and a block that
+reaches the power there also decides the candidate when it is the real effect at that size. Pure numpy/scipy.
 """
 
 from __future__ import annotations
@@ -19,17 +28,19 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from scipy import optimize, stats
 
 from calib.accel.inputs import StepMeans
 from calib.discovery.effects import LIBRARY, EffectInputs
 from calib.discovery.problem import TRIANGULAR_COLUMNS, Problem, scan_jump
 from calib.discovery.search import final_problem
 from calib.frames import SENSOR_AXES
+from calib.numerics.wander import wander_cov_g2
 
 POWER_TARGET = 0.9
 LEVEL_GAP_C = 1.0  # session temperatures further apart than this are different levels
 SETTLE_S = 900.0  # time between blocks (the chamber reaching its next set-point), s
+BUDGET_S = 8 * 3600.0  # time a proposal may add (each block: the settling and its steps), s
 
 
 @dataclass
@@ -43,6 +54,14 @@ class Proposal:
     alpha: float
     added_steps: int
     power_before: float  # with the session alone
+    kind: str = "alias"  # alias: pair = (named, alias); weak: pair = (the weak candidate, "": the model without it)
+    added_s: float = 0.0  # the time the blocks add (settling and steps), s
+    budget_s: float | None = None  # the time budget, s
+
+    @property
+    def reached(self) -> bool:
+        """Whether the predicted power reaches :data:`POWER_TARGET`."""
+        return self.power >= POWER_TARGET
 
 
 def levels_c(temp_c) -> list[float]:
@@ -92,15 +111,36 @@ class _Model:
         return g[:, self.mask]
 
 
-def _lambda(prob: Problem, truth: _Model, other: _Model, x: EffectInputs | None, n: int, sd: np.ndarray) -> float:
-    """Weighted RSS of ``other`` fitted to what ``truth`` predicts over the session and the new steps."""
-    rows = [prob.whiten(prob.rows(other.g_old))]
-    target = [prob.whiten(prob.rows(truth.g_old @ truth.fit.theta))]
-    if x is not None:
-        w = np.repeat(sd, n)[:, None]
-        rows.append(other.new_rows(prob, x, n) / w)
-        target.append((truth.new_rows(prob, x, n) @ truth.fit.theta) / w[:, 0])
-    a, y = np.concatenate(rows), np.concatenate(target)
+def _joint_factors(prob: Problem, steps: StepMeans, x: EffectInputs, n: int, sem_new: np.ndarray) -> list:
+    """Per axis, the lower Cholesky factor of the covariance of the session's steps followed by the ``n``
+    added ones (counts^2): the standard errors (the session's own; ``sem_new`` per axis for an added step) and
+    the bias wander between every two of them (:func:`calib.numerics.wander.wander_cov_g2`)."""
+    t = np.concatenate([np.asarray(steps.t_s, float), x.t_s])
+    dur = None if steps.duration_s is None else np.concatenate(
+        [np.asarray(steps.duration_s, float), np.full(n, float(np.median(steps.duration_s)))])
+    w = wander_cov_g2(t, dur, steps.bias_stability) * prob.lsb ** 2
+    sem = np.asarray(steps.sem_counts, float)
+    return [np.linalg.cholesky(w + np.diag(np.concatenate([sem[:, j], np.full(n, sem_new[j])]) ** 2))
+            for j in range(3)]
+
+
+def _stacked(old: np.ndarray, new: np.ndarray, k: int, n: int) -> list:
+    """Per axis, the session's rows (axis-major, ``k`` a axis) followed by the added ones (``n`` an axis)."""
+    return [np.concatenate([old[j * k:(j + 1) * k], new[j * n:(j + 1) * n]]) for j in range(3)]
+
+
+def _lambda(prob: Problem, truth: _Model, other: _Model, x: EffectInputs | None, n: int, factors: list | None) -> float:
+    """Weighted RSS of ``other`` fitted to what ``truth`` predicts over the session and the new steps, whitened by
+    their joint covariance (``factors``: :func:`_joint_factors`; None: the session alone)."""
+    if x is None:
+        a = prob.whiten(prob.rows(other.g_old))
+        y = prob.whiten(prob.rows(truth.g_old @ truth.fit.theta))
+    else:
+        k = prob.k
+        a_parts = _stacked(other.g_old, other.new_rows(prob, x, n), k, n)
+        y_parts = _stacked(truth.g_old @ truth.fit.theta, truth.new_rows(prob, x, n) @ truth.fit.theta, k, n)
+        a = np.concatenate([np.linalg.solve(c, m) for c, m in zip(factors, a_parts)])
+        y = np.concatenate([np.linalg.solve(c, m) for c, m in zip(factors, y_parts)])
     theta, *_ = np.linalg.lstsq(a, y, rcond=None)
     r = y - a @ theta
     return float(r @ r)
@@ -128,7 +168,7 @@ def block_inputs(prob: Problem, steps: StepMeans, ctx, setpoints: list, poses: n
 
 
 def propose(prob: Problem, steps: StepMeans, ctx, named: list, pair: tuple[str, str], n_candidates: int,
-            false_alarm: float, max_blocks: int = 4) -> Proposal:
+            false_alarm: float, max_blocks: int | None = None, budget_s: float = BUDGET_S) -> Proposal:
     """The blocks that separate ``pair`` = (the effect named, its alias) in the model ``named``.
 
     ``prob`` is the session's problem after the final refit (:func:`calib.discovery.search.discover`).
@@ -139,31 +179,88 @@ def propose(prob: Problem, steps: StepMeans, ctx, named: list, pair: tuple[str, 
     q = int(prob.keep[b_name].sum())
     alpha = false_alarm / max(n_candidates, 1) / prob.multiplicity.get(b_name, 1)
     crit = stats.chi2.isf(alpha, q)
-    sem = np.median(np.asarray(steps.sem_counts, float), axis=0)
-    sd = np.sqrt(sem ** 2 + (np.sqrt(np.mean(np.diag(prob.wander_g2))) * prob.lsb) ** 2)
-    poses = np.unique(np.round(prob.f, 6), axis=0)
-    step_s = float(np.median(np.diff(np.sort(steps.t_s)))) if len(steps) > 1 else 30.0
+    sem, poses, step_s = _session_scales(prob, steps)
 
     def lam(sps):
         x, n = block_inputs(prob, steps, ctx, sps, poses, step_s) if sps else (None, 0)
-        return min(_lambda(prob, model_a, model_b, x, n, sd), _lambda(prob, model_b, model_a, x, n, sd))
+        factors = _joint_factors(prob, steps, x, n, sem) if sps else None
+        return min(_lambda(prob, model_a, model_b, x, n, factors), _lambda(prob, model_b, model_a, x, n, factors))
 
     def power(lam_):
         return float(stats.ncx2.sf(crit, q, lam_))
 
-    chosen: list = []
     levels = levels_c(steps.temp_c) if steps.temp_c is not None else []
-    before = lam([])
-    best = before
-    while levels and len(chosen) < max_blocks and power(best) < POWER_TARGET:
-        best, sp = max((lam(chosen + [c]), c) for c in levels)
-        chosen.append(sp)
+    block_s = SETTLE_S + len(poses) * step_s
+    chosen, best, before = _greedy(lam, power, levels, max_blocks, budget_s, block_s)
     if model_a.t_jump is not None:
         prob.set_jump(model_a.t_jump)
-    return Proposal(pair, chosen, best, power(best), alpha, len(chosen) * len(poses), power(before))
+    return Proposal(pair, chosen, best, power(best), alpha, len(chosen) * len(poses), power(before),
+                    added_s=len(chosen) * block_s, budget_s=budget_s)
 
 
-def separating(steps: StepMeans, ctx, d, false_alarm: float, max_blocks: int = 4) -> list[Proposal]:
+def _greedy(lam, power, levels: list, max_blocks: int | None, budget_s: float | None, block_s: float) -> tuple:
+    """Add the block (a set-point of ``levels``) that raises ``lam`` most, one at a time, until the power
+    reaches :data:`POWER_TARGET`, ``max_blocks`` blocks are used, another block would take the added time
+    beyond ``budget_s`` (each block ``block_s``), or the blocks left in the budget cannot reach the power even
+    at the last block's gain (the gains do not grow: each block adds information the earlier ones already
+    partly hold). Returns (set-points, lambda reached, lambda before)."""
+    chosen: list = []
+    before = best = lam([])
+    needed = optimize.brentq(lambda x: power(x) - POWER_TARGET, 0.0, 1e6) if power(1e6) > POWER_TARGET else np.inf
+
+    def room() -> int:
+        left = [np.inf if max_blocks is None else max_blocks - len(chosen),
+                np.inf if budget_s is None else np.floor(budget_s / block_s + 1e-9) - len(chosen)]
+        return min(left)
+
+    gain = np.inf
+    while levels and room() >= 1 and power(best) < POWER_TARGET and best + gain * room() >= needed:
+        new, sp = max((lam(chosen + [c]), c) for c in levels)
+        gain, best = new - best, new
+        chosen.append(sp)
+    return chosen, best, before
+
+
+def _session_scales(prob: Problem, steps: StepMeans) -> tuple:
+    """(expected standard error of an added step per axis (counts: the median step's), the session's distinct
+    poses, the step spacing s)."""
+    sem = np.median(np.asarray(steps.sem_counts, float), axis=0)
+    poses = np.unique(np.round(prob.f, 6), axis=0)
+    step_s = float(np.median(np.diff(np.sort(steps.t_s)))) if len(steps) > 1 else 30.0
+    return sem, poses, step_s
+
+
+def propose_weak(prob: Problem, steps: StepMeans, ctx, named: list, name: str, n_candidates: int,
+                 false_alarm: float, budget_s: float = BUDGET_S) -> Proposal:
+    """The blocks that decide the weak candidate ``name`` at its fitted magnitude in the final model ``named``
+    (power of the search's test of its columns at ``false_alarm / n_candidates``), within ``budget_s`` of
+    added time. ``prob`` is the session's problem after the final refit; its jump time is restored."""
+    t_jump = prob.t_jump
+    model_a = _Model(prob, named + [name])  # the candidate at its fitted magnitude
+    model_b = _Model(prob, named)
+    q = int(prob.keep[name].sum())
+    alpha = false_alarm / max(n_candidates, 1) / prob.multiplicity.get(name, 1)
+    crit = stats.chi2.isf(alpha, q)
+    sem, poses, step_s = _session_scales(prob, steps)
+    block_s = SETTLE_S + len(poses) * step_s
+
+    def lam(sps):
+        x, n = block_inputs(prob, steps, ctx, sps, poses, step_s) if sps else (None, 0)
+        return _lambda(prob, model_a, model_b, x, n, _joint_factors(prob, steps, x, n, sem) if sps else None)
+
+    def power(lam_):
+        return float(stats.ncx2.sf(crit, q, lam_))
+
+    levels = levels_c(steps.temp_c) if steps.temp_c is not None else []
+    chosen, best, before = _greedy(lam, power, levels, None, budget_s, block_s)
+    if t_jump is not None and prob.t_jump != t_jump:
+        prob.set_jump(t_jump)
+    return Proposal((name, ""), chosen, best, power(best), alpha, len(chosen) * len(poses),
+                    power(before), kind="weak", added_s=len(chosen) * block_s, budget_s=budget_s)
+
+
+def separating(steps: StepMeans, ctx, d, false_alarm: float, max_blocks: int | None = None,
+               budget_s: float = BUDGET_S) -> list[Proposal]:
     """A :class:`Proposal` for every alias of every named effect of the discovery ``d`` (none: nothing to
     separate). Sessions with unknown poses are refused by the caller (no poses to propose)."""
     named = [e.name for e in d.effects]
@@ -171,4 +268,17 @@ def separating(steps: StepMeans, ctx, d, false_alarm: float, max_blocks: int = 4
     if not pairs:
         return []
     prob, observable = final_problem(steps, ctx, named, false_alarm)
-    return [propose(prob, steps, ctx, named, pair, len(observable), false_alarm, max_blocks) for pair in pairs]
+    return [propose(prob, steps, ctx, named, pair, len(observable), false_alarm, max_blocks, budget_s)
+            for pair in pairs]
+
+
+def deciding(steps: StepMeans, ctx, d, false_alarm: float, budget_s: float = BUDGET_S) -> list[Proposal]:
+    """A :class:`Proposal` (``kind`` weak) for every weak candidate of the discovery ``d`` (``d.weak``; none:
+    nothing to decide). ``rig discover --propose`` asks for these only when no alias remains: the aliases'
+    experiment comes first (one question at a time)."""
+    weak = [w["name"] for w in d.weak]
+    if not weak:
+        return []
+    named = [e.name for e in d.effects]
+    prob, observable = final_problem(steps, ctx, named, false_alarm)
+    return [propose_weak(prob, steps, ctx, named, w, len(observable), false_alarm, budget_s) for w in weak]

@@ -22,6 +22,10 @@
 6. **Refit** with every named effect (the M-dependent terms re-linearised at the new M); every named
    effect is re-tested in the final model and dropped (``unsupported``) when not significant there;
    the verdict is the generalised chi-square of the final model against its dof.
+7. **Weak candidates** (:func:`calib.discovery.select.weak_candidates`): effects not named whose test in
+   the final model has some support (a looser family level than the false-alarm rate) are listed apart,
+   never named, with their fitted magnitude, p-value and this design's minimum detectable magnitude;
+   ``rig discover --propose`` designs the steps that would decide them (:mod:`calib.discovery.propose`).
 
 Pure numpy/scipy; the session-side context (pose rotations, heating legs, step durations) is
 computed by the caller (``rig.analysis.discover``).
@@ -42,7 +46,7 @@ from calib.discovery.problem import (Fit, Problem, RadialProblem,
                                      jump_times, scan_jump)
 from calib.discovery.report import localise, unexplained
 from calib.discovery.select import (BOUNDARY_FACTOR, NEEDS, NONLINEAR, jump_boundary, remaining, select,
-                                    supported)
+                                    supported, weak_candidates)
 from calib.discovery.effects import LIBRARY
 from calib.errors import CalibError
 from calib.frames import SENSOR_AXES
@@ -51,7 +55,7 @@ from calib.numerics.wander import wander_rms_g
 __all__ = ["Discovery", "FoundEffect", "StepContext", "StepRow", "candidate_pvalues", "coverage_problem", "discover",
            "final_problem", "remaining", "verdict"]
 
-FORMAT = "rig-discover/5"
+FORMAT = "rig-discover/6"
 MIN_RADIAL_STEPS = 12  # pose-free steps the magnitude baseline (9 parameters) needs, with dof to spare
 
 
@@ -145,6 +149,8 @@ class Discovery:
     observability: dict = field(default_factory=dict)  # candidate -> rank, conditioning, MDM
     dropped: list = field(default_factory=list)  # named on the way, made unnecessary by the nuisance factor
     unsupported: list = field(default_factory=list)  # {name, p_value}: selected, not significant in the final model
+    #: {name, axes, estimate, sigma, unit, p_value, p_family, threshold, mdm}: not named, some support (select.py)
+    weak: list = field(default_factory=list)
 
     def to_json(self) -> dict:
         verdict_ = {"gap_closed": bool(self.gap_closed), "dof_after": int(self.dof_after), "p_fit": self.p_fit}
@@ -156,6 +162,8 @@ class Discovery:
                 "chi2_per_dof_after": self.chi2_per_dof_after, **verdict_, "false_alarm": self.false_alarm,
                 "effects": [e.to_json() for e in self.effects], "aliases": [list(a) for a in self.aliases],
                 "dropped_by_lack_of_fit": list(self.dropped), "unsupported": list(self.unsupported),
+                "weak_candidates": [{**w, "estimate": _nan_none(w["estimate"]), "sigma": _nan_none(w["sigma"]),
+                                     "mdm": _nan_none(w["mdm"])} for w in self.weak],
                 "unobservable": list(self.unobservable),
                 "unobservable_why": dict(self.unobservable_why), "observability": _nan_none_dict(self.observability),
                 "where": self.where,
@@ -222,6 +230,9 @@ def discover(steps: StepMeans, ctx: StepContext | None = None, *, false_alarm: f
     d = _outcome(steps, ctx, prob, base_fit, final, selected, aliases, (unobservable, why), factor, dropped,
                  false_alarm, t0, t_ref, observable, pvals)
     d.unsupported = [{"name": n, "p_value": p} for n, p in unsupported]
+    say("the candidates not named, tested in the final model")
+    d.weak = [{**w, "unit": LIBRARY[w["name"]].unit, "mdm": d.observability[w["name"]]["mdm"]}
+              for w in weak_candidates(prob, selected, observable, aliases, _Cache(prob))]
     return d
 
 

@@ -15,6 +15,12 @@
    named effect is re-tested in the final model (its drop-one test); one whose p-value there is above
    the false-alarm rate is dropped, the least supported first, and reported as ``unsupported``. The
    p-value reported with a named effect is this final-model one.
+5. **Weak candidates** (:func:`weak_candidates`): an observable effect left unnamed whose test in the final
+   model (the search's nested test, the jump's time searched) has a p-value that, times the candidates
+   tested, is below :data:`WEAK_LEVEL` (Bonferroni at a looser family level than the false-alarm rate: on a
+   clean session at most about 20 % of sessions list one) is reported as *weak*, never named, with its
+   fitted magnitude, that p-value and the design's minimum detectable magnitude; an alias of a named effect
+   is not (its own proposal separates it), nor an estimate beyond the physically plausible.
 """
 
 from __future__ import annotations
@@ -34,6 +40,8 @@ LEVEL_GAP_C = 1.0  # consecutive steps further apart than this in temperature: a
 #: a design boundary's kind -> the nuisance factor (calib.discovery.nuisance.FACTORS) that is an offset per
 #: its levels: a jump there is aliased with that factor
 BOUNDARY_FACTOR = {"leg switch": "leg", "temperature change": "temperature_level", "pose change": "pose"}
+#: family level of the weak candidates: p-value in the final model times the candidates tested below this
+WEAK_LEVEL = 0.2
 
 
 def parameters(prob: Problem, name: str) -> int:
@@ -202,3 +210,42 @@ def supported(prob: Problem, selected: list, alpha: float, refit, cache) -> tupl
         unsupported.append((worst, pvals[worst]))
         gone = {worst, *NEEDS.get(worst, ())}
         selected = [s for s in selected if s not in gone]
+
+
+def weak_candidates(prob: Problem, selected: list, observable: list, aliases: list, fit,
+                    level: float = WEAK_LEVEL) -> list:
+    """The effects not named with some support in the final model ``selected`` (see the module's item 5).
+
+    ``fit`` is a fit cache of ``prob`` after the final refit. Each candidate that may enter
+    (:func:`remaining`), is not an alias of a named effect and has a plausible estimate is added alone to
+    the final model and tested (the jump's time searched; restored after). Returns, the most supported first,
+    ``[{name, axes, estimate, sigma, p_value, p_family, threshold}]``: the estimate and its 1-sigma in the
+    effect's unit, ``p_value`` the test's (times the jump times for a jump), ``p_family`` that times the
+    candidates tested, ``threshold`` the p-value below which a candidate is weak (``level`` / candidates).
+    """
+    aliased_ = {n for g in aliases if g[0] in selected for n in g[1:]}
+    left = [n for n in remaining(observable, selected) if n not in aliased_]
+    if not left:
+        return []
+    t_jump = prob.t_jump
+    cur = fit(selected)
+    out = []
+    for n in left:
+        if n == "bias_jump":
+            scan_jump(prob, selected)
+        big = fit(selected + [n])
+        p = prob.test(n, cur, big)[1]
+        est = estimate(big, n, len(prob.labels[n]))
+        if p * len(left) >= level or not plausible(n, est):
+            continue
+        sig = np.sqrt(np.diag(big.cov0))
+        sd = np.full(len(est), np.nan)
+        for col, (blk, idx) in enumerate(big.names):
+            if blk == n and idx < len(sd):
+                sd[idx] = sig[col]
+        out.append({"name": n, "axes": list(prob.labels[n]), "estimate": est.tolist(), "sigma": sd.tolist(),
+                    "p_value": float(p), "p_family": float(min(1.0, p * len(left))),
+                    "threshold": level / len(left)})
+    if t_jump is not None and prob.t_jump != t_jump:
+        prob.set_jump(t_jump)
+    return sorted(out, key=lambda w: w["p_value"])

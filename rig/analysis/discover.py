@@ -151,7 +151,8 @@ def already_modelled(session: Session) -> set[str]:
 
 def headline_lines(session: Session, d: Discovery) -> list[str]:
     """The verdict first, in words a technician can act on (issue 33 item 3); the statistics follow."""
-    return verdict_words(session, [(e.name, e.extra.get("t_jump_s")) for e in d.effects], d.gap_closed, d.aliases)
+    return verdict_words(session, [(e.name, e.extra.get("t_jump_s")) for e in d.effects], d.gap_closed, d.aliases,
+                         [w["name"] for w in d.weak])
 
 
 def headline(session: Session, d: Discovery) -> str:
@@ -168,19 +169,21 @@ def document_headline(session: Session, doc: dict) -> str:
     effects = [(str(e.get("name")), e.get("t_jump_s") if isinstance(e.get("t_jump_s"), (int, float)) else None)
                for e in doc.get("effects") or [] if isinstance(e, dict)]
     aliases = [[str(n) for n in a] for a in doc.get("aliases") or [] if isinstance(a, list)]
-    return " ".join(verdict_words(session, effects, doc.get("gap_closed") is not False, aliases))
+    weak = [str(w.get("name")) for w in doc.get("weak_candidates") or [] if isinstance(w, dict)]
+    return " ".join(verdict_words(session, effects, doc.get("gap_closed") is not False, aliases, weak))
 
 
 def document(session: Session, d: Discovery) -> dict:
-    """The ``--json`` document: ``rig-discover/5`` (:meth:`Discovery.to_json`) and its ``headline``, the verdict in
+    """The ``--json`` document: ``rig-discover/6`` (:meth:`Discovery.to_json`) and its ``headline``, the verdict in
     words the console prints first (an additive key: readers ignore keys they do not know)."""
     return {**d.to_json(), "headline": headline(session, d)}
 
 
 def verdict_words(session: Session, effects: list[tuple[str, float | None]], gap_closed: bool,
-                  aliases: list[list[str]]) -> list[str]:
-    """The headline's sentences from the effects named (``(name, jump time s or None)``), whether the gap closed
-    and the aliases left, the effects this session's calibration models already said as such."""
+                  aliases: list[list[str]], weak: list[str] = ()) -> list[str]:
+    """The headline's sentences from the effects named (``(name, jump time s or None)``), whether the gap closed,
+    the aliases left and the weak candidates (not named, some support), the effects this session's calibration
+    models already said as such."""
     known = already_modelled(session)
     new = [(n, t) for n, t in effects if n not in known]
     have = [n for n, _ in effects if n in known]
@@ -207,6 +210,10 @@ def verdict_words(session: Session, effects: list[tuple[str, float | None]], gap
     if aliases:
         lines.append(f"Cannot tell apart: {'; '.join(' / '.join(g) for g in aliases)}: rig discover {session.path} "
                      "--propose OUT.yaml writes the experiment that does.")
+    if weak:
+        lines.append(f"Weakly supported, not named: {', '.join(weak)} (some evidence, not enough to name it at the "
+                     f"false-alarm rate): rig discover {session.path} --propose OUT.yaml writes the experiment that "
+                     "would decide.")
     return lines
 
 
@@ -311,7 +318,20 @@ def selection_lines(session: Session, d: Discovery) -> list[str]:
     if d.unsupported:
         lines.append("selected, then not significant in the final model (not named): "
                      + ", ".join(f"{u['name']} p = {u['p_value']:.2g}" for u in d.unsupported))
+    for w in d.weak:
+        lines.append(weak_line(w, session.lsb_per_g))
     return lines
+
+
+def weak_line(w: dict, lsb_per_g: float | None) -> str:
+    """A weak candidate (``Discovery.weak``): its fitted magnitude, p-value against the weak threshold and the
+    design's smallest detectable magnitude, in the units :func:`effect_line` uses."""
+    unit, k = shown_effect_unit(w["unit"], lsb_per_g)
+    est = ", ".join(f"{a} {_fmt(_times(v, k))} +- {_fmt(_times(s, k))}" for a, v, s in zip(w["axes"], w["estimate"],
+                                                                                         w["sigma"]))
+    mdm = ", ".join(_fmt(_times(x, k)) for x in w["mdm"])
+    return (f"  ? {w['name']:<24} [{unit}] {est}: weak candidate, not named (p = {w['p_value']:.2g}, weak below "
+            f"{w['threshold']:.2g}; this design detects {mdm})")
 
 
 def effect_line(e, lsb_per_g: float | None) -> str:

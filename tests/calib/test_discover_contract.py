@@ -1,4 +1,4 @@
-"""The `rig-discover/5` JSON contract: every document validates against docs/schemas/discover.schema.json,
+"""The `rig-discover/6` JSON contract: every document validates against docs/schemas/discover.schema.json,
 and the keys added in v3 say which baseline, wander, observability and lack-of-fit factor were used."""
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ def test_a_closed_gap_document_carries_the_v3_keys_and_validates():
     d, _ = run(tumble(), 41)
     doc = json.loads(json.dumps(d.to_json()))
     _valid(doc)
-    assert doc["format"] == "rig-discover/5" and doc["baseline"] == "seed" and doc["unsupported"] == []
+    assert doc["format"] == "rig-discover/6" and doc["baseline"] == "seed" and doc["unsupported"] == []
     assert doc["wander_rms_g"] > 0 and "unexplained" not in doc
     assert doc["observability"]["bias_drift"]["power"] == 0.8
 

@@ -70,7 +70,7 @@ def test_a_residual_outside_the_library_leaves_the_gap_open_and_says_where():
     out[:, 2] += 1.5e-3 * np.sin(t / 150.0) ** 2 * np.sign(np.sin(t / 97.0))  # nothing in the library
     d = discover(_steps(f, temp, t, out), StepContext(temp_rate=rate), candidates=["bias_tempco"])
     j = d.to_json()
-    assert j["format"] == "rig-discover/5" and j["gap_closed"] is False
+    assert j["format"] == "rig-discover/6" and j["gap_closed"] is False
     assert j["chi2_per_dof_after"] > 1.5 and "chi2_per_dof_before" in j
     u = j["unexplained"]
     assert max(u["by_axis"], key=u["by_axis"].get) == "z"

@@ -84,7 +84,7 @@ def test_the_json_document_carries_the_headline_the_console_prints_first(session
     assert first.startswith(NOTHING_MISSING)
     code, text = rig("discover", sessions["thermal"], "--json")
     doc = json.loads(text)
-    assert doc["headline"] == first and doc["format"] == "rig-discover/5"  # additive: the format stays
+    assert doc["headline"] == first and doc["format"] == "rig-discover/6"  # the headline: additive
     jsonschema = pytest.importorskip("jsonschema")
     assert not list(jsonschema.Draft202012Validator(SCHEMA).iter_errors(doc))
 

@@ -110,7 +110,7 @@ def test_a_clean_session_closes_the_gap_with_bias_tempco_only(sessions):
     _, d = discover_session(sessions["clean"])
     assert [e.name for e in d.effects] == ["bias_tempco"]
     j = d.to_json()
-    assert j["format"] == "rig-discover/5" and j["gap_closed"] is True
+    assert j["format"] == "rig-discover/6" and j["gap_closed"] is True
 
 
 def test_an_effect_outside_the_library_leaves_the_gap_open_and_says_where(sessions):

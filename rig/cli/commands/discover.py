@@ -19,7 +19,7 @@ from rig.cli.common import EXIT_OK, Stages, check_false_alarm, json_default, rep
 def add_parser(sub) -> None:
     dc = sub.add_parser("discover", help="find where the model and the data disagree; name the missing effect")
     dc.add_argument("session")
-    dc.add_argument("--json", action="store_true", help="print the rig-discover/5 JSON (docs/discrepancy.md) instead of the report")
+    dc.add_argument("--json", action="store_true", help="print the rig-discover/6 JSON (docs/discrepancy.md) instead of the report")
     dc.add_argument("--details", action="store_true",
                     help="print the statistics too: where the data disagree, the effects tested and not needed, "
                          "the smallest detectable magnitudes, the per-step table (always in --json and the report)")
@@ -32,8 +32,9 @@ def add_parser(sub) -> None:
                     help="write the digital twin: a simulated-rig file whose sensor is the fitted model plus the "
                          "named effects, and the session's procedure beside it (docs/twin.md)")
     dc.add_argument("--propose", metavar="OUT.yaml", default=None,
-                    help="when aliases remain, write the session's procedure with the steps that tell them apart "
-                         "appended (T-optimal set-points, predicted power printed; docs/discrepancy.md)")
+                    help="when aliases or weak candidates remain, write the session's procedure with the steps that tell "
+                         "the aliases apart or decide the weak candidate appended (T-optimal set-points, predicted "
+                         "power printed; docs/discrepancy.md)")
     dc.add_argument("--false-alarm", type=float, default=MISFIT_LEVEL,
                     help="probability of naming an effect in a session that has none (default 0.01)")
 
