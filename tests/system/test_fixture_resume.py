@@ -5,7 +5,9 @@ table, record and report as an uninterrupted one does.
 
 The interruptions run in this process (an operator that presses Ctrl-C when a pose's capture starts: the engine's
 own abort path), the resumes through ``rig.cli.main``; one kill -9 runs in another process, as the one-sensor
-resume tests do (tests/system/test_faults_and_resume.py).
+resume tests do (tests/system/test_faults_and_resume.py). The fixture is ``rigs/sim-fixture.yaml``'s first four
+slots (four designs, every slot of the batch its own session: what a resume does per slot does not depend on how
+many there are; the eight-slot batch is tests/system/test_fixture_run.py's).
 """
 
 from __future__ import annotations
@@ -29,11 +31,13 @@ from rig.execution.context import RunAborted
 from rig.session import load_session
 from rig.workflow.run import run_procedure
 
-from conftest import PROCEDURES, REPO, RIGS
-from fixture_runs import CtrlCAt
+from conftest import PROCEDURES, REPO
+from fixture_runs import CtrlCAt, fixture_rig_file
 
 SIX = str(PROCEDURES / "six_position.yaml")
 SEED = 3
+#: the slots of the module's fixture
+SLOTS = 4
 
 
 def _interrupt(out: Path, rig: Path, at_index: int) -> Path:
@@ -62,19 +66,29 @@ def _tree(batch: Path) -> dict:
 
 
 @pytest.fixture(scope="module")
-def whole(tmp_path_factory) -> Path:
+def fixture_rig(tmp_path_factory) -> Path:
+    """``rigs/sim-fixture.yaml`` with its first :data:`SLOTS` slots."""
+    return fixture_rig_file(tmp_path_factory.mktemp("rig"), SLOTS)
+
+
+def _rig_doc(fixture_rig: Path) -> dict:
+    return yaml.safe_load(fixture_rig.read_text())
+
+
+@pytest.fixture(scope="module")
+def whole(tmp_path_factory, fixture_rig) -> Path:
     """The uninterrupted batch of seed 3 (read only)."""
     out = tmp_path_factory.mktemp("whole")
-    assert main(["run", SIX, "--rig", str(RIGS / "sim-fixture.yaml"), "--out", str(out), "--seed", str(SEED),
+    assert main(["run", SIX, "--rig", str(fixture_rig), "--out", str(out), "--seed", str(SEED),
                  "--time-scale", "0", "--quiet"]) == 0
     (batch,) = [p for p in out.iterdir() if p.is_dir()]
     return batch
 
 
 @pytest.fixture(scope="module")
-def stopped(tmp_path_factory) -> Path:
+def stopped(tmp_path_factory, fixture_rig) -> Path:
     """The batch of seed 3 stopped by Ctrl-C during pose 4 (read only: copy it to resume it)."""
-    return _interrupt(tmp_path_factory.mktemp("stopped"), RIGS / "sim-fixture.yaml", 3)
+    return _interrupt(tmp_path_factory.mktemp("stopped"), fixture_rig, 3)
 
 
 def _copy(batch: Path, tmp_path: Path) -> Path:
@@ -100,13 +114,13 @@ def test_a_resumed_batch_ends_as_an_uninterrupted_one_with_the_same_calibrations
     before = _record(batch)
     assert main(["run", "--resume", str(batch), "--time-scale", "0"]) == 0
     printed = capsys.readouterr()
-    assert "0 PASS, 0 FAIL, 8 NO LIMITS, 0 FAULT" in printed.out and "batch report:" in printed.out, printed
+    assert f"0 PASS, 0 FAIL, {SLOTS} NO LIMITS, 0 FAULT" in printed.out and "batch report:" in printed.out, printed
     assert f"resuming batch {batch}: slot 0 at step 4" in printed.err
     record = _record(batch)
     assert record["status"] == "complete" and (batch / "batch-report.html").is_file()
     assert {k: record[k] for k in ("id", "created", "procedure", "seed")} == {k: before[k] for k in
                                                                                ("id", "created", "procedure", "seed")}
-    assert record["resumes"][0]["slots"] == [{"slot": i, "first_step_index": 3} for i in range(8)]
+    assert record["resumes"][0]["slots"] == [{"slot": i, "first_step_index": 3} for i in range(SLOTS)]
     assert not (batch / "session.lock").exists()
     reference = {s["slot"]: s for s in _record(whole)["slots"]}
     for s in record["slots"]:
@@ -128,18 +142,18 @@ def test_a_slot_cut_mid_pose_has_its_step_in_progress_and_torn_line_cut_and_redo
     """What a crash leaves in one slot's samples past its finished steps (rows of the step in progress, a torn last
     line) is cut as a one-sensor resume cuts it, and the step recorded again."""
     batch = _copy(stopped, tmp_path)
-    slot5 = batch / _record(batch)["slots"][5]["session"]
-    rows = (slot5 / "samples.csv").read_text().splitlines()[-5:]
+    last = batch / _record(batch)["slots"][SLOTS - 1]["session"]
+    rows = (last / "samples.csv").read_text().splitlines()[-5:]
     in_progress = "".join(",".join([f[0], "3", *f[2:]]) + "\n" for f in (r.split(",") for r in rows))
-    with open(slot5 / "samples.csv", "a") as fh:
+    with open(last / "samples.csv", "a") as fh:
         fh.write(in_progress + "12.345,3,41")  # five rows of step 4, then a line torn mid-write
     assert main(["run", "--resume", str(batch), "--time-scale", "0", "--quiet"]) == 0
-    events = [json.loads(line) for line in (slot5 / "events.jsonl").read_text().splitlines()]
+    events = [json.loads(line) for line in (last / "events.jsonl").read_text().splitlines()]
     cut = [e["message"] for e in events if e["kind"] == "warning" and "discarded" in e.get("message", "")]
     assert len(cut) == 1 and "5 rows of step 4" in cut[0] and "a torn last line" in cut[0], cut
-    session = load_session(slot5)
+    session = load_session(last)
     assert [len(session.step_samples(i)["t_s"]) for i in range(6)] == [1000] * 6
-    assert _record(batch)["slots"][5]["outcome"] == "NO LIMITS"
+    assert _record(batch)["slots"][SLOTS - 1]["outcome"] == "NO LIMITS"
 
 
 def test_slots_that_had_concluded_stay_untouched_and_keep_their_outcome(whole, tmp_path, capsys):
@@ -155,7 +169,7 @@ def test_slots_that_had_concluded_stay_untouched_and_keep_their_outcome(whole, t
     assert main(["run", "--resume", str(batch), "--time-scale", "0"]) == 0
     printed = capsys.readouterr()
     assert "no slot to record, only the end of the batch" in printed.err
-    assert "0 PASS, 0 FAIL, 8 NO LIMITS, 0 FAULT" in printed.out, printed.out
+    assert f"0 PASS, 0 FAIL, {SLOTS} NO LIMITS, 0 FAULT" in printed.out, printed.out
     assert {p: b for p, b in _tree(batch).items() if p in sessions} == sessions  # nothing of a slot rewritten
     ended = _record(batch)
     assert ended["status"] == "complete" and (batch / "batch-report.html").is_file()
@@ -171,11 +185,14 @@ def test_a_finished_batch_is_not_resumed(whole, capsys):
     assert _tree(whole) == before
 
 
-def test_a_resume_on_another_rig_file_or_seed_is_refused_before_anything_is_touched(stopped, tmp_path, capsys):
+def test_a_resume_on_another_rig_file_or_seed_is_refused_before_anything_is_touched(stopped, fixture_rig, tmp_path,
+                                                                                    capsys):
     batch = _copy(stopped, tmp_path)
     before = _tree(batch)
     other = tmp_path / "other.yaml"
-    other.write_text((RIGS / "sim-fixture.yaml").read_text().replace("initial_c: 27.6", "initial_c: 20.0"))
+    doc = _rig_doc(fixture_rig)
+    doc["sim"]["chamber"]["initial_c"] = 20.0
+    other.write_text(yaml.safe_dump(doc))
     for extra, why in ((["--rig", str(other)], "has other contents than the one recorded"),
                        (["--seed", "4"], "seed 4 (recorded 3)")):
         assert main(["run", "--resume", str(batch), "--time-scale", "0", *extra]) == 2
@@ -184,13 +201,16 @@ def test_a_resume_on_another_rig_file_or_seed_is_refused_before_anything_is_touc
     assert _tree(batch) == before
 
 
-def test_a_slot_remounted_in_the_rig_file_is_another_fixture_and_refused(stopped, tmp_path, capsys):
+def test_a_slot_remounted_in_the_rig_file_is_another_fixture_and_refused(stopped, fixture_rig, tmp_path, capsys):
     batch = _copy(stopped, tmp_path)
     swapped = tmp_path / "swapped.yaml"
-    swapped.write_text((RIGS / "sim-fixture.yaml").read_text().replace("serial: SIM-5}", "serial: B-5}"))
+    doc = _rig_doc(fixture_rig)
+    assert doc["fixture"]["slots"][3]["serial"] == "SIM-3"
+    doc["fixture"]["slots"][3]["serial"] = "B-3"
+    swapped.write_text(yaml.safe_dump(doc))
     assert main(["run", "--resume", str(batch), "--time-scale", "0", "--rig", str(swapped)]) == 2
     err = capsys.readouterr().err
-    assert "slot 5 serial B-5 (recorded SIM-5)" in err, err
+    assert "slot 3 serial B-3 (recorded SIM-3)" in err, err
 
 
 def test_one_slots_session_is_not_resumed_alone(stopped, tmp_path, capsys):
@@ -204,8 +224,8 @@ def test_one_slots_session_is_not_resumed_alone(stopped, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("known_by", ["the record", "its session only"])
-def test_a_slot_quarantined_before_the_interruption_stays_quarantined(tmp_path, capsys, known_by):
-    rig = yaml.safe_load((RIGS / "sim-fixture.yaml").read_text())
+def test_a_slot_quarantined_before_the_interruption_stays_quarantined(fixture_rig, tmp_path, capsys, known_by):
+    rig = _rig_doc(fixture_rig)
     rig["faults"] = {"slots": {3: {"dead_after_s": 55.0}}}  # slot 3 stops answering during pose 4
     (tmp_path / "rig.yaml").write_text(yaml.safe_dump(rig))
     batch = _interrupt(tmp_path / "out", tmp_path / "rig.yaml", 4)  # Ctrl-C during pose 5
@@ -219,7 +239,7 @@ def test_a_slot_quarantined_before_the_interruption_stays_quarantined(tmp_path, 
     before = (slot3 / "session.yaml").read_bytes(), (slot3 / "samples.csv").read_bytes()
     assert main(["run", "--resume", str(batch), "--time-scale", "0"]) == 3  # a unit did not pass
     printed = capsys.readouterr()
-    assert "0 PASS, 0 FAIL, 7 NO LIMITS, 1 FAULT" in printed.out, printed
+    assert f"0 PASS, 0 FAIL, {SLOTS - 1} NO LIMITS, 1 FAULT" in printed.out, printed
     record = _record(batch)
     assert record["status"] == "complete" and record["slots"][3]["outcome"] == "FAULT"
     assert record["slots"][3]["reason"] == bad["reason"]
@@ -251,9 +271,9 @@ def _wait_for_slot_steps(out: Path, n: int, proc, timeout_s: float = 60) -> Path
 
 
 @pytest.mark.realtime
-def test_kill_9_mid_batch_then_resume_keeps_every_step_of_every_slot_once(tmp_path, whole):
+def test_kill_9_mid_batch_then_resume_keeps_every_step_of_every_slot_once(tmp_path, fixture_rig, whole):
     out = tmp_path / "out"
-    proc = _spawn(["run", SIX, "--rig", str(RIGS / "sim-fixture.yaml"), "--out", str(out), "--seed", str(SEED),
+    proc = _spawn(["run", SIX, "--rig", str(fixture_rig), "--out", str(out), "--seed", str(SEED),
                    "--time-scale", "16", "--quiet"])
     batch = _wait_for_slot_steps(out, 3, proc)
     proc.send_signal(signal.SIGKILL)
@@ -261,7 +281,7 @@ def test_kill_9_mid_batch_then_resume_keeps_every_step_of_every_slot_once(tmp_pa
     assert _record(batch)["status"] == "running"  # it never got to say
     assert main(["run", "--resume", str(batch), "--time-scale", "0", "--quiet"]) == 0
     record = _record(batch)
-    assert record["status"] == "complete" and record["counts"]["NO LIMITS"] == 8
+    assert record["status"] == "complete" and record["counts"]["NO LIMITS"] == SLOTS
     reference = {s["slot"]: s for s in _record(whole)["slots"]}
     for s in record["slots"]:
         session = load_session(batch / s["session"])
