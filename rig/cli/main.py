@@ -69,8 +69,21 @@ def launched_as_rig() -> bool:
     return False
 
 
+#: the BLAS libraries numpy may load, each told to use one thread unless the user's environment says otherwise
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def one_blas_thread() -> None:
+    """The program's matrices are small (a calibration's tens of columns), where BLAS threads only cost: on a busy
+    2-core machine OpenBLAS's second thread made a 6x6 triangular solve 16 ms instead of 0.02 ms; and ``rig
+    archive`` runs one process per core. Set before numpy loads; a variable the user set is kept."""
+    for name in BLAS_THREAD_VARIABLES:
+        os.environ.setdefault(name, "1")
+
+
 if __name__ != "__main__" and launched_as_rig():  # first, before any import that takes time
     exit_on_stop_signals()
+    one_blas_thread()
 
 import argparse  # noqa: E402 - after the start-up handlers
 import warnings  # noqa: E402

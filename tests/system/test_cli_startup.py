@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 
@@ -103,3 +104,26 @@ def test_the_workflows_register_the_sim_and_replay_kinds_without_importing_the_s
             "sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["['hardware',", "'replay',", "'sim']", "rig.workflow.kinds", "False"]
+
+
+#: runs the program as ``rig ARGS`` (its name as argv[0], as the console script has it), then prints the BLAS
+#: thread variables it ran with
+AS_PROGRAM = """
+import json, os, runpy, sys
+sys.argv = ["rig", *sys.argv[1:]]
+try:
+    runpy.run_module("rig.cli", run_name="__main__")
+except SystemExit:
+    pass
+print(json.dumps({n: os.environ.get(n) for n in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}))
+"""
+
+
+@pytest.mark.parametrize("given, expected", [({}, "1"), ({"OPENBLAS_NUM_THREADS": "2"}, "2")],
+                         ids=["unset: one thread", "the user's kept"])
+def test_the_program_runs_numpy_on_one_blas_thread_unless_told_otherwise(given, expected):
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+    proc = subprocess.run([sys.executable, "-c", AS_PROGRAM, "--version"], cwd=REPO, capture_output=True, text=True,
+                          env={**env, **given}, timeout=60)
+    seen = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert seen["OPENBLAS_NUM_THREADS"] == expected and seen["OMP_NUM_THREADS"] == "1", (seen, proc.stderr[-500:])
