@@ -37,7 +37,7 @@ from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, combined, 
 from calib.accel.solve import (TRIANGULAR_NAMES, _model_with_thermal, axis_wander_counts2, weighs_wander,
                                wander_covariance)
 from calib.accel.rig_misfit import RigMisfit, has_pose_errors, rig_misfit
-from calib.accel.rig_propagation import EPS_DEG, GROUPS, pose_shifts, rig_parameters, stage_angles_deg
+from calib.accel.rig_propagation import EPS_DEG, GROUPS, pose_shifts, rig_parameters, stage_angles_deg, usable_arrival
 from calib.numerics.gravity import G0_M_S2, Gravity
 
 #: step of the thermometer's finite differences, C
@@ -178,7 +178,7 @@ def rig_contributions(resolve: Resolve, steps: StepMeans, base: dict[str, float]
     angles = stage_angles_deg(steps.f_nominal_g)
     f = np.asarray(steps.f_nominal_g, float)
     out = []
-    params = rig_parameters(rig, len(steps))
+    params = rig_parameters(rig, len(steps), usable_arrival(steps, rig))
     for p, shift in zip(params, pose_shifts(params, angles)):  # one chain of the table for every parameter
         if p.u_deg == 0 or not np.any(np.abs(shift) > 1e-12):
             continue
@@ -193,12 +193,17 @@ def _rig_contributions_linear(linear: "LinearSolve", steps: StepMeans, rig: RigE
     angles = stage_angles_deg(steps.f_nominal_g)
     f = np.asarray(steps.f_nominal_g, float)
     k = len(steps)
-    per_pose = not rig.one_direction  # lost motion: one parameter per pose and stage, each row its own
+    # lost motion of unknown sign (no arrival directions recorded): one parameter per pose and stage, each row its own
+    arrival = usable_arrival(steps, rig)
+    per_pose = not rig.one_direction and arrival is None
     out = []
-    params = [p if p.directions is None else  # the stage's lost motion, every pose at once (row j: pose j's own)
-              dataclasses.replace(p, directions=np.repeat(p.directions[:1], k, axis=0))
-              for p in rig_parameters(dataclasses.replace(rig, one_direction=True), 1 if per_pose else k)
-              if p.u_deg != 0]  # a class of zero (a simulated table without its errors): nothing to propagate
+    if per_pose:
+        params = [p if p.directions is None else  # the stage's lost motion, every pose at once (row j: pose j's own)
+                  dataclasses.replace(p, directions=np.repeat(p.directions[:1], k, axis=0))
+                  for p in rig_parameters(dataclasses.replace(rig, one_direction=True), 1)]
+    else:
+        params = rig_parameters(rig, k, arrival)
+    params = [p for p in params if p.u_deg != 0]  # a class of zero (a table without its errors): nothing to propagate
     for p, shift in zip(params, pose_shifts(params, angles)):
         if not np.any(np.abs(shift) > 1e-12):
             continue

@@ -31,6 +31,9 @@ class StepMeans:
         the solvers then fit no thermal-gradient term).
     duration_s : (K,) how long each step's capture lasted, s, or None (unknown: the means are then
         taken as point values in time by the wander covariance, :mod:`calib.numerics.wander`).
+    arrival_direction : (K, 3) the direction (+1, -1) each turntable stage a1, a2, a3 last turned in before the
+        step's capture, 0 where that is unknown (the stage has not moved since the session began), or None (not
+        recorded: a budget then takes each pose's lost motion as of unknown sign, :mod:`calib.accel.rig_propagation`).
     """
 
     names: tuple
@@ -44,6 +47,7 @@ class StepMeans:
     bias_stability: BiasStability | None = None
     temp_rate_c_per_s: np.ndarray | None = None
     duration_s: np.ndarray | None = None
+    arrival_direction: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         k = len(self.names)
@@ -69,6 +73,10 @@ class StepMeans:
             d = np.asarray(self.duration_s)
             if d.shape != (k,) or not np.all(np.isfinite(d) & (d >= 0)):
                 raise CalibError("StepMeans.duration_s: expected K finite durations >= 0 s, or None")
+        if self.arrival_direction is not None:
+            d = np.asarray(self.arrival_direction)
+            if d.shape != (k, 3) or not np.all(np.isin(d, (-1, 0, 1))):
+                raise CalibError("StepMeans.arrival_direction: expected (K, 3) of +1, -1 or 0, or None")
         if not np.all(np.asarray(self.sem_counts) > 0):
             raise CalibError("StepMeans.sem_counts: every standard error must be > 0")
         if not self.lsb_per_g > 0:
@@ -90,7 +98,8 @@ class StepMeans:
                          temp_c=None if self.temp_c is None else self.temp_c[idx], t_s=self.t_s[idx],
                          lsb_per_g=self.lsb_per_g, bias_stability=self.bias_stability,
                          temp_rate_c_per_s=None if self.temp_rate_c_per_s is None else self.temp_rate_c_per_s[idx],
-                         duration_s=None if self.duration_s is None else self.duration_s[idx])
+                         duration_s=None if self.duration_s is None else self.duration_s[idx],
+                         arrival_direction=None if self.arrival_direction is None else self.arrival_direction[idx])
 
     def bias_stability_counts(self) -> float:
         """1-sigma (counts) by which the session's bias stands off the sensor's long-run bias

@@ -4,8 +4,9 @@ Every error of the turntable's geometry (:mod:`calib.numerics.turntable`) is one
 uncertainty from the rig's classes (or from its characterisation, :attr:`RigErrors.known`): the sensor's
 mounting about x, y, z and the stage zeros, the three non-orthogonalities, each stage's periodic and
 accumulated angular error and wobble (each a sinusoid of the stage angle: its sine and cosine coefficients,
-of random phase), and the lost motion (per pose and stage when poses are reached from either side; a constant
-per stage when every pose is approached from one side). Each parameter moves the session's poses through the
+of random phase), and the lost motion (per stage with the signs of the recorded arrival directions; per pose and
+stage, of unknown sign, when they are not recorded; a constant per stage when every pose is approached from one
+side). Each parameter moves the session's poses through the
 same chain the simulated world uses, *correlated* between poses as on the table (a stage zero turns every pose
 that stage reaches), and the session is solved again with its nominal specific force moved the other way:
 the solve's own sensitivity, whatever its method and model. Pure numpy.
@@ -64,13 +65,26 @@ def _per_stage(t, k: int) -> list[RigParameter]:
     return out
 
 
-def _lost_motion(t, k: int, one_direction: bool) -> list[RigParameter]:
-    """Lost motion: -d L / 2 with L in [0, L_max] (sqrt(E[(L/2)^2]) = L_max / sqrt(12)); per pose and stage of
-    unknown direction, or (approached from one side) the same for every pose of a stage."""
+def _lost_motion(t, k: int, one_direction: bool, arrival: np.ndarray | None = None) -> list[RigParameter]:
+    """Lost motion: -d L / 2 with L in [0, L_max] (sqrt(E[(L/2)^2]) = L_max / sqrt(12)) and d the direction the stage
+    arrived in. Approached from one side: a constant per stage (``one_direction``). Arrival directions recorded
+    (``arrival``, (K, 3), 0 where unknown): one parameter per stage over the poses of known direction, with the
+    recorded signs (the same L at every pose: a reversal moves a pose by L against the poses before it), and one
+    over the poses before the stage's first recorded move (one unknown direction). Otherwise one per pose and stage,
+    of unknown sign."""
     u = t.lost_motion_deg / math.sqrt(12)
     out = []
     for i, s in enumerate(STAGES):
         geometry = TableGeometry(stages=_stage(i, lost_motion_deg=2 * EPS_DEG))
+        if arrival is not None and not one_direction:
+            known = np.asarray(arrival, float)[:, i]
+            for name, rows, sign in ((f"lost_motion.{s}", known != 0, known),
+                                     (f"lost_motion.{s}@start", known == 0, -np.ones(k))):
+                if np.any(rows):
+                    d = np.zeros((k, 3))
+                    d[rows, i] = sign[rows]
+                    out.append(RigParameter(name, "lost motion", u, geometry, d))
+            continue
         poses = [None] if one_direction else range(k)
         for j in poses:
             d = np.zeros((k, 3))
@@ -83,16 +97,25 @@ def _lost_motion(t, k: int, one_direction: bool) -> list[RigParameter]:
     return out
 
 
-def rig_parameters(rig: RigErrors, k: int) -> list[RigParameter]:
+def usable_arrival(steps, rig: RigErrors) -> np.ndarray | None:
+    """The arrival directions the budget may use (:attr:`calib.accel.inputs.StepMeans.arrival_direction`): None
+    when the session records none, when every pose is approached from one side (lost motion is then a constant)
+    or when only some stages approach so (the recorded directions do not say how those arrived)."""
+    arrival = getattr(steps, "arrival_direction", None)
+    return None if arrival is None or rig.one_direction or rig.mixed_approach else np.asarray(arrival, float)
+
+
+def rig_parameters(rig: RigErrors, k: int, arrival: np.ndarray | None = None) -> list[RigParameter]:
     """Every geometry error of a session of ``k`` poses with its standard uncertainty (a characterised value
-    from ``rig.known`` replaces its class)."""
+    from ``rig.known`` replaces its class); ``arrival``: the poses' recorded arrival directions
+    (:attr:`calib.accel.inputs.StepMeans.arrival_direction`), when known."""
     t = rig.table
     out = [RigParameter(f"mounting.{a}", "rig frame (mounting, stage zeros)", rectangular(t.mounting_deg),
                         TableGeometry(mounting_deg=tuple(EPS_DEG * (a == b) for b in "xyz"))) for a in "xyz"]
     names = ("a1_a2", "a2_a3", "a1_a3")
     out += [RigParameter(f"non_orthogonality.{n}", "rig axes (non-orthogonality)", rectangular(t.non_orthogonality_deg),
                          TableGeometry(non_orthogonality_deg=tuple(EPS_DEG * (n == m) for m in names))) for n in names]
-    out += _per_stage(t, k) + _lost_motion(t, k, rig.one_direction)
+    out += _per_stage(t, k) + _lost_motion(t, k, rig.one_direction, arrival)
     return [replace(p, u_deg=rig.known[p.name]) if p.name in rig.known else p for p in out]
 
 

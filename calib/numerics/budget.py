@@ -138,6 +138,9 @@ class RigErrors:
     table: TableClass
     gravity: Gravity
     one_direction: bool = False
+    #: some stages (not all) approach every pose from one side: a session's recorded arrival directions do not say
+    #: how those arrived (the overshoot turns them back), so lost motion is then of unknown sign at every pose
+    mixed_approach: bool = False
     thermometer_u_c: float = THERMOMETER_U_C
     known: dict = field(default_factory=dict)
     source: str = "turntable classes (docs/simulated-rig.md), no characterisation"

@@ -144,9 +144,10 @@ def rig_errors(rig_file: RigFile | RigFacts | None) -> RigErrors:
     if rig_file.is_simulated and not geometry.get("enabled"):
         table = PERFECT_TABLE  # a simulated table without its errors (sim.geometry off) lands where commanded
         source = f"rig file {Path(rig_file.path).name}: simulated turntable without geometry errors (sim.geometry off)"
-    one_direction = all(rig_file.axes[n].approach != "none" for n in STAGE_AXES)
-    rig = RigErrors.from_classes(table, rig_file.gravity, one_direction=one_direction)
-    return dataclasses.replace(rig, source=source + ", no characterisation")
+    approaching = [rig_file.axes[n].approach != "none" for n in STAGE_AXES]
+    rig = RigErrors.from_classes(table, rig_file.gravity, one_direction=all(approaching))
+    return dataclasses.replace(rig, source=source + ", no characterisation", mixed_approach=any(approaching) and
+                               not all(approaching))
 
 
 @dataclass(frozen=True)

@@ -138,7 +138,39 @@ def step_means(session: Session, include=None) -> StepMeans:
                      t_s=np.array([w[0] for w in windows]), lsb_per_g=session.lsb_per_g,
                      bias_stability=bias_stability(session),
                      temp_rate_c_per_s=step_temperature_rates(session, idx, rows.rows_of),
-                     duration_s=np.array([w[1] for w in windows]))
+                     duration_s=np.array([w[1] for w in windows]),
+                     arrival_direction=arrival_directions(session, idx))
+
+
+#: a stage whose recorded position changed by less than this between two captures did not move, deg
+_MOVED_DEG = 1e-6
+
+
+def arrival_directions(session: Session, idx: list[int]) -> np.ndarray | None:
+    """(K, 3) the direction (+1, -1) each stage a1, a2, a3 last turned in before the capture of each step ``idx``,
+    0 where it has not moved since the session began or was resumed (where it stood before is not recorded), from
+    the recorded stage positions (the samples' ``a1_deg``...: the controllers' counts, not mod 360, so a move's sign
+    is its direction). None when the session records no positions (an import) or a position is missing."""
+    pos = session.samples.get("angles_deg")
+    if pos is None or len(pos) == 0 or not np.all(np.isfinite(pos)):
+        return None
+    step = session.samples["step"]
+    starts = np.flatnonzero(np.r_[True, step[1:] != step[:-1]])  # the captures, in the order they were recorded
+    ends = np.r_[starts[1:], len(step)] - 1
+    restarts = {int(e["first_step"]) for e in session.events if e.get("kind") == "resume" and "first_step" in e}
+    direction, last, at = np.zeros(3), None, {}
+    for lo, hi in zip(starts, ends):
+        index = int(step[lo])
+        if index in restarts:  # a resumed run: where the stages stood meanwhile is not recorded
+            direction, last = np.zeros(3), None
+        if last is not None:
+            moved = np.abs(pos[lo] - last) > _MOVED_DEG
+            direction[moved] = np.sign(pos[lo] - last)[moved]
+        at.setdefault(index, direction.copy())
+        moved = np.abs(pos[hi] - pos[lo]) > _MOVED_DEG  # a rate step turns while it captures
+        direction[moved] = np.sign(pos[hi] - pos[lo])[moved]
+        last = pos[hi]
+    return np.array([at.get(i, np.zeros(3)) for i in idx])
 
 
 class _StepRows:
