@@ -98,3 +98,23 @@ def test_a_units_profile_still_comes_first(long_steps, tmp_path):
     assert noise["source"] == "unit profile" and noise["measured_at"].startswith("2026-11-01")
     assert noise["sensors"]["accel"]["bias_instability_xyz"] == pytest.approx([2 * FAMILY_B_G] * 3)
     assert "steps" not in noise
+
+
+def test_a_session_with_rate_steps_weighs_the_gyroscope_with_its_static_steps_wander_too(tmp_path, monkeypatch):
+    monkeypatch.setenv("RIG_HISTORY", str(tmp_path / "history.sqlite"))
+    procedure = yaml.safe_load((ROOT / "procedures" / "gyro_rates.yaml").read_text())
+    procedure["dwell"]["seconds"] = 200.0  # six long static steps, then the rate steps, shortened
+    for step in procedure["steps"]:
+        if "rate" in step:
+            step["rate"]["seconds"] = 20
+    (tmp_path / "g.yaml").write_text(yaml.safe_dump(procedure))
+    code, _, err = rig_in_process("run", tmp_path / "g.yaml", "--rig", _unit_rig(tmp_path), "--seed", 3, "--out",
+                                  tmp_path / "s", "--quiet")
+    assert code == 0, err
+    cal = yaml.safe_load((next((tmp_path / "s").iterdir()) / "calibration.yaml").read_text())
+    sensors = cal["noise"]["sensors"]
+    assert set(sensors) == {"accel", "gyro"} and sensors["gyro"]["unit"] == "deg/s"
+    for b in sensors["gyro"]["bias_instability_xyz"]:  # this unit's gyroscope is its family's (0.002 deg/s)
+        assert 0.5 < b / 0.002 < 2.0, sensors["gyro"]
+    assert cal["noise"]["steps"] == 6 and cal["gyroscope"] is not None
+    jsonschema.Draft202012Validator(SCHEMA).validate(cal)
