@@ -40,6 +40,11 @@ with --no-arrival: 97.9 / 99.7 / 100.0 %), approached from one side 98.0 / 99.5 
 over-covered against the 2026-11-25 figures (the Type A term keeps a misfit's Birge scaling the rig explains; docs
 /uncertainty.md).
 
+With the Type A scaling judged against the noise and the rig's errors as well (calib.accel.budget.judge_with_rig;
+2026-11-26, same machine): characterised by reversal, 200 trials seed 0 U 94.7 / 94.2 / 96.5 %, seed 1 95.0 / 94.5 /
+95.0 %, 400 trials seed 2 95.6 / 95.0 / 94.8 %: every class within 93-97 %; uncharacterised, 400 trials, either side
+93.9 / 93.3 / 100.0 %, approached from one side 93.5 / 93.7 / 99.9 %.
+
 (target 93-97 % for every class: met by U = 2 u_c for biases and scales; the angles are over-covered at
 k = 2, their U dominated by the fixture's rectangular mounting class, and the JCGM 101 interval of the
 budget's own distributions brings them to 93.3 % but leaves the scales at 89.8 %, missed. Without the

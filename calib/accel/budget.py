@@ -96,14 +96,27 @@ def birge_ratio(cal: AccelCalibration) -> float:
     return float(np.sqrt(chi2)) if scaled and chi2 is not None and np.isfinite(chi2) and chi2 > 1 else 1.0
 
 
-def type_a_contribution(cal: AccelCalibration, birge: float, rig_terms: list[Contribution]) -> Contribution:
+def type_a_contribution(cal: AccelCalibration, birge: float, rig_terms: list[Contribution],
+                        judged: "RigMisfit | None" = None) -> Contribution:
     """The Type A entry: the solve's sigma. When the solve scaled it for a misfit (``birge`` > 1), the part of that
-    scaling the rig's geometry (``rig_terms``) explains is left out, so nothing is counted twice; the part it does
-    not explain stays: ``u_A^2 = max(sigma^2 / birge^2, sigma^2 - u_rig^2)``, and the combined uncertainty is never
-    below the printed sigma (a session that misfits on a rig without geometry errors keeps its whole sigma)."""
+    scaling the rig's geometry explains is left out, so nothing is counted twice. With the misfit judged against the
+    noise and the rig's errors (``judged``, :func:`calib.accel.rig_misfit.rig_misfit`): the sigma unscaled when the
+    rig's errors explain it, else scaled by the Birge ratio they leave (``sqrt(chi2/dof)`` of that judgement), for
+    every quantity alike, as the solve scaled them. Without it, per quantity from the rig's own terms
+    (``rig_terms``): ``u_A^2 = max(sigma^2 / birge^2, sigma^2 - u_rig^2)``, which keeps the whole scaling of the
+    quantities the rig's terms barely move (the scales). A session that misfits on a rig without geometry errors
+    keeps its whole sigma either way."""
     sigma = flat_sigma(cal)
     if birge <= 1:
         return Contribution("noise and wander", "A", "the solve's sigma (step scatter, bias wander)", sigma)
+    if judged is not None and judged.dof > 0:
+        left = min(float(np.sqrt(judged.chi2_per_dof)), birge) if judged.significant else 1.0
+        u_a = {n: v * left / birge if np.isfinite(v) else v for n, v in sigma.items()}
+        why = ("which the rig's errors explain (against the noise and the rig: chi2/dof "
+               f"{judged.chi2_per_dof:.2f}, p = {judged.p:.2g})" if not judged.significant else
+               f"less what the rig's errors explain: scaled by the Birge ratio they leave, {left:.2f}")
+        return Contribution("noise and wander", "A", f"the solve's sigma (step scatter, bias wander) without its "
+                            f"misfit scaling (Birge ratio {birge:.2f}) {why}", u_a)
     u_rig2 = {n: 0.0 for n in sigma}
     for c in rig_terms:
         for n, u in c.u.items():
@@ -246,17 +259,39 @@ def thermometer_sensitivities(resolve: Resolve, steps: StepMeans, base: dict[str
     return out
 
 
+def judge_with_rig(cal: AccelCalibration, steps: StepMeans, rig: RigErrors,
+                   linear: "LinearSolve | None" = None) -> RigMisfit | None:
+    """The fit's residuals judged against the noise and the rig's errors (:func:`calib.accel.rig_misfit.rig_misfit`;
+    on a table without errors, the solve's own judgement); None where that is not made: poses unknown, a method
+    without a linear map (``linear``, built here when not given), more steps than it takes."""
+    if not bool(np.all(steps.pose_known)):
+        return None
+    if not has_pose_errors(rig):
+        significant, p = cal.misfit()
+        dof = cal.degrees_of_freedom()
+        return RigMisfit(float(cal.fit.chi2_per_dof or 0.0) * dof, dof, p, significant)
+    if linear is None:
+        if cal.fit.method.split("(")[0] not in LINEAR_METHODS:
+            return None
+        linear = linear_solve(cal, steps)
+    return rig_misfit(linear, steps, rig, cal.matrix_counts_per_g)
+
+
 def contributions(cal: AccelCalibration, steps: StepMeans, resolve: Resolve, rig: RigErrors,
-                  linear: "LinearSolve | None" = None) -> list[Contribution]:
+                  linear: "LinearSolve | None" = None, judged: "RigMisfit | None" = None) -> list[Contribution]:
     """The budget of ``cal`` (solved from ``steps``; ``resolve`` solves perturbed steps the same way), one
     contribution per rig parameter (:func:`grouped` sums them as the file lists them). ``linear``: the solve's
-    linear sensitivity (:func:`linear_solve`) in place of the re-solves (linear in the steps, not quadratic)."""
+    linear sensitivity (:func:`linear_solve`) in place of the re-solves (linear in the steps, not quadratic);
+    ``judged``: the fit judged against the noise and the rig (:func:`judge_with_rig`), made here when the solve
+    scaled its sigmas and not given."""
     base = quantities(cal)
     zero = {n: 0.0 for n in base}
     birge = birge_ratio(cal)
     rig_terms = (rig_contributions(resolve, steps, base, rig, linear)
                  if cal.fit.method != "magnitude" and bool(np.all(steps.pose_known)) else [])
-    out = [type_a_contribution(cal, birge, rig_terms)] + rig_terms
+    if birge > 1 and judged is None and rig_terms:
+        judged = judge_with_rig(cal, steps, rig, linear)
+    out = [type_a_contribution(cal, birge, rig_terms, judged)] + rig_terms
     g_rel = rig.gravity.relative_u
     u_g = {n: (abs(v) * g_rel if n.startswith(("scale", "matrix")) else 0.0) for n, v in base.items()}
     out.append(Contribution("gravity", "B", f"{rig.gravity.source}: u(g)/g = {g_rel:.3g}", u_g,
@@ -278,19 +313,12 @@ def uncertainty_section(cal: AccelCalibration, steps: StepMeans, resolve: Resolv
     """``accelerometer.uncertainty``: ``U = k u_c`` in ``sigma``'s keys, ``k``, the combined standard
     uncertainty and the ``budget`` (each contribution's standard uncertainties, same keys). ``linear``: the
     solve's linear sensitivity (:func:`linear_solve`) in place of one re-solve per perturbation."""
-    parts = grouped(contributions(cal, steps, resolve, rig, linear), rig)
+    judged = judge_with_rig(cal, steps, rig, linear) if linear is not None else None  # noise and rig
+    parts = grouped(contributions(cal, steps, resolve, rig, linear, judged), rig)
     section = {"k": float(k), "rig": rig.source, **nest(expanded(parts, k), cal),
                "combined_standard": nest(combined(parts), cal),
                "budget": [{"name": c.name, "type": c.type, "source": c.source, "distribution": c.distribution,
                            **nest(c.u, cal)} for c in parts]}
-    judged = None
-    if linear is not None and bool(np.all(steps.pose_known)):  # the residuals against noise and rig
-        if has_pose_errors(rig):
-            judged = rig_misfit(linear, steps, rig, cal.matrix_counts_per_g)
-        else:  # a table without errors (the simulated one with sim.geometry off): the solve's own judgement
-            significant, p = cal.misfit()
-            dof = cal.degrees_of_freedom()
-            judged = RigMisfit(float(cal.fit.chi2_per_dof or 0.0) * dof, dof, p, significant)
     if judged is not None:
         section["misfit_with_rig"] = judged.as_dict()
     return section
