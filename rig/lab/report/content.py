@@ -5,7 +5,7 @@ Every part that may be missing (no temperature, no known poses, no discover run,
 value with a ``note`` saying why, never an exception: the report always says what it could not show.
 Every auxiliary file read (``rig discover`` documents and augmented calibration files in the session
 folder, the history's rows) is checked first; a damaged one is left out with a note saying what is
-wrong with it (``discover.json: not a rig-discover/5 document (effects: expected a list); left out``),
+wrong with it (``discover.json: not a rig-discover/6 document (effects: expected a list); left out``),
 never a failed report.
 """
 
@@ -44,7 +44,7 @@ VERIFY_PROCEDURE = "procedures/verify_seed_table.yaml"
 #: files in the session larger than this are not read as discover output
 MAX_DISCOVER_BYTES = 50_000_000
 #: the rig discover contract the report reads (docs/discrepancy.md)
-DISCOVER_FORMAT = "rig-discover/5"
+DISCOVER_FORMAT = "rig-discover/6"
 HISTORY_TIMEOUT_S = 5.0
 
 
