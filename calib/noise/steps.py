@@ -84,9 +84,12 @@ def _avar_terms(x: np.ndarray, m: int) -> tuple[float, int]:
 
 def _octaves(n_max: int, rate_hz: float, tau_min_s: float) -> list[int]:
     """The octave cluster sizes m (samples) from ``tau_min_s`` (s) up to a quarter of ``n_max`` samples."""
-    m_max = int(n_max * MAX_TAU_FRACTION)
-    return [int(m) for m in 2 ** np.arange(int(np.log2(max(m_max, 1))) + 1)
-            if m / rate_hz >= tau_min_s * (1 - 1e-9)]
+    m_max, m, out = max(int(n_max * MAX_TAU_FRACTION), 1), 1, []
+    while m <= m_max:
+        if m / rate_hz >= tau_min_s * (1 - 1e-9):
+            out.append(m)
+        m *= 2
+    return out
 
 
 def pooled_allan(records, rate_hz: float, tau_min_s: float = FIT_TAU_MIN_S) -> PooledAllan:

@@ -16,9 +16,9 @@ The rules, each tested (tests/rig/lab/test_recording_noise.py):
   and walk K are used, with the family's flicker corner, and the calibration file's ``noise:`` says ``source:
   recording``, the figures, and the static steps and seconds they rest on.
 
-Cost: the length rule reads 64 clusters of 0.64 s of the longest static step only (about 0.1 ms on a
-six-position session); the fit runs only on steps that pass it (a few ms a sensor, plus allantools' import for
-Greenhall's degrees of freedom, about 0.3 s on a quiet machine, once per process).
+Cost: the length rule reads 64 clusters of 0.64 s of the longest static step only (0.11 ms CPU on a
+six-position session); the fit runs only on steps that pass it (50-75 ms a sensor, Greenhall's degrees of freedom
+through allantools, whose import takes 0.6-1.2 s once per process on the shared machine).
 """
 
 from __future__ import annotations
