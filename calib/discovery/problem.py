@@ -82,19 +82,34 @@ class Problem:
         self.jump_grid = jump_times(np.asarray(steps.t_s, float))
         self.t_jump = float(np.median(self.jump_grid)) if len(self.jump_grid) else None
         self.multiplicity = {"bias_jump": max(len(self.jump_grid), 1)}  # Bonferroni cost of the time search
+        cov = getattr(ctx, "rig_cov_counts2", None)
+        self.rig_cov = (np.asarray(cov, float) if cov is not None and not self.pose_free
+                        and np.shape(cov) == (3 * self.k, 3 * self.k) and np.any(cov) else None)
+        self._full = None  # L^-1 of the whole (3K, 3K) V when the rig's errors couple the axes
         self._factors = self._cholesky()
         self._white: dict[str, np.ndarray] = {}
 
     # -- covariance ------------------------------------------------------------------------------
     def _cholesky(self) -> list:
-        """Inverses of the lower Cholesky factors of each block of V (None for a diagonal block: divide by sem)."""
+        """Inverses of the lower Cholesky factors of each block of V (None for a diagonal block: divide by sem);
+        with the rig's errors (``rig_cov``: they move a pose's force on two axes at once, and every pose a stage
+        error reaches) the inverse factor of the whole V instead (``_full``)."""
+        w = self.wander_g2 * self.lsb**2
+        if getattr(self, "rig_cov", None) is not None:
+            blocks = np.zeros((3 * self.k, 3 * self.k))
+            for j in range(3):
+                blocks[j * self.k:(j + 1) * self.k, j * self.k:(j + 1) * self.k] = \
+                    np.diag(self.sem[j * self.k:(j + 1) * self.k] ** 2) + w
+            self._full = _inverse_cholesky(blocks + self.rig_cov)
+            return [None] * 3
         if not np.any(self.wander_g2):
             return [None] * 3
-        w = self.wander_g2 * self.lsb**2
         return [_inverse_cholesky(np.diag(self.sem[j * self.k:(j + 1) * self.k] ** 2) + w) for j in range(3)]
 
     def whiten(self, m: np.ndarray) -> np.ndarray:
         """L^-1 m for fit rows ``m`` (3K,) or (3K, P)."""
+        if self._full is not None:
+            return self._full @ m
         k = self.k
         out = np.empty_like(m, dtype=float)
         for j, inv in enumerate(self._factors):
@@ -227,8 +242,10 @@ class Problem:
     def marginal(self, fit: Fit) -> np.ndarray:
         """(K, 3) residuals in their own marginal standard deviations, ``r / sqrt(sem^2 + lsb^2 W_ii)``:
         for saying where a residual sits (a jump stays a step in time); not independent between steps."""
-        sd = np.sqrt(self.sem.reshape(3, self.k) ** 2 + np.diag(self.wander_g2)[None, :] * self.lsb ** 2)
-        return (fit.resid.reshape(3, self.k) / sd).T
+        var = self.sem.reshape(3, self.k) ** 2 + np.diag(self.wander_g2)[None, :] * self.lsb ** 2
+        if self.rig_cov is not None:
+            var = var + np.diag(self.rig_cov).reshape(3, self.k)
+        return (fit.resid.reshape(3, self.k) / np.sqrt(var)).T
 
     def rms_g(self, fit: Fit) -> float:
         """RMS residual of a fit, g."""

@@ -75,6 +75,10 @@ class StepContext:
         calibration's ``thermal_gradient`` entry for ``apply``.
     angles_deg : (K, 3) turntable angles a1, a2, a3 of each step, deg; or None (used to say where an
         unexplained residual sits).
+    rig_cov_counts2 : (3K, 3K) covariance of the step means (axis-major: x of every step, then y, then z) from
+        the turntable's own errors at their standard uncertainties, counts^2
+        (:func:`calib.accel.rig_misfit.rig_step_covariance`); or None (a table that lands where commanded, or
+        poses not set by a turntable): the search then judges residuals against the noise and wander alone.
 
     The duration of each step's capture is the step means' own (``StepMeans.duration_s``).
     """
@@ -86,6 +90,7 @@ class StepContext:
     temp_rate: np.ndarray | None = None
     rate_window_s: float = 5.0
     angles_deg: np.ndarray | None = None
+    rig_cov_counts2: np.ndarray | None = None
 
 
 @dataclass

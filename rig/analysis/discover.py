@@ -11,8 +11,12 @@ from __future__ import annotations
 from datetime import datetime, timezone
 from pathlib import Path
 
+import dataclasses
+
 import numpy as np
 
+from calib.accel.inputs import StepMeans
+from calib.accel.rig_misfit import MAX_STEPS, has_pose_errors, rig_step_covariance
 from calib.file import calibration as calfile
 from calib.discovery.report import summary_lines, unexplained_lines
 from calib.discovery.search import Discovery, StepContext, discover
@@ -21,6 +25,7 @@ from calib.errors import CalibError
 from rig.analysis import plots
 from rig.analysis.effect_units import shown_effect_unit
 from rig.analysis.solve import SOFTWARE, accelerometer_absent, sensor_section
+from rig.analysis.uncertainty import rig_errors, session_rig_facts
 from rig.errors import RigInputError
 from rig.planning.kinematics import sensor_to_world
 from rig.session import Session, load_session, step_means
@@ -124,8 +129,24 @@ def discover_session(session_dir, *, false_alarm: float = 0.01, progress=None, p
         progress.steps(len(idx))
     say("the step means")
     steps = step_means(session, idx)
-    ctx = step_context(session, idx)
+    ctx = dataclasses.replace(step_context(session, idx), rig_cov_counts2=rig_covariance(session, steps))
     return session, discover(steps, ctx, false_alarm=false_alarm, progress=progress)
+
+
+def rig_covariance(session: Session, steps: StepMeans) -> np.ndarray | None:
+    """The step means' covariance (3K, 3K), counts^2, from the turntable's own errors at its rig file's classes
+    (:func:`calib.accel.rig_misfit.rig_step_covariance`, with the recorded arrival directions): what the search
+    judges residuals against besides the noise, so that the table's pose errors are not named as effects of the
+    sensor (docs/discrepancy.md, "The rig's own errors"). None where the session's rig file is not there unchanged
+    (an import, a replay), the table has no errors (a simulated one with ``sim.geometry`` off), a pose is unknown,
+    or the session has more than :data:`~calib.accel.rig_misfit.MAX_STEPS` steps."""
+    facts = session_rig_facts(session)
+    if facts is None or len(steps) > MAX_STEPS or not bool(np.all(steps.pose_known)):
+        return None
+    rig = rig_errors(facts)
+    if not has_pose_errors(rig):
+        return None
+    return rig_step_covariance(steps, rig, steps.lsb_per_g * np.eye(3))
 
 
 #: how the report names each baseline model (calib.discovery.search.Discovery.baseline)
