@@ -97,6 +97,13 @@ def _lost_motion(t, k: int, one_direction: bool, arrival: np.ndarray | None = No
     return out
 
 
+def needs_arrival(rig: RigErrors) -> bool:
+    """Whether a budget of ``rig`` would use a session's arrival directions (:func:`usable_arrival`): poses reached
+    from either side on a table with lost motion (a class or a characterised value)."""
+    lost = rig.table.lost_motion_deg > 0 or any(v for n, v in rig.known.items() if n.startswith("lost_motion"))
+    return lost and not rig.one_direction and not rig.mixed_approach
+
+
 def usable_arrival(steps, rig: RigErrors) -> np.ndarray | None:
     """The arrival directions the budget may use (:attr:`calib.accel.inputs.StepMeans.arrival_direction`): None
     when the session records none, when every pose is approached from one side (lost motion is then a constant)

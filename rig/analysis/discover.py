@@ -17,6 +17,7 @@ import numpy as np
 
 from calib.accel.inputs import StepMeans
 from calib.accel.rig_misfit import MAX_STEPS, has_pose_errors, rig_step_covariance
+from calib.accel.rig_propagation import needs_arrival
 from calib.file import calibration as calfile
 from calib.discovery.report import summary_lines, unexplained_lines
 from calib.discovery.search import Discovery, StepContext, discover
@@ -29,6 +30,7 @@ from rig.analysis.uncertainty import rig_errors, session_rig_facts
 from rig.errors import RigInputError
 from rig.planning.kinematics import sensor_to_world
 from rig.session import Session, load_session, step_means
+from rig.session.adapter import with_arrival
 
 BAND_C = 0.5
 
@@ -129,11 +131,11 @@ def discover_session(session_dir, *, false_alarm: float = 0.01, progress=None, p
         progress.steps(len(idx))
     say("the step means")
     steps = step_means(session, idx)
-    ctx = dataclasses.replace(step_context(session, idx), rig_cov_counts2=rig_covariance(session, steps))
+    ctx = dataclasses.replace(step_context(session, idx), rig_cov_counts2=rig_covariance(session, steps, idx))
     return session, discover(steps, ctx, false_alarm=false_alarm, progress=progress)
 
 
-def rig_covariance(session: Session, steps: StepMeans) -> np.ndarray | None:
+def rig_covariance(session: Session, steps: StepMeans, idx: list[int]) -> np.ndarray | None:
     """The step means' covariance (3K, 3K), counts^2, from the turntable's own errors at its rig file's classes
     (:func:`calib.accel.rig_misfit.rig_step_covariance`, with the recorded arrival directions): what the search
     judges residuals against besides the noise, so that the table's pose errors are not named as effects of the
@@ -146,6 +148,8 @@ def rig_covariance(session: Session, steps: StepMeans) -> np.ndarray | None:
     rig = rig_errors(facts)
     if not has_pose_errors(rig):
         return None
+    if needs_arrival(rig):
+        steps = with_arrival(session, steps, idx)
     return rig_step_covariance(steps, rig, steps.lsb_per_g * np.eye(3))
 
 

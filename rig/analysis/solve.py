@@ -10,6 +10,7 @@ import numpy as np
 
 import calib
 from calib.accel.placement import check_placement
+from calib.accel.rig_propagation import needs_arrival
 from calib.errors import CalibError, ObservabilityError
 from calib.gyro import solve_gyro
 from calib.gyro.static_bias import StaticGyroBias, static_gyro_bias
@@ -20,7 +21,7 @@ from rig.analysis.coverage import session_coverage
 from rig.analysis.target import calibration_record
 from rig.analysis.uncertainty import session_rig_errors, with_budget
 from rig.session import Session, load_session, mag_step_means, rate_step_means, step_means
-from rig.session.adapter import mag_turning_samples
+from rig.session.adapter import mag_turning_samples, with_arrival
 
 SOFTWARE = {"name": "rig-calibration", "version": __version__}
 
@@ -41,7 +42,9 @@ def calibrate_session(session_dir, *, model: str | None = None, method: str | No
     accel, steps, model, method = solve_accelerometer(session, model=model, method=method, thermal=thermal)
     gyro, mag = solve_gyro_and_mag(session, spec, accel)
     if method in POSE_METHODS:  # the uncertainty budget (docs/uncertainty.md); sigma as the solve gave it
-        accel = with_budget(accel, steps, model, method, session_rig_errors(session))
+        rig = session_rig_errors(session)
+        budget_steps = with_arrival(session, steps, session.static_step_indices()) if needs_arrival(rig) else steps
+        accel = with_budget(accel, budget_steps, model, method, rig)
     return calib.CalibrationFile(
         created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
         software=dict(SOFTWARE),

@@ -11,6 +11,8 @@ the solvers weigh the steps with the wander between them (docs/methods.md, "Per-
 
 from __future__ import annotations
 
+import dataclasses
+
 from pathlib import Path
 from typing import Protocol
 
@@ -138,12 +140,26 @@ def step_means(session: Session, include=None) -> StepMeans:
                      t_s=np.array([w[0] for w in windows]), lsb_per_g=session.lsb_per_g,
                      bias_stability=bias_stability(session),
                      temp_rate_c_per_s=step_temperature_rates(session, idx, rows.rows_of),
-                     duration_s=np.array([w[1] for w in windows]),
-                     arrival_direction=arrival_directions(session, idx))
+                     duration_s=np.array([w[1] for w in windows]))
+
+
+def with_arrival(session: Session, steps: StepMeans, idx: list[int]) -> StepMeans:
+    """``steps`` (the step means of the steps ``idx``) with their recorded arrival directions
+    (:func:`arrival_directions`): what a budget's lost motion needs, read only when it does."""
+    return dataclasses.replace(steps, arrival_direction=arrival_directions(session, idx))
 
 
 #: a stage whose recorded position changed by less than this between two captures did not move, deg
 _MOVED_DEG = 1e-6
+
+
+def _resumes(session: Session) -> list[dict]:
+    """The session's resume events; its events parsed only when their file mentions one."""
+    try:
+        text = (session.path / "events.jsonl").read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return []
+    return [e for e in session.events if e.get("kind") == "resume"] if '"resume"' in text else []
 
 
 def arrival_directions(session: Session, idx: list[int]) -> np.ndarray | None:
@@ -157,7 +173,7 @@ def arrival_directions(session: Session, idx: list[int]) -> np.ndarray | None:
     step = session.samples["step"]
     starts = np.flatnonzero(np.r_[True, step[1:] != step[:-1]])  # the captures, in the order they were recorded
     ends = np.r_[starts[1:], len(step)] - 1
-    restarts = {int(e["first_step"]) for e in session.events if e.get("kind") == "resume" and "first_step" in e}
+    restarts = {int(e["first_step"]) for e in _resumes(session) if "first_step" in e}
     direction, last, at = np.zeros(3), None, {}
     for lo, hi in zip(starts, ends):
         index = int(step[lo])

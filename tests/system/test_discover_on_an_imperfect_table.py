@@ -56,7 +56,7 @@ def test_judged_against_the_noise_alone_the_tables_errors_were_named(sessions):
     session = load_session(sessions["clean"])
     idx = session.static_step_indices()
     steps = step_means(session, idx)
-    cov = rig_covariance(session, steps)
+    cov = rig_covariance(session, steps, idx)
     assert cov is not None and cov.shape == (3 * len(idx), 3 * len(idx))
     noise_only = discover(steps, dataclasses.replace(step_context(session, idx), rig_cov_counts2=None))
     assert len(noise_only.effects) > 1 and not noise_only.gap_closed  # the table's errors, named as the sensor's
@@ -80,4 +80,4 @@ def test_a_table_without_errors_adds_nothing(tmp_path):
                         "--quiet")
     assert code == 0, err
     session = load_session(next((tmp_path / "s").iterdir()))
-    assert rig_covariance(session, step_means(session)) is None
+    assert rig_covariance(session, step_means(session), session.static_step_indices()) is None

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.session import SessionWriter, load_session
-from rig.session.adapter import arrival_directions, step_means
+from rig.session.adapter import arrival_directions, step_means, with_arrival
 
 FACES = [[0, 0, 1], [1, 0, 0], [0, 0, -1], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]
 #: the stage positions of the six captures, as the planner moves the table (a1 at 0; a3 turned on past -180)
@@ -43,8 +43,10 @@ def test_each_stage_arrives_in_the_direction_of_its_last_move_and_unknown_before
     assert d.tolist() == [[0, 0, 0], [0, 0, -1], [0, 0, -1], [0, 0, -1], [0, 1, -1], [0, -1, -1]]
 
 
-def test_the_solvers_steps_carry_them_for_the_steps_they_use(tmp_path):
-    steps = step_means(_session(tmp_path), [5, 1, 4])
+def test_the_budgets_steps_carry_them_for_the_steps_they_use(tmp_path):
+    session = _session(tmp_path)
+    assert step_means(session, [5, 1, 4]).arrival_direction is None  # read only when a budget needs them
+    steps = with_arrival(session, step_means(session, [5, 1, 4]), [5, 1, 4])
     assert steps.arrival_direction.tolist() == [[0, -1, -1], [0, 0, -1], [0, 1, -1]]
 
 
@@ -56,4 +58,5 @@ def test_a_resume_forgets_where_the_stages_came_from(tmp_path):
 
 def test_a_session_without_stage_positions_has_none(tmp_path):
     assert arrival_directions(_session(tmp_path, record_positions=False), list(range(6))) is None
-    assert step_means(load_session(tmp_path / "s")).arrival_direction is None
+    session = load_session(tmp_path / "s")
+    assert with_arrival(session, step_means(session), list(range(6))).arrival_direction is None
