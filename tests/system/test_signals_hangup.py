@@ -50,6 +50,18 @@ def _spawn(out: Path, *extra: str, ignore: tuple[int, ...] = (), **kw) -> subpro
                              "--seed", "5", "--time-scale", "1", *extra], cwd=REPO, env=env, **kw)
 
 
+def _finish(proc: subprocess.Popen, timeout_s: float = 20) -> tuple:
+    """``proc.communicate()``; a program still running after ``timeout_s`` is made to dump where each of its threads
+    is (SIGABRT: it runs with ``-X faulthandler``) and the test fails with that, not with a bare timeout."""
+    try:
+        return proc.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGABRT)
+        _, err = proc.communicate()
+        text = err if isinstance(err, str) else err.decode(errors="replace")
+        raise AssertionError(f"still running after {timeout_s} s; where it was:\n{text[-6000:]}") from None
+
+
 def _events(d: Path) -> list[dict]:
     return [json.loads(line) for line in (d / "events.jsonl").read_text().splitlines() if line.strip()]
 
@@ -102,7 +114,7 @@ def test_sighup_stops_the_motors_marks_the_session_aborted_and_prints_a_resume_c
     proc = _spawn(out, "--quiet", text=True)
     d = _wait_mid_step(out, proc)
     proc.send_signal(sig)
-    _, err = proc.communicate(timeout=20)
+    _, err = _finish(proc)
     assert proc.returncode == 1, (proc.returncode, err[-3000:])
     last = err.strip().splitlines()[-1]
     by = " (SIGHUP)" if sig == signal.SIGHUP else ""
@@ -176,7 +188,7 @@ def test_under_nohup_a_hangup_does_not_stop_the_run(tmp_path):
     time.sleep(0.5)
     assert proc.poll() is None and _status(d) == "running"
     proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=20)
+    _, err = _finish(proc)
     assert proc.returncode == 1 and err.strip().splitlines()[-1].startswith("rig run: aborted"), err[-2000:]
 
 
@@ -209,7 +221,7 @@ def test_signals_during_start_up_exit_with_one_line_never_a_traceback(tmp_path, 
             if proc.poll() is None:
                 proc.send_signal(sig)
             time.sleep(0.033)
-        _, err = proc.communicate(timeout=20)
+        _, err = _finish(proc)
         lines = err.strip().splitlines()
         assert "Traceback" not in err and proc.returncode == 1, (delay, proc.returncode, err[-3000:])
         assert lines and (lines[-1] == "rig run: interrupted" or lines[-1].startswith("rig run: aborted")), (delay, lines)
