@@ -66,6 +66,13 @@ the two runs moves them by more than their difference, so the bench now also cal
 (before these three changes: 0.996, 1.008, 1.004). Target (no slower than imucal's): met by about 5 %.
 Combinations on 26 directions 196-216 ms (core 117-127).
 
+2026-11-26 09:00-09:05, quiet machine: after the recording's noise rule (0.11 ms) and the arrival directions read in
+every step_means (0.22 ms, the events parsed) the interleaved ratio was 1.006 (missed); with the arrival directions
+read only where a budget uses lost motion and the events parsed only when they mention a resume: **0.973, 0.968**
+(rig 8.15, 8.07 ms; imucal 8.38, 8.33 ms); core 0.57 ms; combinations on 26 directions 186-193 ms (core 113).
+As a command (bench_startup, 7 interleaved runs): rig solve 0.305 s against the imucal script's 0.355 s (0.86),
+rig --help 0.028 s.
+
 Copied into another checkout (``benchmarks/``), it times that checkout's code: without
 :func:`calibrate_session` it times ``solve_session`` with the file's write skipped.
 """

@@ -12,9 +12,16 @@ Measured (fresh clone, ``bash .ci/run``, 2 cores, quiet machine, Python 3.11):
 
 | date | HEAD | wall | pytest | tests |
 |---|---|---|---|---|
+| 2026-11-26 09:15, 09:20 | 86a5864.. (BLAS on one thread per test process, the fixture resume tests on 4 slots) | 5 min 14 s, 5 min 10 s | 4 min 42 s, 4 min 38 s | 2273 passed, 20 skipped |
+| 2026-11-26 07:00-07:25 (a session earlier) | 28d5248 | 5 min 54 s, 6 min 33 s, 6 min 04 s, 5 min 21 s | 4:49-5:54 | 2238 passed, 20 skipped |
 | 2026-11-26 03:58 | f6a5455.. (after the scheduling and simulator changes) | 5 min 06 s | 4 min 33 s | 1969 passed, 20 skipped |
 | 2026-11-26 04:21 | 6bb4ab9 | 4 min 48 s | 4 min 17 s | 1978 passed, 20 skipped |
 | 2026-11-25 (previous session's end) | fb8bc24 | 6 min 00 s, 6 min 10 s | 5 min 27 s, 5 min 36 s | 1842 passed, 20 skipped |
+
+On 2026-11-26 two OpenBLAS threads in each of the two test processes on two cores made every small BLAS call wait
+for the other thread (a 6x6 triangular solve of the discovery search 16 ms instead of 0.02 ms when the machine is
+busy): the conftest sets one BLAS thread per process before numpy loads (user CPU of the suite 9:29-10:31 -> 7:55-8:07
+with 35 more tests), and ``rig`` itself does the same as a program (docs/cli.md).
 
 The 20 skips are the dataset tests (``../shared/datasets`` is not beside a clone in /tmp). What moved the time:
 pytest-xdist 3.8 re-sorts ``--dist loadscope``'s modules by their number of tests unless ``loadscopereorder`` is
