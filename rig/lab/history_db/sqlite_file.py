@@ -5,6 +5,7 @@ starts without importing SQLAlchemy: docs/history.md, "Start-up"). WAL journal, 
 from __future__ import annotations
 
 import sqlite3
+import time
 from pathlib import Path
 
 from rig.lab.history_db.errors import HistoryCorrupt, HistoryError, HistoryLocked, first_line
@@ -41,13 +42,24 @@ class SqliteFile:
         except (OSError, sqlite3.Error) as exc:
             raise HistoryLocked(f"{path}: cannot open the history database ({exc})") from None
         self.conn.row_factory = sqlite3.Row
-        try:
-            self.conn.execute(f"PRAGMA busy_timeout = {int(timeout_s * 1000)}")
-            self.conn.execute("PRAGMA journal_mode = WAL")
-            self.conn.execute("PRAGMA foreign_keys = ON")
-        except sqlite3.Error as exc:
-            self.conn.close()
-            raise translate(exc, path) from None
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                self.conn.execute(f"PRAGMA busy_timeout = {int(timeout_s * 1000)}")
+                self.conn.execute("PRAGMA journal_mode = WAL")
+                self.conn.execute("PRAGMA foreign_keys = ON")
+                break
+            except sqlite3.OperationalError as exc:
+                # a database another writer is creating or switching to WAL answers "locked" at once, without
+                # the busy handler (seen with two writers starting on an empty file): wait for it as a writer does
+                if _busy(exc) and time.monotonic() < deadline:
+                    time.sleep(0.02)
+                    continue
+                self.conn.close()
+                raise translate(exc, path) from None
+            except sqlite3.Error as exc:
+                self.conn.close()
+                raise translate(exc, path) from None
 
     def close(self) -> None:
         self.conn.close()
@@ -120,3 +132,9 @@ class SqliteFile:
             tx.conn.execute(ALEMBIC_TABLE)
             tx.conn.execute("INSERT INTO alembic_version (version_num) VALUES (?)", (revision(SCHEMA_VERSION),))
         self.write(steps)
+
+
+def _busy(exc: sqlite3.Error) -> bool:
+    """Whether SQLite said another connection holds the database (locked, busy), which waiting may end."""
+    text = str(exc).lower()
+    return "locked" in text or "busy" in text
