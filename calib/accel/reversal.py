@@ -84,7 +84,7 @@ class Characterisation:
     def rig_errors(self, rig: RigErrors, source: str) -> RigErrors:
         """``rig`` with these parameters' residual standard uncertainties in place of their classes."""
         return RigErrors(table=rig.table, gravity=rig.gravity, one_direction=rig.one_direction,
-                         thermometer_u_c=rig.thermometer_u_c,
+                         mixed_approach=rig.mixed_approach, thermometer_u_c=rig.thermometer_u_c,
                          known={**rig.known, **dict.fromkeys(ALIASES, 0.0), **(self.u_correction_deg or self.u_deg)},
                          source=source)
 
