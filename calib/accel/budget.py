@@ -37,7 +37,8 @@ from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, combined, 
 from calib.accel.solve import (TRIANGULAR_NAMES, _model_with_thermal, axis_wander_counts2, weighs_wander,
                                wander_covariance)
 from calib.accel.rig_misfit import RigMisfit, has_pose_errors, rig_misfit
-from calib.accel.rig_propagation import EPS_DEG, GROUPS, pose_shifts, rig_parameters, stage_angles_deg, usable_arrival
+from calib.accel.rig_propagation import (EPS_DEG, GROUPS, pose_shifts, rig_parameters, stacked_parameters,
+                                         stage_angles_deg, usable_arrival)
 from calib.numerics.gravity import G0_M_S2, Gravity
 
 #: step of the thermometer's finite differences, C
@@ -206,17 +207,8 @@ def _rig_contributions_linear(linear: "LinearSolve", steps: StepMeans, rig: RigE
     angles = stage_angles_deg(steps.f_nominal_g)
     f = np.asarray(steps.f_nominal_g, float)
     k = len(steps)
-    # lost motion of unknown sign (no arrival directions recorded): one parameter per pose and stage, each row its own
-    arrival = usable_arrival(steps, rig)
-    per_pose = not rig.one_direction and arrival is None
     out = []
-    if per_pose:
-        params = [p if p.directions is None else  # the stage's lost motion, every pose at once (row j: pose j's own)
-                  dataclasses.replace(p, directions=np.repeat(p.directions[:1], k, axis=0))
-                  for p in rig_parameters(dataclasses.replace(rig, one_direction=True), 1)]
-    else:
-        params = rig_parameters(rig, k, arrival)
-    params = [p for p in params if p.u_deg != 0]  # a class of zero (a table without its errors): nothing to propagate
+    params, per_pose = stacked_parameters(steps, rig)
     for p, shift in zip(params, pose_shifts(params, angles)):
         if not np.any(np.abs(shift) > 1e-12):
             continue

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib.accel.inputs import StepMeans
-from calib.accel.rig_propagation import pose_shifts, rig_parameters, stage_angles_deg, usable_arrival
+from calib.accel.rig_propagation import pose_shifts, stacked_parameters, stage_angles_deg
 from calib.accel.solve import axis_wander_counts2, wander_covariance, weighs_wander
 from calib.numerics.budget import RigErrors
 from calib.numerics.design import MISFIT_LEVEL, SENSOR_AXES, misfit
@@ -87,15 +87,7 @@ def rig_step_covariance(steps: StepMeans, rig: RigErrors, matrix_counts_per_g) -
     k = len(steps)
     angles = stage_angles_deg(steps.f_nominal_g)
     m = np.asarray(matrix_counts_per_g, float)
-    # lost motion of unknown sign (no arrival directions recorded): each pose's own, independent (a column per pose
-    # and stage); with the directions recorded, one per stage with their signs
-    arrival = usable_arrival(steps, rig)
-    per_pose = not rig.one_direction and arrival is None
-    if per_pose:
-        params = [p if p.directions is None else dataclasses.replace(p, directions=np.repeat(p.directions[:1], k, axis=0))
-                  for p in rig_parameters(dataclasses.replace(rig, one_direction=True), 1) if p.u_deg != 0]
-    else:
-        params = [p for p in rig_parameters(rig, k, arrival) if p.u_deg != 0]
+    params, per_pose = stacked_parameters(steps, rig)  # lost motion of unknown sign: a column per pose and stage
     cols = []
     for p, shift in zip(params, pose_shifts(params, angles)):  # shift: (K, 3) g per deg
         counts = shift @ m.T * p.u_deg  # (K, 3) counts at one standard uncertainty

@@ -112,6 +112,22 @@ def usable_arrival(steps, rig: RigErrors) -> np.ndarray | None:
     return None if arrival is None or rig.one_direction or rig.mixed_approach else np.asarray(arrival, float)
 
 
+def stacked_parameters(steps, rig: RigErrors) -> tuple[list[RigParameter], bool]:
+    """The rig's parameters of nonzero uncertainty for one pass of the table's chain over ``steps``' poses, and
+    whether lost motion is of unknown sign at every pose (no usable arrival directions, :func:`usable_arrival`;
+    poses reached from either side): each stage's lost motion is then one parameter moving every pose at once,
+    row j standing for pose j's own independent one (a linear map takes each row apart)."""
+    k = len(steps)
+    arrival = usable_arrival(steps, rig)
+    per_pose = not rig.one_direction and arrival is None
+    if per_pose:
+        params = [p if p.directions is None else replace(p, directions=np.repeat(p.directions[:1], k, axis=0))
+                  for p in rig_parameters(replace(rig, one_direction=True), 1)]
+    else:
+        params = rig_parameters(rig, k, arrival)
+    return [p for p in params if p.u_deg != 0], per_pose
+
+
 def rig_parameters(rig: RigErrors, k: int, arrival: np.ndarray | None = None) -> list[RigParameter]:
     """Every geometry error of a session of ``k`` poses with its standard uncertainty (a characterised value
     from ``rig.known`` replaces its class); ``arrival``: the poses' recorded arrival directions
