@@ -22,6 +22,7 @@ from rig.cli.commands import COMMANDS, load
 from rig.session import SessionWriter
 
 from conftest import PROCEDURES, REPO
+from written_sessions import faces_manifest
 
 #: what no command that opens no rig and draws no plot may import
 NEVER = ("rig.simulation", "drivers.ximc.sim", "drivers.sensors.sim", "scipy.signal", "matplotlib")
@@ -63,12 +64,7 @@ def six_position_session(tmp_path):
     """A six-position session as ``rig run`` writes it (the shipped procedure), written directly: no simulator."""
     faces = [[0, 0, 1], [1, 0, 0], [0, 0, -1], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]
     text = (PROCEDURES / "six_position.yaml").read_text()
-    manifest = {"procedure": {"name": "six_position", "file": "procedures/six_position.yaml", "text": text},
-                "software": {"name": "rig", "version": "test"},
-                "rig": {"sensor": {"model": "MPU-9150", "address": 104, "serial": "T1", "accel_lsb_per_g": 8192.0,
-                                   "sample_rate_hz": 100.0, "has_temperature": True}},
-                "steps": [{"index": i, "name": f"p{i}", "kind": "static", "angles_deg": None, "f_nominal": f,
-                           "status": "pending"} for i, f in enumerate(faces)]}
+    manifest = faces_manifest(faces, {"name": "six_position", "file": "procedures/six_position.yaml", "text": text})
     writer = SessionWriter.create(tmp_path, "six", manifest)
     rng = np.random.default_rng(3)
     for i, f in enumerate(faces):

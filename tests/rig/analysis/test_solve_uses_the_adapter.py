@@ -8,15 +8,14 @@ import calib
 from rig.analysis.solve import calibrate_session
 from rig.session import SessionWriter, load_session, step_means
 
+from written_sessions import faces_manifest
+
 
 def test_calibrate_session_is_calib_solve_of_the_adapters_step_means(tmp_path):
     faces = [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]]
-    manifest = {"procedure": {"name": "six", "text": "solve: {model: triangular, method: pinv, thermal: off}\n"},
-                "software": {"name": "rig", "version": "test"},
-                "rig": {"sensor": {"model": "ADXL345", "address": 83, "serial": "A1", "accel_lsb_per_g": 256.0,
-                                   "sample_rate_hz": 100.0, "has_temperature": False}},
-                "steps": [{"index": i, "name": f"p{i}", "kind": "static", "angles_deg": None, "f_nominal": f,
-                           "status": "pending"} for i, f in enumerate(faces)]}
+    manifest = faces_manifest(faces, {"name": "six", "text": "solve: {model: triangular, method: pinv, thermal: off}\n"},
+                              {"model": "ADXL345", "address": 83, "serial": "A1", "accel_lsb_per_g": 256.0,
+                               "sample_rate_hz": 100.0, "has_temperature": False})
     w = SessionWriter.create(tmp_path, "six", manifest)
     rng = np.random.default_rng(2)
     for i, f in enumerate(faces):

@@ -13,19 +13,15 @@ import numpy as np
 from rig.session import SessionWriter, load_session
 from rig.session.adapter import arrival_directions, step_means, with_arrival
 
+from written_sessions import faces_manifest
+
 FACES = [[0, 0, 1], [1, 0, 0], [0, 0, -1], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]
 #: the stage positions of the six captures, as the planner moves the table (a1 at 0; a3 turned on past -180)
 POSITIONS = [[0, 0, 0], [0, 0, -90], [0, 0, -180], [0, 0, -270], [0, 90, -360], [0, -90, -360]]
 
 
 def _session(tmp_path, positions=POSITIONS, resume_at: int | None = None, record_positions: bool = True):
-    manifest = {"procedure": {"name": "six", "file": "six.yaml", "text": ""},
-                "software": {"name": "rig", "version": "test"},
-                "rig": {"sensor": {"model": "MPU-9150", "address": 104, "serial": "T1", "accel_lsb_per_g": 8192.0,
-                                   "sample_rate_hz": 100.0, "has_temperature": True}},
-                "steps": [{"index": i, "name": f"p{i}", "kind": "static", "angles_deg": None, "f_nominal": f,
-                           "status": "pending"} for i, f in enumerate(FACES)]}
-    writer = SessionWriter.create(tmp_path, "s", manifest)
+    writer = SessionWriter.create(tmp_path, "s", faces_manifest(FACES, {"name": "six", "file": "six.yaml", "text": ""}))
     rng = np.random.default_rng(0)
     for i, (f, at) in enumerate(zip(FACES, positions)):
         if resume_at == i:
