@@ -12,8 +12,9 @@ import pytest
 # BLAS on one thread per test process, set before numpy loads (subprocesses and xdist's workers inherit it): the
 # suite runs one process per core, and the calibration's small matrices gain nothing from threads; two OpenBLAS
 # threads per worker on two busy cores made the discovery search's 6x6 triangular solves 16 ms each, not 0.02 ms
-for _blas_threads in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_blas_threads, "1")
+from rig.cli.main import one_blas_thread  # imports no numpy (tests/system/test_cli_startup.py)
+
+one_blas_thread()  # as the rig program does
 
 from rig.workflow import kinds  # noqa: E402,F401 - after the BLAS threads; the suite is wired as the workflows are (rig.composition): rig kinds, sim:/faults:
 
