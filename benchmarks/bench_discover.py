@@ -4,6 +4,8 @@ Usage::
 
     .venv/bin/python benchmarks/bench_discover.py [--seeds 20] [--clean 100] [--full 0] [--sessions 'GLOB']
         [--pvalues] [--no-mdm] [--no-run-time] [--designs a,b] [--effects a,b] [--templates T26 THERMAL]
+    .venv/bin/python benchmarks/bench_discover.py --rig-only [--full N --first-seed 100 --full-designs a,b
+        --geometry on|off] [--sessions 'DIR/<procedure>-*'] [--pvalues] [--family-draws 200000]
 
 **Sample-level simulation** (the default, fast): a template session fixes the design (poses, step
 times and durations, temperatures, legs, rates, outer-axis angles, samples per step). Each trial
@@ -20,15 +22,24 @@ issue's design: heating steps at 15, 27.6 and 40 C, cooling steps at 33 and 21 C
 the first leg unknown) and ``ramps`` (faces repeated while the chamber heats and cools at up to
 0.02 C/s, for ``thermal_gradient``).
 
-**Full simulated rig**: ``--full N`` runs N clean sessions per recorded design through the emulated
-turntable and sensor with ``noise: dlpf``; ``--sessions GLOB`` evaluates already-recorded session
-directories instead (each glob match is a session's parent directory, as written by ``rig run --out``).
-A false alarm is any effect named other than ``bias_tempco`` (which every drawn sensor has); the
-verdict's false alarms (``gap_closed: false`` on a clean session) are counted separately.
+**Full simulated rig**: ``--full N`` runs N clean sessions per recorded design (``--full-designs``, default
+all four; seeds ``--first-seed`` .. + N - 1) through the emulated turntable and sensor with ``noise: dlpf``
+(``--geometry on|off``: the table's own errors, ``sim.geometry.enabled``; default the rig file's: off today);
+``--sessions GLOB`` evaluates already-recorded session directories instead (each glob match is a session's
+parent directory, as written by ``rig run --out``, named ``<procedure>-<seed>``: grouped by the procedure);
+``--rig-only`` skips everything else. A false alarm is any effect named other than ``bias_tempco`` (which
+every drawn sensor has); the verdict's false alarms (``gap_closed: false`` on a clean session) are counted
+separately. Each design's row also gives the sessions with a Bonferroni-family event (:func:`naming_pass`:
+the smallest candidate p-value at the pass where a spurious name enters, times the candidates, below 0.01),
+how many spurious names were *not* such an event (a step of the selection naming on its own: 0 so far), the
+mean chi2/dof after, and the true residual's chi2/n against the search's V (:func:`true_residual_chi2`: 1
+when V is right). ``--family-draws N``: each design's own family rate when V is right (:func:`family_rate`,
+Monte Carlo over whitened noise), what a clean session of that design names at most.
 
 **Calibration of the tests** (``--pvalues``): on the same clean sessions, each candidate's p-value
-of the search's test against the baseline plus ``bias_tempco``
-(:func:`calib.discovery.search.candidate_pvalues`), which is uniform when the test is calibrated: the table
+of the search's test against the baseline plus ``bias_tempco`` (the baseline alone where the search does not
+name ``bias_tempco``: six positions) (:func:`calib.discovery.search.candidate_pvalues`, :func:`naming_pass`),
+which is uniform when the test is calibrated: the table
 gives the counts below 0.001, 0.01 and 0.05 and the Kolmogorov-Smirnov p-value against the uniform,
 and how many sessions Bonferroni's family (the smallest p-value times the number of candidates) puts
 below 0.01 (what forward selection can name: at most 1 % of sessions).
@@ -89,12 +100,19 @@ in 6 sessions gets a weak proposal (16/100; 5/100 hand-placed); running them aga
 merging them added one false alarm (seed 3076's weak ``full_misalignment``, p x candidates 0.0101 in the
 session, named in the merged one: a second look at the same data); the
 two mirrored thermal designs share seeds and sensors, so their rows are one event, not two.
+
+Clean full-rig false alarms (``--rig-only``, measured 2026-11-26 on two shared cores; docs/discrepancy.md,
+"Clean full-rig false alarms re-measured"): thermal_ramp seeds 100-399, ``sim.geometry`` off, 5/300 (100-199:
+3/100, 200-399: 2/200), every one a Bonferroni-family event (none beyond), true residual chi2/n 1.005 +- 0.007,
+the design's own family rate 0.92 % (``--family-draws 200000``); six_position seeds 100-199 2/100 (its rate
+0.65 %); thermal_ramp 100-199 with ``--geometry on`` 1/100 (the pose candidates' p-values then conservative).
 """
 
 from __future__ import annotations
 
 import argparse
 import glob
+from dataclasses import replace
 import subprocess
 import sys
 import tempfile
@@ -110,7 +128,9 @@ sys.path.insert(0, str(REPO))
 
 from calib.accel.inputs import StepMeans  # noqa: E402
 from calib.numerics.stability import BiasStability  # noqa: E402
-from calib.discovery.search import StepContext, candidate_pvalues, discover, final_problem  # noqa: E402
+from calib.discovery.search import StepContext, candidate_pvalues, discover, final_problem, remaining  # noqa: E402
+from calib.discovery.problem import SCATTER_LEVEL, floored_sf  # noqa: E402
+from calib.numerics.design import misfit  # noqa: E402
 from calib.discovery.effects import heating_state  # noqa: E402
 from calib.discovery.problem import pose_blocks  # noqa: E402
 from calib.discovery.propose import POWER_TARGET, block_inputs, deciding, separating  # noqa: E402
@@ -119,7 +139,7 @@ from calib.numerics.uncertainty import step_standard_errors  # noqa: E402
 from drivers.sensors.chips import CHIPS  # noqa: E402
 from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
 from drivers.sensors.sim.noise import NoiseProcess  # noqa: E402
-from rig.analysis.discover import discover_session, step_context  # noqa: E402
+from rig.analysis.discover import discover_session, rig_covariance, step_context  # noqa: E402
 from rig.session import load_session, step_means  # noqa: E402
 
 BANDWIDTH_HZ = 44.0
@@ -140,6 +160,8 @@ CELLS = {
     ("scale_tempco", "tumble26"): ("scale_tempco_per_c", [1, 1, 1], 2e-4),
     ("scale_nonlinearity", "tumble26"): ("scale_nonlinearity", [1, 1, 1], 3e-3),
 }
+#: the procedures ``--full`` records
+FULL_DESIGNS = ("tumble26", "thermal", "six_position", "thermal_ramp")
 FACTORS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0)
 
 
@@ -418,11 +440,15 @@ def print_matrix(seeds: int, rows: str | None = None) -> None:
               + (f" after: {c['after_wrong'][:3]}" if c["after_wrong"] else ""), flush=True)
 
 
-def record(tmp: Path, procedure: str, seed: int, noise: str = "dlpf") -> Path:
+def record(tmp: Path, procedure: str, seed: int, noise: str = "dlpf", geometry: bool | None = None) -> Path:
+    """Run ``procedure`` on the simulated rig (rigs/sim.yaml in virtual time, ``noise``) with ``seed``; ``geometry``
+    True or False sets ``sim.geometry.enabled`` (the table's own errors), None leaves the rig file's default."""
     doc = yaml.safe_load((REPO / "rigs" / "sim.yaml").read_text())
     doc["sim"]["time_scale"] = 0
     doc["sim"]["noise"] = noise
-    rig = tmp / "rig.yaml"
+    if geometry is not None:
+        doc["sim"]["geometry"] = {**doc["sim"].get("geometry", {}), "enabled": bool(geometry)}
+    rig = tmp / ("rig.yaml" if geometry is None else f"rig-geometry-{'on' if geometry else 'off'}.yaml")
     rig.write_text(yaml.safe_dump(doc))
     out = tmp / f"{Path(procedure).stem}-{seed}"
     subprocess.run([sys.executable, "-m", "rig.cli", "run", str(REPO / "procedures" / procedure), "--rig", str(rig),
@@ -478,46 +504,158 @@ def clean_rates(design: Design, n: int) -> tuple[int, int, float]:
     return fa, gap, float(np.mean(chi))
 
 
-def full_rig(paths) -> tuple[int, int, int, list]:
-    """(sessions, spurious names, verdict false alarms, names) over recorded clean sessions."""
-    fa = gap = 0
-    names = []
+def full_rig(paths) -> tuple[list, int, list, float]:
+    """(spurious or not per session, verdict false alarms, names (seed), mean chi2/dof after) over recorded clean
+    sessions."""
+    gap = 0
+    flags, names, chi = [], [], []
     for p in paths:
-        _, d = discover_session(p)
-        fa += spurious(d)
+        s, d = discover_session(p)
+        flags.append(spurious(d))
         gap += not d.gap_closed
+        chi.append(d.chi2_per_dof_after)
         if spurious(d):
-            names.append([e.name for e in d.effects])
-    return len(paths), fa, gap, names
+            names.append(([e.name for e in d.effects if e.name != "bias_tempco"], s.info.seed))
+    return flags, gap, names, float(np.mean(chi))
 
 
-def session_pvalues(paths) -> list[dict]:
-    """Per recorded clean session: each candidate's p-value against the baseline plus the real bias_tempco."""
-    out = []
-    for p in paths:
-        s = load_session(p)
-        idx = s.static_step_indices()
-        out.append(candidate_pvalues(step_means(s, idx), step_context(s, idx)))
-    return out
+def true_residual_chi2(path) -> float | None:
+    """The generalised chi-square per step-mean component of a recorded simulated session's *true* residual: the
+    step means less the simulator's own noise-free output (its ``sim_truth.yaml``, at the nominal poses and the
+    steps' mean temperatures), whitened by the search's covariance V (noise, wander, and the rig's errors when
+    discover judges with them). 1 on average when V is right (no parameter is fitted); None without a truth."""
+    truth = Path(path) / "sim_truth.yaml"
+    if not truth.exists():
+        return None
+    s = load_session(path)
+    idx = s.static_step_indices()
+    st = step_means(s, idx)
+    ctx = replace(step_context(s, idx), rig_cov_counts2=rig_covariance(s, st, idx))
+    model = AccelErrorModel.from_dict(yaml.safe_load(truth.read_text())["accelerometer"])
+    out_g = model.output_g(np.asarray(st.f_nominal_g, float), np.asarray(st.temp_c, float), np.asarray(st.t_s, float),
+                           np.zeros(len(st)))
+    prob, _ = final_problem(st, ctx, [])
+    white = prob.whiten((np.asarray(st.mean_counts, float) - out_g * st.lsb_per_g).T.ravel())
+    return float(white @ white / len(white))
 
 
-def clean_pvalues(design: Design, n: int) -> list[dict]:
+def naming_pass(steps, ctx, false_alarm: float = 0.01) -> tuple[dict, int]:
+    """The candidates' null p-values at the forward pass where a spurious name would enter a clean session, and
+    the number of candidates that pass's Bonferroni threshold divides ``false_alarm`` by: against the baseline
+    plus the sensor's real ``bias_tempco`` when the search names it first (its p-value below the first pass's
+    threshold: every thermal design), against the baseline alone otherwise (a six-position session's few
+    millikelvin cannot show it), ``bias_tempco`` itself left out (never counted as a false alarm). A clean
+    session names a spurious effect exactly when the smallest of these times that number is below
+    ``false_alarm`` (Bonferroni's family), unless a later step of the selection adds a name of its own."""
+    base = candidate_pvalues(steps, ctx, model=())
+    if held_model(base, false_alarm):
+        held = candidate_pvalues(steps, ctx)
+        return held, len(held)
+    return {k: v for k, v in base.items() if k != "bias_tempco"}, len(base)
+
+
+def held_model(base_pvalues: dict, false_alarm: float = 0.01) -> list:
+    """``["bias_tempco"]`` when the first forward pass names it (its p-value against the baseline alone,
+    ``base_pvalues``, times the candidates below ``false_alarm``), else ``[]``."""
+    return ["bias_tempco"] if base_pvalues.get("bias_tempco", 1.0) * len(base_pvalues) < false_alarm else []
+
+
+def _steps_and_context(path):
+    """A recorded session's static step means and the context ``rig discover`` gives them (the rig's errors)."""
+    s = load_session(path)
+    idx = s.static_step_indices()
+    st = step_means(s, idx)
+    return st, replace(step_context(s, idx), rig_cov_counts2=rig_covariance(s, st, idx))
+
+
+def session_pvalues(paths) -> list[tuple[dict, int]]:
+    """Per recorded clean session: :func:`naming_pass`, with the covariance ``rig discover`` judges against (the
+    rig's errors included when it has them)."""
+    return [naming_pass(*_steps_and_context(p)) for p in paths]
+
+
+def family_rate(steps, ctx, held: list, draws: int, seed: int = 1, chunk: int = 20000) -> tuple[float, float, dict]:
+    """The design's own false-alarm rate of the forward pass holding ``held``: the probability that the smallest
+    candidate p-value of the search's test (:func:`calib.discovery.problem.nested_test`; the jump's times the jump
+    times) times the candidates is below 0.01, when V is right, by Monte Carlo over ``draws`` whitened residuals
+    e ~ N(0, I): each candidate's drop is ``|Q_c' e|^2`` (Q_c: its whitened columns made orthogonal to the held
+    model), the known-noise tail screens, the search's own test decides near the threshold. What a clean session
+    of this design names at most, whatever the sensor (the design and V alone set it). Returns (rate, its standard
+    error, candidate -> how often it would be named)."""
+    prob, observable = final_problem(steps, ctx, [])
+    held = [h for h in held if h in observable]
+    cands = remaining(observable, held)
+
+    def white(n):
+        return prob.white_cols(n)[:, prob.keep[n]]
+
+    q0 = np.linalg.qr(np.concatenate([prob.whiten(prob.rows(prob.base))] + [white(h) for h in held], axis=1))[0]
+
+    def basis(c):
+        r = c - q0 @ (q0.T @ c)
+        u, sv, _ = np.linalg.svd(r, full_matrices=False)
+        return u[:, sv > 1e-6 * max(sv.max(), 1e-300)]
+
+    bases = {}
+    for n in cands:
+        times = prob.jump_grid if n == "bias_jump" else [None]
+        bases[n] = []
+        for tj in times:
+            if tj is not None:
+                prob.set_jump(tj)
+            bases[n].append(basis(white(n)))
+    mult = {n: len(bases[n]) for n in cands}  # the jump's Bonferroni over its times
+    dof0 = q0.shape[0] - q0.shape[1]
+    rng = np.random.default_rng(seed)
+    named = dict.fromkeys(cands, 0)
+    for start in range(0, draws, chunk):
+        e = rng.standard_normal((q0.shape[0], min(chunk, draws - start)))
+        rss0 = (e * e).sum(0) - ((q0.T @ e) ** 2).sum(0)
+        best = {}
+        for n in cands:
+            drops = np.array([((b.T @ e) ** 2).sum(0) for b in bases[n]])
+            qs = np.array([b.shape[1] for b in bases[n]])
+            pv = stats.chi2.sf(drops, qs[:, None])
+            j = pv.argmin(0)
+            cols = np.arange(e.shape[1])
+            best[n] = (np.minimum(1.0, pv[j, cols] * mult[n]), drops[j, cols], qs[j])
+        screen = np.min([best[n][0] for n in cands], axis=0) * len(cands) < 0.03
+        for i in np.flatnonzero(screen):
+            ps = {}
+            for n in cands:
+                d, q = float(best[n][1][i]), int(best[n][2][i])
+                dof = dof0 - q
+                rss = float(rss0[i]) - d
+                t = (d / q) / max(1.0, rss / dof)
+                p = stats.f.sf(t, q, dof) if misfit(rss, dof, SCATTER_LEVEL)[0] else floored_sf(t, q, dof)
+                ps[n] = min(1.0, p * mult[n])
+            first = min(ps, key=ps.get)
+            named[first] += int(ps[first] * len(cands) < 0.01)
+    total = sum(v for n, v in named.items() if n != "bias_tempco")  # the real effect: never a false alarm
+    return total / draws, float(np.sqrt(total)) / draws, named
+
+
+def clean_pvalues(design: Design, n: int) -> list[tuple[dict, int]]:
     """The same over ``n`` clean sample-level trials of ``design`` (the seeds of :func:`clean_rates`)."""
-    return [candidate_pvalues(*design.session(np.random.default_rng(5000 + s))[:2]) for s in range(n)]
+    return [naming_pass(*design.session(np.random.default_rng(5000 + s))[:2]) for s in range(n)]
 
 
-def pvalue_lines(rows: list[dict], label: str) -> list[str]:
+def family_events(rows: list[tuple[dict, int]], level: float = 0.01) -> int:
+    """How many sessions' smallest candidate p-value times the candidates (:func:`naming_pass`) is below ``level``."""
+    return sum(min(pv.values()) * n < level for pv, n in rows if pv)
+
+
+def pvalue_lines(rows: list[tuple[dict, int]], label: str) -> list[str]:
     """Markdown rows: per candidate, how many p-values fall below 0.001, 0.01 and 0.05 (uniform under a
     calibrated test: n times that), and the Kolmogorov-Smirnov p-value against the uniform; then the
     sessions whose smallest p-value times the number of candidates is below 0.01 (Bonferroni's family)."""
     lines = []
-    for name in sorted({k for r in rows for k in r}):
-        p = np.array([r[name] for r in rows if name in r])
+    for name in sorted({k for r, _ in rows for k in r}):
+        p = np.array([r[name] for r, _ in rows if name in r])
         ks = stats.kstest(p, "uniform").pvalue
         lines.append(f"| {label} | {name} | {len(p)} | {(p < 0.001).sum()} | {(p < 0.01).sum()} | {(p < 0.05).sum()} | "
                      f"{ks:.2g} |")
-    fam = sum(min(r.values()) * len(r) < 0.01 for r in rows if r)
-    lines.append(f"| {label} | (family: min p x candidates < 0.01) | {len(rows)} | | {fam} | | |")
+    lines.append(f"| {label} | (family: min p x candidates < 0.01) | {len(rows)} | | {family_events(rows)} | | |")
     return lines
 
 
@@ -555,6 +693,17 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=20)
     ap.add_argument("--clean", type=int, default=100)
     ap.add_argument("--full", type=int, default=0, help="run N full clean dlpf sessions per recorded design")
+    ap.add_argument("--first-seed", type=int, default=100, help="with --full: seeds FIRST .. FIRST + N - 1")
+    ap.add_argument("--full-designs", default=",".join(FULL_DESIGNS),
+                    help="with --full: comma-separated procedures to record (default: all four)")
+    ap.add_argument("--geometry", choices=("on", "off"), default=None,
+                    help="with --full: the simulated table's own errors (sim.geometry.enabled; discover then judges "
+                         "against the rig's covariance); default: the rig file's")
+    ap.add_argument("--family-draws", type=int, default=0,
+                    help="with --full/--sessions: each design's own family rate by N draws of whitened noise")
+    ap.add_argument("--rig-only", action="store_true",
+                    help="only the full simulated-rig sessions (--full, --sessions): no templates, sample-level "
+                         "runs, detection or run time")
     ap.add_argument("--sessions", action="append", default=[], help="glob of recorded clean session dirs")
     ap.add_argument("--no-mdm", action="store_true", help="skip the smallest-detected-magnitude search")
     ap.add_argument("--designs", default=None, help="comma-separated designs for the clean runs (default: all)")
@@ -576,6 +725,9 @@ def main() -> None:
         print_matrix(args.seeds, args.rows)
         return
     tmp = Path(tempfile.mkdtemp(prefix="bench-discover-"))
+    if args.rig_only:
+        print_full_rig(tmp, args)
+        return
     if args.templates:
         templates = dict(zip(("tumble26", "thermal"), map(Path, args.templates)))
     else:
@@ -587,8 +739,6 @@ def main() -> None:
 
     if not args.no_run_time:
         print_run_time(templates["tumble26"])
-    PVALUE_HEAD = ("| sessions | candidate | n | p < 0.001 | p < 0.01 | p < 0.05 | KS p (uniform) |\n"
-                   "|---|---|---|---|---|---|---|")
     pv_rows: list[str] = []
 
     print(f"\nclean sessions, sample-level dlpf simulation ({args.clean} per design):")
@@ -613,28 +763,57 @@ def main() -> None:
         print(f"| {cell[0]} | {cell[1]} | {mag:g} | {det}/{args.seeds} | {alone}/{args.seeds} | {within}/{det or 1} | "
               f"{mdm} |", flush=True)
 
-    paths = {}
+    print_full_rig(tmp, args, pv_rows)
+
+
+def print_full_rig(tmp: Path, args, pv_rows: list | None = None) -> None:
+    """The clean full simulated-rig sessions (``--full``: recorded here; ``--sessions``: given): false alarms,
+    verdict false alarms, the sessions whose smallest candidate p-value times the candidates is below 0.01
+    (Bonferroni's family: what forward selection can name), the mean chi-square per dof after and the true
+    residual's (:func:`true_residual_chi2`), then (``--pvalues``) each candidate's null p-values."""
+    pv_rows = [] if pv_rows is None else pv_rows
+    paths: dict = {}
     for pattern in args.sessions:
         for p in sorted(glob.glob(pattern)):
             inner = [q for q in Path(p).iterdir() if q.is_dir() and (q / "session.yaml").exists()]
-            if inner:
-                paths.setdefault(Path(p).parent.name, []).append(inner[0])
-    for seed in range(args.full):
-        for proc in ("tumble26", "thermal", "six_position", "thermal_ramp"):
-            paths.setdefault(proc, []).append(record(tmp, f"{proc}.yaml", 100 + seed))
+            if inner:  # DIR/<procedure>-<seed>/<session>: grouped by the procedure
+                paths.setdefault(Path(p).name.rsplit("-", 1)[0], []).append(inner[0])
+    geometry = None if args.geometry is None else args.geometry == "on"
+    for seed in range(args.first_seed, args.first_seed + args.full):
+        for proc in args.full_designs.split(","):
+            paths.setdefault(proc, []).append(record(tmp, f"{proc}.yaml", seed, geometry=geometry))
     if paths:
-        print("\nclean full simulated-rig sessions (dlpf noise):")
-        print("| design | sessions | spurious names | gap_closed false | spurious |\n|---|---|---|---|---|")
+        print(f"\nclean full simulated-rig sessions (dlpf noise, table errors {args.geometry or 'as the rig file'}):")
+        print("| design | sessions | spurious names | gap_closed false | family < 0.01 | named beyond the family | "
+              "mean chi2/dof after | true residual chi2/n | spurious (seed) |\n|---|---|---|---|---|---|---|---|---|")
         for name, ps in paths.items():
-            n, fa, gap, names = full_rig(ps)
-            print(f"| {name} | {n} | {fa}/{n} | {gap}/{n} | {names} |", flush=True)
+            flags, gap, names, chi = full_rig(ps)
+            n, fa = len(ps), sum(flags)
+            pv = session_pvalues(ps)
+            fam = family_events(pv)
+            beyond = sum(f and not family_events([r]) for f, r in zip(flags, pv))  # named, no family event
+            true = [c for c in map(true_residual_chi2, ps) if c is not None]
+            true_s = f"{np.mean(true):.3f} +- {np.std(true) / np.sqrt(len(true)):.3f}" if true else "-"
+            print(f"| {name} | {n} | {fa}/{n} | {gap}/{n} | {fam} | {beyond} | {chi:.3f} | {true_s} | {names} |",
+                  flush=True)
             if args.pvalues:
-                pv_rows += pvalue_lines(session_pvalues(ps), f"{name} (full rig)")
+                pv_rows += pvalue_lines(pv, f"{name} (full rig)")
     if pv_rows:
-        print("\nnull p-values of each candidate against the baseline + bias_tempco (calibrated: uniform; "
-              "bias_jump's is Bonferroni over the jump times, conservative):")
-        print(PVALUE_HEAD)
+        print("\nnull p-values of each candidate at the pass where a spurious name would enter (the baseline + "
+              "bias_tempco; the baseline alone where bias_tempco is not named) (calibrated: uniform; bias_jump's is "
+              "Bonferroni over the jump times, conservative):")
+        print("| sessions | candidate | n | p < 0.001 | p < 0.01 | p < 0.05 | KS p (uniform) |\n"
+              "|---|---|---|---|---|---|---|")
         print("\n".join(pv_rows))
+    if paths and getattr(args, "family_draws", 0):
+        print(f"\nthe design's own family rate ({args.family_draws} draws of whitened noise, V right; the first "
+              "session of each design):\n| design | held | candidates | spurious family rate (the search's test) | "
+              "by candidate |\n|---|---|---|---|---|")
+        for name, ps in paths.items():
+            st, ctx = _steps_and_context(ps[0])
+            held = held_model(candidate_pvalues(st, ctx, model=()))
+            rate, se, by = family_rate(st, ctx, held, args.family_draws)
+            print(f"| {name} | {held} | {len(by)} | {rate:.3%} +- {se:.3%} | {by} |", flush=True)
 
 
 if __name__ == "__main__":
