@@ -6,7 +6,10 @@ of each step (:func:`pooled_allan`), show the white noise, and on long steps the
 walk. The figures follow from the likelihood of those variances (chi-squared with their pooled degrees of
 freedom: each step is an independent record) times a log-normal prior on the squared floor and walk about the
 family's (:func:`fit_with_prior`): where the steps are too short to see the wander the answer stays the family's,
-where they are long enough it moves to the unit's.
+where they are long enough it moves to the unit's. What sets a long session's bias sigma is mostly the wander
+between steps minutes apart, which no step reaches on its own: the steps' means about the calibration's affine
+model show it (:class:`StepMeansOfAxis`, built by :func:`step_means_of_axis`; a few degrees of freedom, each
+worth many of the Allan variances'), and their restricted likelihood joins the fit (``between``).
 
 When that is worth doing is a rule of its own (:func:`steps_show_wander`): the longest averaging time the steps
 reach (a quarter of the longest step, on the octave grid) must be at least :data:`REACH_OF_CROSSING` of the
@@ -25,10 +28,19 @@ from dataclasses import dataclass
 import numpy as np
 from calib.errors import CalibError
 from calib.noise.allan import FIT_TAU_MIN_S, MAX_TAU_FRACTION, edf_for
-from calib.noise.terms import TERMS, NoiseFigures
+from calib.noise.terms import REGISTRY_B_FLOOR, TERMS, NoiseFigures
+from calib.numerics.wander import wander_cov
 
-#: the prior's spread: ln of a unit's figure over the family's, 1 sigma (0.5-2x the family is +-0.87 sigma)
-PRIOR_SD_LN = 0.8
+#: the prior's spread: ln of a unit's figure over the family's, 1 sigma (0.5-2x the family is +-0.43 sigma). Wide
+#: on purpose: the answer is the unit's, not the best guess over units; with 0.8 (until 2026-11-26) six 600 s steps
+#: left the walk of units 0.5x and 2x their family's 30-50 % of the way to the prior (benchmarks/bench_unit_noise.py
+#: --dwell 600: observed scatter / reported sigma 0.69-1.48); with 1.6 and the step means (:class:`StepMeansOfAxis`)
+#: the ratios lie 0.05 rms in ln from those of the unit's true figures (0.14 before), with 2.5 0.06
+PRIOR_SD_LN = 1.6
+#: the longest averaging time of the steps' pooled Allan variance, as a share of each step: a half (the overlapping
+#: variance's last octave; a characterisation stops at a quarter, :data:`calib.noise.allan.MAX_TAU_FRACTION`), as
+#: six 600 s steps reach 164 s, past the crossing of white noise and floor, instead of 82 s
+STEPS_TAU_FRACTION = 0.5
 #: the steps are long enough to move the figures off the prior when the longest averaging time they reach is at
 #: least this share of the crossing of their white noise and the prior's floor, ``(N / B)^2`` (an MPU-9150 at
 #: 100 Hz, N about 340 ug/rtHz through its 44 Hz filter, floor 28 ug: a crossing of about 145 s, so steps of
@@ -82,9 +94,10 @@ def _avar_terms(x: np.ndarray, m: int) -> tuple[float, int]:
     return float(np.einsum("i,i->", d, d)), len(d)
 
 
-def _octaves(n_max: int, rate_hz: float, tau_min_s: float) -> list[int]:
-    """The octave cluster sizes m (samples) from ``tau_min_s`` (s) up to a quarter of ``n_max`` samples."""
-    m_max, m, out = max(int(n_max * MAX_TAU_FRACTION), 1), 1, []
+def _octaves(n_max: int, rate_hz: float, tau_min_s: float, max_fraction: float = MAX_TAU_FRACTION) -> list[int]:
+    """The octave cluster sizes m (samples) from ``tau_min_s`` (s) up to ``max_fraction`` (a quarter) of ``n_max``
+    samples."""
+    m_max, m, out = max(int(n_max * max_fraction), 1), 1, []
     while m <= m_max:
         if m / rate_hz >= tau_min_s * (1 - 1e-9):
             out.append(m)
@@ -92,7 +105,8 @@ def _octaves(n_max: int, rate_hz: float, tau_min_s: float) -> list[int]:
     return out
 
 
-def pooled_allan(records, rate_hz: float, tau_min_s: float = FIT_TAU_MIN_S) -> PooledAllan:
+def pooled_allan(records, rate_hz: float, tau_min_s: float = FIT_TAU_MIN_S,
+                 max_fraction: float = MAX_TAU_FRACTION) -> PooledAllan:
     """Pooled overlapping Allan variances of ``records`` (a list of (n_i,) arrays of one axis, unit) at octave
     averaging times from ``tau_min_s`` (s) up to a quarter of the longest record; a record contributes where it
     holds at least four averaging times. CalibError for no record of 16 samples or more."""
@@ -102,10 +116,10 @@ def pooled_allan(records, rate_hz: float, tau_min_s: float = FIT_TAU_MIN_S) -> P
     lengths = np.array([len(y) for y in ys])
     xs = [_phase(y) for y in ys]
     tau, avar, count, use = [], [], [], []
-    for m in _octaves(int(lengths.max()), rate_hz, tau_min_s):
+    for m in _octaves(int(lengths.max()), rate_hz, tau_min_s, max_fraction):
         s, k, row = 0.0, 0, []
         for y, x in zip(ys, xs):
-            ok = len(y) * MAX_TAU_FRACTION >= m
+            ok = len(y) * max_fraction >= m
             row.append(ok)
             if ok:
                 ss, kk = _avar_terms(x, m)
@@ -116,10 +130,74 @@ def pooled_allan(records, rate_hz: float, tau_min_s: float = FIT_TAU_MIN_S) -> P
     return PooledAllan(np.array(tau), np.array(avar), np.array(count), np.array(use, bool), lengths, float(rate_hz))
 
 
-def fit_with_prior(pooled: PooledAllan, prior: NoiseFigures, sd_ln: float = PRIOR_SD_LN) -> NoiseFigures:
+@dataclass(frozen=True)
+class StepMeansOfAxis:
+    """The static steps' means of one axis and what the wander makes of them between the steps (:func:`step_means_of_axis`).
+
+    residual : (K,) the means less their least-squares fit by ``design``, unit; design : (K, p) the calibration's
+    linear model of the axis at each step (an affine model of the nominal gravity: ``[1, f_x, f_y, f_z]``);
+    duration_s : (K,) each mean's capture time, s (its white noise ``N^2 / d``); flicker : (K, K) the covariance
+    of the means per unit squared Allan floor (the family's flicker corner); walk : (K, K) per unit K^2 (unit^2 / s);
+    pose_var : (K,) each mean's variance from the table's pose errors, unit^2 (0: a perfect table).
+    """
+
+    residual: np.ndarray
+    design: np.ndarray
+    duration_s: np.ndarray
+    flicker: np.ndarray
+    walk: np.ndarray
+    pose_var: np.ndarray
+
+    @property
+    def dof(self) -> int:
+        """The residuals' degrees of freedom (steps less the design's rank)."""
+        return len(self.residual) - int(np.linalg.matrix_rank(self.design))
+
+    def reml(self, c: np.ndarray) -> tuple[float, np.ndarray]:
+        """The restricted (REML) negative log-likelihood of the residuals for the squared figures ``c`` = (N^2,
+        floor^2, K^2), up to a constant, and its gradient in ``c``: ``0.5 (ln|V| + ln|X'V^-1 X| + r'P r)`` with
+        ``V = diag(N^2 / d + pose_var) + floor^2 flicker + K^2 walk``."""
+        parts = (np.diag(1.0 / self.duration_s), self.flicker, self.walk)
+        v = np.diag(self.pose_var) + sum(ci * p for ci, p in zip(c, parts))
+        vi = np.linalg.inv(v)
+        xtvx = self.design.T @ vi @ self.design
+        p = vi - vi @ self.design @ np.linalg.solve(xtvx, self.design.T @ vi)
+        pr = p @ self.residual
+        value = 0.5 * (np.linalg.slogdet(v)[1] + np.linalg.slogdet(xtvx)[1] + float(self.residual @ pr))
+        grad = np.array([0.5 * (float(np.sum(p * q)) - float(pr @ q @ pr)) for q in parts])
+        return value, grad
+
+
+#: the fewest residual degrees of freedom the step means must leave for :func:`fit_with_prior` to weigh them
+MIN_BETWEEN_DOF = 1
+
+
+def step_means_of_axis(means, f_nominal, start_s, end_s, corner_s: float, pose_var=0.0) -> StepMeansOfAxis | None:
+    """:class:`StepMeansOfAxis` of the static steps of one axis: their ``means`` (K,), unit, at the nominal gravity
+    ``f_nominal`` (K, 3), g, captured over ``[start_s, end_s]`` (K,), s; ``corner_s`` the family's flicker corner
+    (s); ``pose_var`` the table's pose variance in the axis's unit squared (scalar or (K,)). None when the affine
+    model leaves fewer than :data:`MIN_BETWEEN_DOF` degrees of freedom or a step has no duration."""
+    y = np.asarray(means, float)
+    x = np.column_stack([np.ones(len(y)), np.asarray(f_nominal, float)])
+    a, b = np.asarray(start_s, float), np.asarray(end_s, float)
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y)) and np.all(b > a)):
+        return None
+    if len(y) - int(np.linalg.matrix_rank(x)) < MIN_BETWEEN_DOF:
+        return None
+    mid, dur = 0.5 * (a + b), b - a
+    residual = y - x @ np.linalg.lstsq(x, y, rcond=None)[0]
+    flicker = wander_cov(mid, dur, 1.0 / REGISTRY_B_FLOOR, 0.0, corner_s)  # an Allan floor of 1 (registry B sqrt 2)
+    walk = wander_cov(mid, dur, 0.0, 1.0, corner_s)
+    return StepMeansOfAxis(residual, x, dur, flicker, walk, np.broadcast_to(np.asarray(pose_var, float), y.shape).copy())
+
+
+def fit_with_prior(pooled: PooledAllan, prior: NoiseFigures, sd_ln: float = PRIOR_SD_LN,
+                   between: StepMeansOfAxis | None = None) -> NoiseFigures:
     """The figures N, B (the Allan floor), K that maximise the chi-squared likelihood of ``pooled`` times a
     log-normal prior on B and K about ``prior``'s (``sd_ln`` in ln of the figure; N has none: the steps always
-    show it). A prior term at 0 stays 0."""
+    show it), times, with ``between``, the restricted likelihood of the step means' residuals (the wander between
+    steps minutes apart, which no step's own Allan variance reaches: :meth:`StepMeansOfAxis.reml`). A prior term
+    at 0 stays 0."""
     tau, avar = pooled.tau_s, pooled.avar
     names = ("N", "B", "K")
     a = np.column_stack([TERMS[t][1](tau) for t in names])
@@ -137,6 +215,9 @@ def fit_with_prior(pooled: PooledAllan, prior: NoiseFigures, sd_ln: float = PRIO
             r = avar / model
             dev = float(np.sum(0.5 * edf * (r - np.log(r) - 1.0)))
             grad_c = a.T @ (0.5 * edf * (1.0 - r) / model)
+            if between is not None:
+                dev_b, grad_b = between.reml(c)
+                dev, grad_c = dev + dev_b, grad_c + grad_b
             g = (grad_c * c)[keep]
             pen = (z - np.log(c0[keep])) / (2.0 * sd_ln) ** 2  # ln c = 2 ln figure: sd 2 sd_ln
             pen[0] = 0.0  # N: no prior

@@ -12,6 +12,9 @@ The rules, each tested (tests/rig/lab/test_recording_noise.py):
   the temperature within each step: drift, not noise), when the steps are too short to show the wander
   (:func:`calib.noise.steps.steps_show_wander` on no axis: an MPU-9150 at 100 Hz needs steps of 164 s or more),
   and when the answer is the prior within :data:`calib.noise.steps.NEAR_PRIOR` on every axis and figure;
+- the accelerometer's fit weighs the static steps' means too (:func:`accel_step_means`: their residuals about the
+  affine model of the nominal gravity, the table's pose errors stated from the rig file's classes, :func:`pose_u_rad`),
+  which show the wander between steps minutes apart that sets a long session's bias sigma;
 - otherwise each axis's floor (as B in the registry's convention, ``/`` :data:`calib.noise.terms.REGISTRY_B_FLOOR`)
   and walk K are used, with the family's flicker corner, and the calibration file's ``noise:`` says ``source:
   recording``, the figures, and the static steps and seconds they rest on.
@@ -23,17 +26,20 @@ through allantools, whose import takes 0.6-1.2 s once per process on the shared 
 
 from __future__ import annotations
 
+import math
 from datetime import datetime, timezone
 from types import SimpleNamespace
 
 import numpy as np
 
-from calib.noise.steps import fit_with_prior, moved_off, pooled_allan, steps_show_wander
+from calib.noise.steps import (STEPS_TAU_FRACTION, StepMeansOfAxis, fit_with_prior, moved_off, pooled_allan,
+                               step_means_of_axis, steps_show_wander)
 from calib.noise.terms import REGISTRY_B_FLOOR, NoiseFigures
 from calib.numerics.stability import AxisStability, BiasStability
+from rig.analysis.uncertainty import session_rig_errors
 from rig.lab.identity import sensor_identity
 from rig.lab.noise_profiles import figures_used
-from rig.session.adapter import chip_stability, on_ramp, recorded_chip
+from rig.session.adapter import capture_window, chip_stability, on_ramp, recorded_chip
 
 #: sensor -> its samples' column (counts)
 COLUMNS = {"accel": "accel_counts", "gyro": "gyro_counts"}
@@ -74,15 +80,51 @@ def longest_step(session, sensor: str, idx: list[int]) -> list[np.ndarray]:
     return [block[:, j] for j in range(3)] if np.all(np.isfinite(block)) else [[], [], []]
 
 
-def estimate(records: list[list[np.ndarray]], rate_hz: float, family: BiasStability) -> AxisStability | None:
+def pose_u_rad(session) -> float:
+    """Standard uncertainty (rad, per axis) of each pose's direction from the turntable's errors that differ from
+    pose to pose (its per-pose classes and lost motion, :func:`rig.analysis.uncertainty.session_rig_errors`: 0 for
+    a simulated table without geometry errors)."""
+    rig = session_rig_errors(session)
+    return math.hypot(rig.table.pose_u_rad(), rig.table.lost_motion_u_rad(rig.one_direction))
+
+
+def accel_step_means(session, idx: list[int], corner_s: float, pose_u: float) -> list[StepMeansOfAxis | None]:
+    """Per axis (x, y, z), the means (g) of the static steps ``idx`` with a known pose and what the wander makes of
+    them between the steps (:func:`calib.noise.steps.step_means_of_axis`, the family's flicker corner
+    ``corner_s``, s), a pose of standard uncertainty ``pose_u`` (rad) moving gravity across axis j by
+    ``pose_u^2 (1 - f_j^2)``; None per axis when the steps leave no residual degree of freedom."""
+    known = [i for i in idx if session.info.steps[i].f_nominal is not None]
+    step, values, t = session.samples["step"], session.samples["accel_counts"], session.samples.get("t_s")
+    if t is None:
+        return [None, None, None]
+    means, f, start, end = [], [], [], []
+    for i in known:
+        rows = step == i
+        if rows.sum() < 2 or not np.all(np.isfinite(values[rows])):
+            continue
+        mid, dur = capture_window(t[rows])
+        means.append(values[rows].astype(float).mean(axis=0) / session.lsb_per_g)
+        f.append(session.info.steps[i].f_nominal), start.append(mid - dur / 2), end.append(mid + dur / 2)
+    if not means:
+        return [None, None, None]
+    means, f = np.array(means), np.array(f, float)
+    return [step_means_of_axis(means[:, j], f, start, end, corner_s, pose_u**2 * (1.0 - f[:, j] ** 2))
+            for j in range(3)]
+
+
+def estimate(records: list[list[np.ndarray]], rate_hz: float, family: BiasStability,
+             between: list[StepMeansOfAxis | None] | None = None) -> AxisStability | None:
     """The wander per axis from ``records`` (per axis, the static steps' samples, in ``family.unit``) at
-    ``rate_hz`` (Hz), the ``family``'s figures (registry convention) as the prior; None where the family's stay
-    (the steps too short on every axis, or the answer within :data:`calib.noise.steps.NEAR_PRIOR` of the prior on
-    every axis)."""
+    ``rate_hz`` (Hz), the ``family``'s figures (registry convention) as the prior, and with ``between`` (per axis,
+    :func:`accel_step_means`) the residuals of the steps' means about the calibration's affine model, which show the
+    wander between steps minutes apart that no step reaches on its own; None where the family's stay (the steps too
+    short on every axis, or the answer within :data:`calib.noise.steps.NEAR_PRIOR` of the prior on every axis)."""
     prior = NoiseFigures(B=family.bias_instability * REGISTRY_B_FLOOR, K=family.random_walk_per_rts)
     if not any(steps_show_wander(axis, rate_hz, prior) for axis in records):
         return None
-    fits = [fit_with_prior(pooled_allan(axis, rate_hz), prior) for axis in records]
+    between = between or [None] * len(records)
+    fits = [fit_with_prior(pooled_allan(axis, rate_hz, max_fraction=STEPS_TAU_FRACTION), prior, between=b)
+            for axis, b in zip(records, between)]
     if not any(moved_off(f, prior) for f in fits):
         return None
     return AxisStability.of(BiasStability(f.B / REGISTRY_B_FLOOR, f.K, family.flicker_corner_s, family.unit)
@@ -107,7 +149,9 @@ def use_recording_noise(session) -> dict | None:
         if not any(steps_show_wander([axis], rate_hz, prior) for axis in longest_step(session, sensor, idx)):
             continue  # the cheap rule first, on the longest step alone: a six-position session stops here
         records = axis_records(session, sensor, idx)
-        found = estimate(records, rate_hz, family)
+        between = (accel_step_means(session, idx, family.flicker_corner_s, pose_u_rad(session)) if sensor == "accel"
+                   else None)
+        found = estimate(records, rate_hz, family, between)
         if found is not None:
             used[sensor] = found
             rested = rested or (len(records[0]), sum(len(r) for r in records[0]) / rate_hz)

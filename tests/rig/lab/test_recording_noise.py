@@ -10,10 +10,13 @@ import math
 from pathlib import Path
 
 import jsonschema
+import numpy as np
 import pytest
 import yaml
 
 from rig.analysis.solve import calibrate_session
+from rig.lab.recording_noise import accel_step_means, pose_u_rad
+from rig.session import load_session
 from rig.lab.noise_profiles import NoiseProfile, record_profile
 from cli_run import rig_in_process
 
@@ -24,10 +27,12 @@ UNIT_B_G, UNIT_K_G = 3 * FAMILY_B_G, 3 * FAMILY_K_G  # the simulated unit: 3x it
 KEY = "MPU-9150@0x68#0x68/sim-seed-3"
 
 
-def _unit_rig(folder: Path) -> Path:
-    """The simulated rig in virtual time, its MPU-9150 a unit whose bias wanders 3x its family's."""
+def _unit_rig(folder: Path, geometry: bool = False) -> Path:
+    """The simulated rig in virtual time, its MPU-9150 a unit whose bias wanders 3x its family's, its table perfect
+    (``sim.geometry`` off: the steps' means differ by the wander alone) unless ``geometry``."""
     rig = yaml.safe_load((ROOT / "rigs" / "sim.yaml").read_text())
     rig["sim"]["time_scale"] = 0
+    rig["sim"]["geometry"] = {"enabled": geometry}
     rig["sim"]["noise_figures"] = {"accel_bias_instability_g": [UNIT_B_G] * 3,
                                    "accel_random_walk_g_per_rts": [UNIT_K_G] * 3}
     path = folder / "unit3x.yaml"
@@ -35,14 +40,14 @@ def _unit_rig(folder: Path) -> Path:
     return path
 
 
-def _six_position(folder: Path, dwell_s: float, monkeypatch) -> tuple[Path, dict]:
+def _six_position(folder: Path, dwell_s: float, monkeypatch, geometry: bool = False) -> tuple[Path, dict]:
     """A six-position session of the unit with ``dwell_s`` seconds a pose, run and concluded by ``rig run``."""
     monkeypatch.setenv("RIG_HISTORY", str(folder / "history.sqlite"))
     procedure = yaml.safe_load((ROOT / "procedures" / "six_position.yaml").read_text())
     procedure["dwell"]["seconds"] = dwell_s
     (folder / "p.yaml").write_text(yaml.safe_dump(procedure))
-    code, _, err = rig_in_process("run", folder / "p.yaml", "--rig", _unit_rig(folder), "--seed", 3, "--out",
-                                  folder / "s", "--quiet")
+    code, _, err = rig_in_process("run", folder / "p.yaml", "--rig", _unit_rig(folder, geometry), "--seed", 3,
+                                  "--out", folder / "s", "--quiet")
     assert code == 0, err
     session = next((folder / "s").iterdir())
     return session, yaml.safe_load((session / "calibration.yaml").read_text())
@@ -118,3 +123,17 @@ def test_a_session_with_rate_steps_weighs_the_gyroscope_with_its_static_steps_wa
         assert 0.5 < b / 0.002 < 2.0, sensors["gyro"]
     assert cal["noise"]["steps"] == 6 and cal["gyroscope"] is not None
     jsonschema.Draft202012Validator(SCHEMA).validate(cal)
+
+
+def test_the_step_means_are_weighed_about_the_affine_model_with_the_tables_pose_errors(long_steps, tmp_path,
+                                                                                    monkeypatch):
+    # the steps' means show the wander between steps minutes apart (calib.noise.steps.StepMeansOfAxis); a table
+    # with errors moves them too, by what its classes state (the budget's per-pose classes and lost motion), which
+    # is not taken for wander; a simulated table without errors states none
+    session = load_session(long_steps[0])
+    assert pose_u_rad(session) == 0.0
+    between = accel_step_means(session, session.static_step_indices(), 5000.0, 0.0)
+    assert all(b is not None and b.dof == 2 and np.all(b.pose_var == 0) for b in between)
+    tilted, _ = _six_position(tmp_path, 10.0, monkeypatch, geometry=True)
+    u = pose_u_rad(load_session(tilted))
+    assert math.radians(0.005) < u < math.radians(0.05)  # the datasheet classes: about 0.015 deg a pose
