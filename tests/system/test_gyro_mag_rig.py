@@ -76,7 +76,9 @@ def runs(tmp_path_factory) -> dict[str, Path]:
     tmp = tmp_path_factory.mktemp("gyromag")
     short = tmp / "gyro_short.yaml"
     short.write_text(SHORT_GYRO)
-    no_gsens = _rig(tmp, "no_gsens", {"gyro_errors": {"g_sensitivity_dps_per_g": 0.0}})
+    # the 12-parameter recovery on a table that turns about its nominal axes: the gyroscope has no rig budget yet
+    # (docs/uncertainty.md, "Not done"), so on the default table its misalignments carry the sensor's mounting
+    no_gsens = _rig(tmp, "no_gsens", {"gyro_errors": {"g_sensitivity_dps_per_g": 0.0}, "geometry": {"enabled": False}})
     default = _rig(tmp, "default")
     jobs = {"gyro": (PROCEDURES / "gyro_rates.yaml", no_gsens), "mag8": (PROCEDURES / "mag_eight_position.yaml", default),
             "magtumble": (PROCEDURES / "mag_tumble.yaml", default), "short": (short, default)}
