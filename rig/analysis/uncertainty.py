@@ -26,6 +26,8 @@ from calib.file import yamlsafe
 from calib.accel.budget import LINEAR_METHODS, at_local_gravity, linear_solve, uncertainty_section
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration
+from calib.gyro import GyroCalibration
+from calib.gyro.budget import uncertainty_section as gyro_uncertainty
 from calib.numerics.budget import DEFAULT_K, RigErrors, TableClass
 from calib.numerics.gravity import G0_M_S2, Gravity, standard_gravity
 from rig.analysis.characterisation_record import CharacterisationRecord, find_record, table_digest
@@ -186,6 +188,14 @@ def resolver(accel: AccelCalibration, model: str, method: str):
     thermal = accel.temperature.order if accel.temperature is not None else "off"
     t0 = accel.temperature.t0_c if accel.temperature is not None else None
     return lambda steps: calib.solve(steps, model=model, method=method, thermal=thermal, t0_c=t0)
+
+
+def with_gyro_budget(gyro: dict, rig: RigErrors, k: float = DEFAULT_K) -> dict:
+    """The gyroscope section ``gyro`` (a dict, as the solve gives it) with its ``uncertainty``
+    (:func:`calib.gyro.budget.uncertainty_section`: the table's frame and brackets in its nonorthogonalities);
+    ``sigma`` unchanged."""
+    section = GyroCalibration.from_dict(gyro)
+    return {**gyro, "uncertainty": gyro_uncertainty(section, rig, k)}
 
 
 def with_budget(accel: AccelCalibration, steps: StepMeans, model: str, method: str, rig: RigErrors,

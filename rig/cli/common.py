@@ -326,6 +326,13 @@ def gyroscope_lines(section) -> list[str]:
            + " counts/(deg/s)",
            f"    nonorthogonality ({GYRO_NONORTHOGONALITY_UNIT}): " + " ".join(
                f"{n[2:]} {g.nonorthogonality[n]:+.6f}+-{sig[n]:.6f}" for n in NONORTHOGONALITY_NAMES)]
+    u = g.uncertainty
+    if u:  # the table's own axes and frame in the nonorthogonalities (docs/uncertainty.md, "The gyroscope")
+        named = sorted(((max(float(c.get(n, 0.0)) for n in NONORTHOGONALITY_NAMES), c.get("name", "?"))
+                        for c in u.get("budget") or []), key=lambda t: -t[0])
+        largest = ", ".join(f"{name} {v:.2g}" for v, name in named[:LARGEST] if v > 0)
+        out.append(f"    nonorthogonality U, k = {float(u['k']):g}: " + " ".join(
+            f"{n[2:]} {float(u[n]):.6f}" for n in NONORTHOGONALITY_NAMES) + (f"   largest u: {largest}" if largest else ""))
     if g.g_sensitivity:
         terms = gyro_g_sensitivity_terms(g.g_sensitivity)
         out.append(f"    g-sensitivity ({GYRO_G_SENSITIVITY_UNIT}; gyro axis, g axis): " + " ".join(

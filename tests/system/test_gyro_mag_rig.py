@@ -76,9 +76,7 @@ def runs(tmp_path_factory) -> dict[str, Path]:
     tmp = tmp_path_factory.mktemp("gyromag")
     short = tmp / "gyro_short.yaml"
     short.write_text(SHORT_GYRO)
-    # the 12-parameter recovery on a table that turns about its nominal axes: the gyroscope has no rig budget yet
-    # (docs/uncertainty.md, "Not done"), so on the default table its misalignments carry the sensor's mounting
-    no_gsens = _rig(tmp, "no_gsens", {"gyro_errors": {"g_sensitivity_dps_per_g": 0.0}, "geometry": {"enabled": False}})
+    no_gsens = _rig(tmp, "no_gsens", {"gyro_errors": {"g_sensitivity_dps_per_g": 0.0}})
     default = _rig(tmp, "default")
     jobs = {"gyro": (PROCEDURES / "gyro_rates.yaml", no_gsens), "mag8": (PROCEDURES / "mag_eight_position.yaml", default),
             "magtumble": (PROCEDURES / "mag_tumble.yaml", default), "short": (short, default)}
@@ -96,12 +94,16 @@ def _truth(session: Path) -> dict:
     return yaml.safe_load((session / "sim_truth.yaml").read_text())
 
 
-def test_the_rate_test_recovers_all_12_gyro_parameters_within_their_sigmas(runs):
+def test_the_rate_test_recovers_all_12_gyro_parameters_within_their_sigmas_and_uncertainty(runs):
+    """Biases and scales within 4 sigma; the nonorthogonalities within their expanded uncertainty U (k = 2): they
+    are the sensor's axes against the table's, so the sensor's mounting in its fixture and the brackets'
+    non-orthogonality (the simulated table's own errors, on by default) are in them, beyond the Type A sigma."""
     s = runs["gyro"]
     cal = calfile.read(s / "calibration.yaml")
     g = GyroCalibration.from_dict(cal.gyroscope)
     truth = _truth(s)["gyroscope"]
     lsb = g.lsb_per_dps
+    beyond_sigma = []
     m_true = np.asarray(truth["matrix"]) * lsb
     b_true = np.asarray(truth["bias_dps"]) * lsb
     for j, a in enumerate("xyz"):
@@ -109,8 +111,11 @@ def test_the_rate_test_recovers_all_12_gyro_parameters_within_their_sigmas(runs)
         assert abs(g.matrix_counts_per_dps[j][j] - m_true[j, j]) < 4 * g.sigma[f"k_{a}"], a
         for k, c in enumerate("xyz"):
             if j != k:
-                est = g.nonorthogonality[f"m_{a}{c}"]
-                assert abs(est - m_true[j, k] / g.matrix_counts_per_dps[j][j]) < 4 * g.sigma[f"m_{a}{c}"], (a, c)
+                est, name = g.nonorthogonality[f"m_{a}{c}"], f"m_{a}{c}"
+                error = abs(est - m_true[j, k] / g.matrix_counts_per_dps[j][j])
+                assert error < g.uncertainty[name], (a, c, error, g.uncertainty[name])
+                beyond_sigma.append(error > 4 * g.sigma[name])
+    assert any(beyond_sigma)  # the table's errors: the Type A sigma alone would not hold them
     # the zero-rate bias of every +/- pair agrees with the least-squares bias
     for pair in g.bias_pairs:
         assert np.all(np.abs(np.asarray(pair.bias_counts) - g.bias_counts) < 4 * np.hypot(pair.sigma_counts, 0.5))
@@ -201,7 +206,11 @@ def test_rate_and_magnetometer_sessions_replay_to_identical_sections(runs, tmp_p
         assert proc.returncode == 0, proc.stderr
         r = next((tmp_path / key).iterdir())
         a, b = calfile.read(s / "calibration.yaml"), calfile.read(r / "calibration.yaml")
-        assert a.gyroscope == b.gyroscope and a.magnetometer == b.magnetometer
+        assert a.magnetometer == b.magnetometer
+        if a.gyroscope is not None:  # the same numbers; the replay's budget names its rig as a replay's
+            ga, gb = a.gyroscope.to_dict(), b.gyroscope.to_dict()
+            assert "a replay of a recorded session" in gb["uncertainty"].pop("rig") and ga["uncertainty"].pop("rig")
+            assert GyroCalibration.from_dict(ga) == GyroCalibration.from_dict(gb)
         assert np.array_equal(a.accelerometer.bias_counts, b.accelerometer.bias_counts)
 
 
