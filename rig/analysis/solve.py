@@ -19,7 +19,7 @@ from calib.mag.continuous import solve_mag_ellipsoid_samples
 from rig import __version__
 from rig.analysis.coverage import session_coverage
 from rig.analysis.target import calibration_record
-from rig.analysis.uncertainty import session_rig_errors, with_budget, with_gyro_budget
+from rig.analysis.uncertainty import session_rig_errors, with_budget, with_gyro_budget, with_mag_budget
 from rig.session import Session, load_session, mag_step_means, rate_step_means, step_means
 from rig.session.adapter import mag_turning_samples, with_arrival
 
@@ -209,7 +209,8 @@ def solve_mag_section(session: Session, spec: dict) -> dict | None:
         if mag_steps.field_nominal_ut is None:
             raise ObservabilityError("the magnetometer position method needs the local field: add a site: "
                                      "section to the rig file, or use solve: {magnetometer: ellipsoid}")
-        return solve_mag_positions(mag_steps).to_dict()
+        rig = session_rig_errors(session)  # the poses' own errors (docs/uncertainty.md, "The magnetometer")
+        return with_mag_budget(solve_mag_positions(mag_steps), mag_steps, rig)
     return solve_mag_ellipsoid(mag_steps, field_ut).to_dict()
 
 

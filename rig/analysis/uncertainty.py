@@ -28,6 +28,8 @@ from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration
 from calib.gyro import GyroCalibration
 from calib.gyro.budget import uncertainty_section as gyro_uncertainty
+from calib.mag import MagCalibration, MagStepMeans
+from calib.mag.budget import uncertainty_section as mag_uncertainty
 from calib.numerics.budget import DEFAULT_K, RigErrors, TableClass
 from calib.numerics.gravity import G0_M_S2, Gravity, standard_gravity
 from rig.analysis.characterisation_record import CharacterisationRecord, find_record, table_digest
@@ -196,6 +198,13 @@ def with_gyro_budget(gyro: dict, rig: RigErrors, k: float = DEFAULT_K) -> dict:
     ``sigma`` unchanged."""
     section = GyroCalibration.from_dict(gyro)
     return {**gyro, "uncertainty": gyro_uncertainty(section, rig, k)}
+
+
+def with_mag_budget(mag: MagCalibration, steps: MagStepMeans, rig: RigErrors, k: float = DEFAULT_K) -> dict:
+    """The magnetometer section of a positions solve (``mag`` of ``steps``) with its ``uncertainty``
+    (:func:`calib.mag.budget.uncertainty_section`: the table's frame and each pose's own error), as a dict;
+    ``sigma`` unchanged."""
+    return {**mag.to_dict(), "uncertainty": mag_uncertainty(mag, steps, rig, k)}
 
 
 def with_budget(accel: AccelCalibration, steps: StepMeans, model: str, method: str, rig: RigErrors,

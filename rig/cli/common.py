@@ -192,6 +192,13 @@ def format_magnetometer(m: MagCalibration, unit: str) -> str:
     for i, r in enumerate("xyz"):
         lines.append(f"    a_{r}* " + "  ".join(f"{m.matrix[i][j]:+.5g} +- {sig[f'a_{r}{c}']:.2g}"
                                                for j, c in enumerate("xyz")))
+    u = m.uncertainty
+    if u:  # the table's frame and poses (docs/uncertainty.md, "The magnetometer")
+        k = float(u["k"])
+        lines.append(f"    expanded uncertainty U, k = {k:g}: hard iron " + "  ".join(
+            f"{a} {float(u[f'hard_iron_{a}']):.2g}" for a in "xyz") + f" {unit}; A off-diagonal up to "
+            f"{max(float(u[f'a_{r}{c}']) for r in 'xyz' for c in 'xyz' if r != c):.2g}, diagonal up to "
+            f"{max(float(u[f'a_{r}{r}']) for r in 'xyz'):.2g}")
     return "\n".join(lines)
 
 
