@@ -16,7 +16,7 @@ import fnmatch
 import math
 from dataclasses import dataclass, field
 
-from calib.file.parameters import sensor_parameters
+from calib.file.parameters import accel_parameters, sensor_parameters
 
 #: every parameter name a calibration may carry (patterns in limits must match at least one)
 PARAMETER_NAMES: tuple[str, ...] = tuple(
@@ -117,9 +117,27 @@ def stored_unit(unit: str | None) -> tuple[str | None, float]:
     return unit, 1.0
 
 
-def _parameter_checks(limits: AcceptanceLimits, params: dict, shown=stored_unit) -> list[LimitCheck]:
+def type_a_sigmas(accel) -> dict[str, float]:
+    """The accelerometer parameters' Type A standard uncertainty as the budget states it (``uncertainty.budget``'s
+    Type A entry, docs/uncertainty.md): the solve's ``sigma`` without the part of its misfit scaling the
+    turntable's own errors explain (on a table that lands where commanded, and when the solve did not scale,
+    ``sigma`` itself). {parameter name: sigma}, only where the budget states one; empty without a budget."""
+    entry = next((c for c in ((getattr(accel, "uncertainty", None) or {}).get("budget") or [])
+                  if c.get("type") == "A"), None)
+    if entry is None:
+        return {}
+    stated = {k: entry[k] for k in ("bias_counts", "scale_counts_per_g", "matrix_counts_per_g", "misalignment")
+              if k in entry}
+    rows = accel_parameters(accel.model_copy(update={"sigma": stated}))
+    return {name: s for name, _v, s, _u in rows if s is not None}
+
+
+def _parameter_checks(limits: AcceptanceLimits, params: dict, shown=stored_unit,
+                      type_a: dict | None = None) -> list[LimitCheck]:
     """The range and sigma limits; each check's ``value`` in the stored unit, its ``line`` for people in the unit
-    ``shown(unit) -> (unit shown, factor)`` gives (limits and values alike)."""
+    ``shown(unit) -> (unit shown, factor)`` gives (limits and values alike). ``type_a``: {name: sigma} the sigma
+    limits judge instead of the solve's sigma (:func:`type_a_sigmas`)."""
+    type_a = type_a or {}
     def line_range(name, v, s, u, lo, hi):
         to, k = shown(u)
         line = (f"{name} = {_g(v * k)} {to}: {'within' if lo <= v <= hi else 'outside'} "
@@ -130,11 +148,19 @@ def _parameter_checks(limits: AcceptanceLimits, params: dict, shown=stored_unit)
                      f"{_g(MARGINAL_K * s * k)} {to}: a re-test may decide otherwise)")
         return line
 
-    def line_sigma(name, s, u, top):
+    def line_sigma(name, s, u, top, solved=None):
         to, k = shown(u)
         if s is None:
             return f"{name}: no sigma to compare with {_g(top * k)} {to}"
-        return f"{name}: sigma {_g(s * k)} {to} {'<=' if s <= top else '>'} {_g(top * k)} {to}"
+        line = f"{name}: sigma {_g(s * k)} {to} {'<=' if s <= top else '>'} {_g(top * k)} {to}"
+        if solved is not None and not math.isclose(solved, s, rel_tol=1e-9):
+            line += (f" (Type A: the solve's {_g(solved * k)} {to} less the misfit scaling the turntable's own "
+                     f"errors explain, which the expanded uncertainty holds)")
+        return line
+
+    def judge_sigma(name, s, u, top):
+        a = type_a.get(name, s)
+        return a, a is not None and a <= top, line_sigma(name, a, u, top, s)
 
     out = []
     for pattern, (lo, hi) in limits.ranges.items():
@@ -142,7 +168,7 @@ def _parameter_checks(limits: AcceptanceLimits, params: dict, shown=stored_unit)
                      lambda name, v, s, u: (v, lo <= v <= hi, line_range(name, v, s, u, lo, hi)))
     for pattern, top in limits.max_sigma.items():
         out += _each(pattern, params, "sigma", f"<= {_g(top)}",
-                     lambda name, v, s, u: (s, s is not None and s <= top, line_sigma(name, s, u, top)))
+                     lambda name, v, s, u: judge_sigma(name, s, u, top))
     return out
 
 
@@ -187,11 +213,10 @@ def evaluate(cal, limits: AcceptanceLimits, *, attitude_error_deg: float | None 
         limits stay in the stored unit; default: the stored unit).
     """
     params = {name: (v, s, u) for name, v, s, u in sensor_parameters(cal)}
-    checks = _parameter_checks(limits, params, shown)
+    checks = _parameter_checks(limits, params, shown, type_a_sigmas(cal.accelerometer))
     fit = cal.accelerometer.fit
     if limits.max_chi2_per_dof is not None:
-        checks.append(_upper("max_chi2_per_dof", fit.chi2_per_dof, limits.max_chi2_per_dof, "chi2/dof", "",
-                             "no degrees of freedom left (too few steps for the model)"))
+        checks.append(_chi2_check(cal.accelerometer, limits.max_chi2_per_dof))
     if limits.max_residual_g is not None:
         checks.append(_upper("max_residual_g", fit.residual_rms_g, limits.max_residual_g, "residual rms", "g",
                              "no residual", line_unit=RESIDUAL_LINE_UNIT))
@@ -202,6 +227,22 @@ def evaluate(cal, limits: AcceptanceLimits, *, attitude_error_deg: float | None 
     if limits.max_drift_sigma is not None:
         checks.append(_drift_check(drift, limits.max_drift_sigma))
     return Acceptance(tuple(checks))
+
+
+def _chi2_check(accel, top: float) -> LimitCheck:
+    """chi2/dof against the noise and the turntable's own errors when the budget judged the fit so
+    (``uncertainty.misfit_with_rig``: a real table moves every pose by a few hundredths of a degree, several times a
+    step's noise), else against the noise alone. A loose mount or a sensor that is not rigid fails either."""
+    with_rig = (getattr(accel, "uncertainty", None) or {}).get("misfit_with_rig")
+    alone = accel.fit.chi2_per_dof
+    missing = "no degrees of freedom left (too few steps for the model)"
+    if not with_rig or with_rig.get("chi2_per_dof") is None or not math.isfinite(float(with_rig["chi2_per_dof"])):
+        return _upper("max_chi2_per_dof", alone, top, "chi2/dof", "", missing)
+    check = _upper("max_chi2_per_dof", float(with_rig["chi2_per_dof"]), top,
+                   "chi2/dof against the noise and the turntable's own errors", "", missing)
+    alone_s = f"{_g(float(alone))}" if alone is not None and math.isfinite(float(alone)) else "none"
+    return LimitCheck(check.name, check.limit, check.value, check.passed,
+                      f"{check.line} (against the noise alone {alone_s})")
 
 
 def _drift_check(drift: Drift | None, top: float) -> LimitCheck:

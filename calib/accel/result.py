@@ -16,7 +16,7 @@ from calib.discovery.effects import LIBRARY, TIME_EFFECTS, effect_counts, valida
 from calib.errors import CalibError
 from calib.numerics.design import MISFIT_LEVEL, misfit
 from calib.file.fields import Matrix3, Vector3, array, field_problem, integer, number, unit
-from calib.file.section import CalibrationSection, choice
+from calib.file.section import CalibrationSection, choice, valid_uncertainty, without_absent_uncertainty
 
 MODELS = ("triangular", "full", "diagonal")
 MISALIGNMENT_NAMES = ("alpha_yz", "alpha_zy", "alpha_zx")
@@ -132,12 +132,7 @@ class AccelCalibration(CalibrationSection):
 
     @model_serializer(mode="wrap")
     def _without_absent_uncertainty(self, handler):
-        """Every dump (the file, JSON outputs): ``uncertainty`` only when a budget was made, so files and outputs
-        without one are as they were."""
-        d = handler(self)
-        if isinstance(d, dict) and d.get("uncertainty") is None:
-            d.pop("uncertainty", None)
-        return d
+        return without_absent_uncertainty(handler(self))
 
     @field_validator("effects", mode="before")
     @classmethod
@@ -153,15 +148,7 @@ class AccelCalibration(CalibrationSection):
     @field_validator("uncertainty", mode="before")
     @classmethod
     def _valid_uncertainty(cls, u: Any) -> Any:
-        if u is None:
-            return u
-        k = u.get("k") if isinstance(u, dict) else None
-        if not isinstance(k, (int, float)) or isinstance(k, bool) or not k > 0:
-            raise field_problem("k", f"expected the coverage factor, a number > 0, got {k!r}")
-        budget = u.get("budget")
-        if not isinstance(budget, list) or not all(isinstance(c, dict) and c.get("type") in ("A", "B") for c in budget):
-            raise field_problem("budget", "expected a list of contributions, each with type A or B")
-        return dict(u)
+        return valid_uncertainty(u)
 
     @model_validator(mode="after")
     def _consistent(self) -> "AccelCalibration":

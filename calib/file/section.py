@@ -26,7 +26,7 @@ from typing import Any, ClassVar
 from pydantic import BaseModel, ConfigDict, ValidationError, ValidationInfo, model_validator
 
 from calib.errors import CalibrationFileError
-from calib.file.fields import FROM_FILE, check_mapping, describe, fail
+from calib.file.fields import FROM_FILE, check_mapping, describe, fail, field_problem
 # the field types the sections declare (calib.file.fields, the dialect of every YAML format)
 from calib.file.fields import choice as _choice
 
@@ -37,6 +37,30 @@ SECTIONS: dict[str, type["CalibrationSection"]] = {}
 def choice(*options: str) -> Any:
     """A string field, one of ``options`` (the file's JSON Schema says ``"type": "string"``)."""
     return _choice(options, json_type="string")
+
+
+# ------------------------------------------------------------------------------ the uncertainty sub-section
+
+def valid_uncertainty(u: Any) -> Any:
+    """A section's ``uncertainty`` (docs/uncertainty.md) as a file states it: None, or a mapping with the coverage
+    factor ``k`` (a number > 0) and its ``budget`` (a list of contributions, each of type A or B)."""
+    if u is None:
+        return u
+    k = u.get("k") if isinstance(u, dict) else None
+    if not isinstance(k, (int, float)) or isinstance(k, bool) or not k > 0:
+        raise field_problem("k", f"expected the coverage factor, a number > 0, got {k!r}")
+    budget = u.get("budget")
+    if not isinstance(budget, list) or not all(isinstance(c, dict) and c.get("type") in ("A", "B") for c in budget):
+        raise field_problem("budget", "expected a list of contributions, each with type A or B")
+    return dict(u)
+
+
+def without_absent_uncertainty(d: Any) -> Any:
+    """A section's dump with ``uncertainty`` only when a budget was made, so files and outputs without one are as
+    they were."""
+    if isinstance(d, dict) and d.get("uncertainty") is None:
+        d.pop("uncertainty", None)
+    return d
 
 
 # ---------------------------------------------------------------------------------------------- base class

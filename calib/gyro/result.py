@@ -13,11 +13,11 @@ from __future__ import annotations
 from typing import Any, ClassVar, Optional
 
 import numpy as np
-from pydantic import ConfigDict, field_validator, model_validator, with_config
+from pydantic import ConfigDict, field_validator, model_serializer, model_validator, with_config
 from typing_extensions import TypedDict
 
 from calib.file.fields import Matrix3, Vector3, array, field_problem, integer, number, unit
-from calib.file.section import CalibrationSection
+from calib.file.section import CalibrationSection, valid_uncertainty, without_absent_uncertainty
 from calib.frames import SENSOR_AXES
 
 OFF_DIAGONAL = tuple((i, j) for i in range(3) for j in range(3) if i != j)
@@ -99,6 +99,18 @@ class GyroCalibration(CalibrationSection):
     chi2_per_dof: number(allow_nan=True) = unit("-", "weighted misfit per dof", default=float("nan"))
     n_steps: integer() = unit("-", "rate steps used", default=0)
     g_sensitivity: Optional[GSensitivity] = unit("counts/g", "G's determined columns, or null", default=None)
+    uncertainty: Optional[dict] = unit("-", "expanded uncertainty U = k u_c in sigma's keys, k, combined_standard and "
+                                       "the budget of Type A and B contributions (docs/uncertainty.md, \"The "
+                                       "gyroscope\"); absent: none was made", default=None)
+
+    @model_serializer(mode="wrap")
+    def _without_absent_uncertainty(self, handler):
+        return without_absent_uncertainty(handler(self))
+
+    @field_validator("uncertainty", mode="before")
+    @classmethod
+    def _valid_uncertainty(cls, u: Any) -> Any:
+        return valid_uncertainty(u)
 
     @field_validator("g_sensitivity")
     @classmethod

@@ -8,14 +8,14 @@ In the simulator's convention (``drivers.sensors.sim.error_model.MagErrorModel``
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar, Optional
 
 import numpy as np
-from pydantic import ConfigDict, model_validator, with_config
+from pydantic import ConfigDict, field_validator, model_serializer, model_validator, with_config
 from typing_extensions import TypedDict
 
 from calib.file.fields import Matrix3, Vector3, field_problem, integer, number, unit
-from calib.file.section import CalibrationSection, choice
+from calib.file.section import CalibrationSection, choice, valid_uncertainty, without_absent_uncertainty
 from calib.frames import SENSOR_AXES
 
 METHODS = ("positions", "ellipsoid")
@@ -66,6 +66,19 @@ class MagCalibration(CalibrationSection):
     n_steps: integer() = unit("-", "steps (static intervals) used")
     fit_quality: number(allow_nan=True, optional=True) = unit("uT", "ellipsoid: RMS of |A^-1(m - B)| - field",
                                                              default=None)
+    uncertainty: Optional[dict] = unit("-", "positions method: expanded uncertainty U = k u_c in sigma's keys, k, "
+                                       "combined_standard and the budget of Type A and B contributions "
+                                       "(docs/uncertainty.md, \"The magnetometer\"); absent: none was made",
+                                       default=None)
+
+    @model_serializer(mode="wrap")
+    def _without_absent_uncertainty(self, handler):
+        return without_absent_uncertainty(handler(self))
+
+    @field_validator("uncertainty", mode="before")
+    @classmethod
+    def _valid_uncertainty(cls, u: Any) -> Any:
+        return valid_uncertainty(u)
 
     @model_validator(mode="after")
     def _invertible(self) -> "MagCalibration":

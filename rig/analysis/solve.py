@@ -19,7 +19,7 @@ from calib.mag.continuous import solve_mag_ellipsoid_samples
 from rig import __version__
 from rig.analysis.coverage import session_coverage
 from rig.analysis.target import calibration_record
-from rig.analysis.uncertainty import session_rig_errors, with_budget
+from rig.analysis.uncertainty import session_rig_errors, with_budget, with_gyro_budget, with_mag_budget
 from rig.session import Session, load_session, mag_step_means, rate_step_means, step_means
 from rig.session.adapter import mag_turning_samples, with_arrival
 
@@ -41,8 +41,10 @@ def calibrate_session(session_dir, *, model: str | None = None, method: str | No
     spec = session.solve_spec or {}
     accel, steps, model, method = solve_accelerometer(session, model=model, method=method, thermal=thermal)
     gyro, mag = solve_gyro_and_mag(session, spec, accel)
+    rig = session_rig_errors(session) if method in POSE_METHODS or gyro is not None else None
+    if gyro is not None:  # the rate steps turn about the table's axes (docs/uncertainty.md, "The gyroscope")
+        gyro = with_gyro_budget(gyro, rig)
     if method in POSE_METHODS:  # the uncertainty budget (docs/uncertainty.md); sigma as the solve gave it
-        rig = session_rig_errors(session)
         budget_steps = with_arrival(session, steps, session.static_step_indices()) if needs_arrival(rig) else steps
         accel = with_budget(accel, budget_steps, model, method, rig)
     return calib.CalibrationFile(
@@ -207,7 +209,8 @@ def solve_mag_section(session: Session, spec: dict) -> dict | None:
         if mag_steps.field_nominal_ut is None:
             raise ObservabilityError("the magnetometer position method needs the local field: add a site: "
                                      "section to the rig file, or use solve: {magnetometer: ellipsoid}")
-        return solve_mag_positions(mag_steps).to_dict()
+        rig = session_rig_errors(session)  # the poses' own errors (docs/uncertainty.md, "The magnetometer")
+        return with_mag_budget(solve_mag_positions(mag_steps), mag_steps, rig)
     return solve_mag_ellipsoid(mag_steps, field_ut).to_dict()
 
 

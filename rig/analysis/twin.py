@@ -33,7 +33,7 @@ from drivers.sensors.regs.mpu9150 import DLPF_BW_HZ
 from rig.analysis.discover import step_context
 from rig.analysis.twin_sensors import other_sensors
 from rig.analysis.uncertainty import session_rig_file
-from rig.config.rigfile import AxisConfig, parse_rig_file
+from rig.config.rigfile import SIM_GEOMETRY_ENABLED, AxisConfig, parse_rig_file
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
 from rig.session import Session, load_session, step_means
@@ -323,7 +323,24 @@ def rig_settings(session: Session) -> tuple[dict, str, dict, list]:
                      "unchanged: the twin's speeds, accelerations and limits are the defaults (slip rings on), "
                      "so its timeline may differ")
     env = {k: v for k, v in ((original.sim or {}) if original is not None else {}).items() if k in SIM_KEYS}
+    env["geometry"], table_note = twin_table(original)
+    notes.append(table_note)
     return axes, (original.home_policy if original is not None else "zero"), env, notes
+
+
+def twin_table(original) -> tuple[dict, str]:
+    """The twin's ``sim.geometry``: the session's own simulated table (its rig file's section: the same hidden
+    table, its classes and ``table_seed``), so that the twin's steps carry the same pose errors as the session's;
+    a perfect table when the session's table is not a simulated one known unchanged (a hardware rig, an import, a
+    changed rig file): its errors are not known, so they are not reproduced. With its note."""
+    if original is None or not original.is_simulated:
+        return {"enabled": False}, ("the twin's turntable lands where commanded: the session's table errors are not "
+                                    "known (not a simulated rig file available unchanged), so a comparison sees them")
+    section = dict((original.sim or {}).get("geometry") or {})
+    if not section.get("enabled", SIM_GEOMETRY_ENABLED):
+        return {"enabled": False}, "the twin's turntable is the session's: it lands where commanded (sim.geometry off)"
+    section["enabled"] = True
+    return section, "the twin's turntable is the session's simulated table (its sim.geometry: the same hidden errors)"
 
 
 # -- the twin ------------------------------------------------------------------------------------------------

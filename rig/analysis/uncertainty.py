@@ -26,10 +26,14 @@ from calib.file import yamlsafe
 from calib.accel.budget import LINEAR_METHODS, at_local_gravity, linear_solve, uncertainty_section
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration
+from calib.gyro import GyroCalibration
+from calib.gyro.budget import uncertainty_section as gyro_uncertainty
+from calib.mag import MagCalibration, MagStepMeans
+from calib.mag.budget import uncertainty_section as mag_uncertainty
 from calib.numerics.budget import DEFAULT_K, RigErrors, TableClass
 from calib.numerics.gravity import G0_M_S2, Gravity, standard_gravity
 from rig.analysis.characterisation_record import CharacterisationRecord, find_record, table_digest
-from rig.config.rigfile import GravityConfig, RigFile, load_rig_file
+from rig.config.rigfile import SIM_GEOMETRY_ENABLED, GravityConfig, RigFile, load_rig_file
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
 
@@ -141,7 +145,7 @@ def rig_errors(rig_file: RigFile | RigFacts | None) -> RigErrors:
     geometry = (rig_file.sim or {}).get("geometry") or {}
     table = TableClass(**{k: float(v) for k, v in geometry.items() if k in _CLASS_KEYS})
     source = f"rig file {Path(rig_file.path).name}: " + ("sim.geometry classes" if geometry else "datasheet classes")
-    if rig_file.is_simulated and not geometry.get("enabled"):
+    if rig_file.is_simulated and not geometry.get("enabled", SIM_GEOMETRY_ENABLED):
         table = PERFECT_TABLE  # a simulated table without its errors (sim.geometry off) lands where commanded
         source = f"rig file {Path(rig_file.path).name}: simulated turntable without geometry errors (sim.geometry off)"
     approaching = [rig_file.axes[n].approach != "none" for n in STAGE_AXES]
@@ -186,6 +190,21 @@ def resolver(accel: AccelCalibration, model: str, method: str):
     thermal = accel.temperature.order if accel.temperature is not None else "off"
     t0 = accel.temperature.t0_c if accel.temperature is not None else None
     return lambda steps: calib.solve(steps, model=model, method=method, thermal=thermal, t0_c=t0)
+
+
+def with_gyro_budget(gyro: dict, rig: RigErrors, k: float = DEFAULT_K) -> dict:
+    """The gyroscope section ``gyro`` (a dict, as the solve gives it) with its ``uncertainty``
+    (:func:`calib.gyro.budget.uncertainty_section`: the table's frame and brackets in its nonorthogonalities);
+    ``sigma`` unchanged."""
+    section = GyroCalibration.from_dict(gyro)
+    return {**gyro, "uncertainty": gyro_uncertainty(section, rig, k)}
+
+
+def with_mag_budget(mag: MagCalibration, steps: MagStepMeans, rig: RigErrors, k: float = DEFAULT_K) -> dict:
+    """The magnetometer section of a positions solve (``mag`` of ``steps``) with its ``uncertainty``
+    (:func:`calib.mag.budget.uncertainty_section`: the table's frame and each pose's own error), as a dict;
+    ``sigma`` unchanged."""
+    return {**mag.to_dict(), "uncertainty": mag_uncertainty(mag, steps, rig, k)}
 
 
 def with_budget(accel: AccelCalibration, steps: StepMeans, model: str, method: str, rig: RigErrors,

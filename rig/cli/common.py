@@ -192,6 +192,13 @@ def format_magnetometer(m: MagCalibration, unit: str) -> str:
     for i, r in enumerate("xyz"):
         lines.append(f"    a_{r}* " + "  ".join(f"{m.matrix[i][j]:+.5g} +- {sig[f'a_{r}{c}']:.2g}"
                                                for j, c in enumerate("xyz")))
+    u = m.uncertainty
+    if u:  # the table's frame and poses (docs/uncertainty.md, "The magnetometer")
+        k = float(u["k"])
+        lines.append(f"    expanded uncertainty U, k = {k:g}: hard iron " + "  ".join(
+            f"{a} {float(u[f'hard_iron_{a}']):.2g}" for a in "xyz") + f" {unit}; A off-diagonal up to "
+            f"{max(float(u[f'a_{r}{c}']) for r in 'xyz' for c in 'xyz' if r != c):.2g}, diagonal up to "
+            f"{max(float(u[f'a_{r}{r}']) for r in 'xyz'):.2g}")
     return "\n".join(lines)
 
 
@@ -326,6 +333,13 @@ def gyroscope_lines(section) -> list[str]:
            + " counts/(deg/s)",
            f"    nonorthogonality ({GYRO_NONORTHOGONALITY_UNIT}): " + " ".join(
                f"{n[2:]} {g.nonorthogonality[n]:+.6f}+-{sig[n]:.6f}" for n in NONORTHOGONALITY_NAMES)]
+    u = g.uncertainty
+    if u:  # the table's own axes and frame in the nonorthogonalities (docs/uncertainty.md, "The gyroscope")
+        named = sorted(((max(float(c.get(n, 0.0)) for n in NONORTHOGONALITY_NAMES), c.get("name", "?"))
+                        for c in u.get("budget") or []), key=lambda t: -t[0])
+        largest = ", ".join(f"{name} {v:.2g}" for v, name in named[:LARGEST] if v > 0)
+        out.append(f"    nonorthogonality U, k = {float(u['k']):g}: " + " ".join(
+            f"{n[2:]} {float(u[n]):.6f}" for n in NONORTHOGONALITY_NAMES) + (f"   largest u: {largest}" if largest else ""))
     if g.g_sensitivity:
         terms = gyro_g_sensitivity_terms(g.g_sensitivity)
         out.append(f"    g-sensitivity ({GYRO_G_SENSITIVITY_UNIT}; gyro axis, g axis): " + " ".join(

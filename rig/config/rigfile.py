@@ -36,6 +36,7 @@ FORMAT = "rig-file/1"
 STAGE_MAX_SPEED_DEG_S = MR191.max_speed_deg_s  # 8MR191: NomSpeed 4800 full steps/s at 0.01 deg/step
 STAGE_MAX_ACCEL_DEG_S2 = 65535 * MR191.deg_per_step  # the controller's largest Accel (steps/s^2)
 LIMIT_DEG = 1e6  # far beyond any real table (the replay rig uses it as "no limit")
+SIM_GEOMETRY_ENABLED = True  # a simulated table has its own errors unless its sim.geometry says enabled: false
 _DATACLASS_CONFIG = ConfigDict(extra="forbid")
 
 

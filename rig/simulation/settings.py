@@ -26,6 +26,7 @@ from drivers.sensors.sim.error_model import (
     MagErrorModel,
 )
 from drivers.sensors.sim.noise import NOISE_MODELS
+from rig.config.rigfile import SIM_GEOMETRY_ENABLED
 from rig.config.sections import register_section
 from rig.config.validate import validate_plain
 from rig.simulation.geometry import G0_M_S2, GeometryClass
@@ -209,10 +210,10 @@ _GC = GeometryClass()
 
 class GeometrySection(Strict):
     """``sim.geometry``: the turntable's own errors, drawn per seed from these datasheet-class magnitudes
-    (rig.simulation.geometry; docs/simulated-rig.md, "The turntable's own errors"). Off unless ``enabled``."""
+    (rig.simulation.geometry; docs/simulated-rig.md, "The turntable's own errors"). On unless ``enabled: false``."""
 
     enabled: flag("the simulated table has its own errors (angular, lost motion, wobble, non-orthogonality, "
-                  "sensor mounting, local gravity)") = False
+                  "sensor mounting, local gravity)") = SIM_GEOMETRY_ENABLED
     zero_offset_deg: number(ge=0, le=10, description="stage zero offsets, half-width, deg") = _GC.zero_offset_deg
     periodic_deg: number(ge=0, le=10, description="worm-gear periodic error amplitude, half-width, deg") = _GC.periodic_deg
     period_deg: number(gt=0, le=360, description="period of the worm-gear error (one worm turn), deg") = _GC.period_deg
@@ -248,7 +249,7 @@ class SimSection(Strict):
     noise: Optional[choice(NOISE_MODELS)] = None  # None: the chips' default (drivers.sensors.sim.noise)
     noise_spread: Optional[NoiseSpreadSection] = None  # None: every unit has its family's figures
     noise_figures: Optional[NoiseFiguresSection] = None  # None: the family's (or the spread's) figures
-    geometry: GeometrySection = GeometrySection()  # the turntable's own errors (off unless enabled)
+    geometry: GeometrySection = GeometrySection()  # the turntable's own errors (on unless enabled: false)
     serial_base: number(ge=1, le=2**31 - 1, integer=True) = 0x5A00
     repeat: number(ge=0, le=2**31 - 1, integer=True,
                    description="run number of a repeatability study: 0 the seed's own noise draws; another number "

@@ -8,10 +8,12 @@ import pytest
 
 import calib
 from calib.file import calibration as calfile
+from calib.accel.budget import linear_solve, uncertainty_section
 from calib.acceptance import AcceptanceLimits, Drift, evaluate, known_pattern, largest_drift
 from calib.errors import CalibrationFileError
 from calib.file.parameters import sensor_parameters
 from calib.synthetic import Truth, make_steps, six_faces, triangular_matrix
+from test_budget_type_a import RIG, _solve, _steps
 
 
 @pytest.fixture(scope="module")
@@ -99,3 +101,34 @@ def test_a_value_within_two_sigma_of_a_limit_is_said_marginal_and_the_verdict_is
     assert just_in.checks[0].passed and "(marginal: " in just_in.checks[0].line
     clear = evaluate(cal, AcceptanceLimits(ranges={"accel.bias_x": (bias_x - 5 * sigma_x, bias_x + 5 * sigma_x)}))
     assert clear.checks[0].passed and "marginal" not in clear.checks[0].line
+
+
+def _on_a_table_with_errors(jump_counts: float = 0.0):
+    """A six-position calibration on a table whose brackets are off orthogonal, with its budget (test_budget_type_a's
+    session; ``jump_counts``: a y bias jump before the fourth pose, which no table error explains)."""
+    steps = _steps(jump_counts)
+    accel = _solve(steps)
+    accel = accel.model_copy(update={"uncertainty": uncertainty_section(accel, steps, _solve, RIG,
+                                                                               linear=linear_solve(accel, steps))})
+    return calib.CalibrationFile(created="2026-11-26T00:00:00+00:00", software={"name": "t", "version": "0"},
+                                 sensor={"model": "MPU-9150", "address": 104, "serial": None}, accelerometer=accel)
+
+
+def test_on_a_table_with_its_own_errors_chi2_and_sigma_are_judged_without_what_the_table_explains():
+    cal = _on_a_table_with_errors()
+    fit, u = cal.accelerometer.fit, cal.accelerometer.uncertainty
+    assert fit.chi2_per_dof > 4 and not u["misfit_with_rig"]["significant"]  # the table's misfit, held by U
+    sigma_y = cal.accelerometer.sigma["bias_counts"][1]
+    acc = evaluate(cal, AcceptanceLimits(max_sigma={"accel.bias_y": sigma_y * 0.8}, max_chi2_per_dof=3.0))
+    assert acc.passed, [c.line for c in acc.failed()]
+    chi2, sig = {c.name: c for c in acc.checks}["max_chi2_per_dof"], acc.checks[0]
+    assert chi2.value == pytest.approx(u["misfit_with_rig"]["chi2_per_dof"])
+    assert "against the noise and the turntable's own errors" in chi2.line and f"{fit.chi2_per_dof:.4g}" in chi2.line
+    assert sig.value == pytest.approx(sigma_y / np.sqrt(fit.chi2_per_dof)) and "Type A" in sig.line
+
+
+def test_a_misfit_the_table_does_not_explain_still_fails_the_chi2_limit():
+    cal = _on_a_table_with_errors(jump_counts=25.0)
+    assert cal.accelerometer.uncertainty["misfit_with_rig"]["significant"]
+    acc = evaluate(cal, AcceptanceLimits(max_chi2_per_dof=5.0))
+    assert not acc.passed and "against the noise and the turntable's own errors" in acc.checks[0].line

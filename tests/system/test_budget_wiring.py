@@ -39,9 +39,12 @@ def test_a_simulated_run_writes_the_budget_in_its_calibration_file(run):
     u = acc["uncertainty"]
     assert u["k"] == 2.0
     assert [c["name"] for c in u["budget"]][0] == "noise and wander"
-    assert "sim.geometry off" in u["rig"]  # the simulated table lands where commanded: its own rig file says so
-    for key in QUANTITIES:  # U covers at least the Type A sigma it contains, k times
-        assert np.all(np.asarray(u[key]) >= 2 * np.asarray(acc["sigma"][key]) * (1 - 1e-9))
+    assert "datasheet classes, no characterisation" in u["rig"]  # the simulated table has its own errors (default)
+    assert {"rig axes (non-orthogonality)", "rig frame (mounting, stage zeros)"} <= {c["name"] for c in u["budget"]}
+    (type_a,) = [c for c in u["budget"] if c["type"] == "A"]
+    for key in QUANTITIES:  # U covers at least the Type A term it contains, k times; that is sigma at most
+        assert np.all(np.asarray(u[key]) >= 2 * np.asarray(type_a[key]) * (1 - 1e-9))
+        assert np.all(np.asarray(type_a[key]) <= np.asarray(acc["sigma"][key]) * (1 + 1e-9))
 
 
 def test_the_contributions_add_up_to_the_combined_uncertainty(run):
@@ -59,7 +62,7 @@ def test_run_prints_the_expanded_uncertainty_with_k(run):
     out = run["out"]
     assert "expanded uncertainty U = k u_c, k = 2" in out
     assert "bias U: x " in out and "scale U: x " in out and "misalignment U: yz " in out and " mrad" in out
-    assert "largest u: noise and wander" in out and "rig terms: rig file sim.yaml" in out
+    assert "largest u: rig " in out and "rig terms: rig file sim.yaml" in out  # the table's own errors lead
 
 
 def test_solve_writes_and_prints_the_budget_and_keeps_sigma(run):
@@ -136,6 +139,7 @@ def test_a_session_that_misfits_on_a_rig_without_geometry_errors_keeps_its_whole
     terms were all zero (sim.geometry off). Only what the rig's geometry explains may be dropped."""
     doc = yaml.safe_load(run["rig_file"].read_text())
     doc["sim"]["effects"] = {"scale_nonlinearity": 2e-3}
+    doc["sim"]["geometry"] = {"enabled": False}  # a table that lands where commanded
     bad = run["tmp"] / "nonlinear.yaml"
     bad.write_text(yaml.safe_dump(doc))
     code, _, err = rig("run", PROCEDURES / "six_position.yaml", "--rig", bad, "--time-scale", "0", "--seed", "5",

@@ -165,7 +165,13 @@ def test_the_cli_report_json_plot_and_augmented_calibration(sessions, tmp_path):
     for label, c in (("plain", plain), ("augmented", cal.accelerometer)):
         f = c.apply(means.mean_counts, temp_c=means.temp_c, t_s=means.t_s)
         err[label] = float(np.sqrt(np.mean((f - means.f_nominal_g) ** 2)))
-    assert err["augmented"] < 0.5 * err["plain"], err
+    # the table's own errors move every pose off its nominal direction: the same table and sensor without the hidden
+    # effect leave that floor; the augmented calibration takes away most of what the effect adds above it
+    clean = load_session(sessions["clean"]).step_means()
+    c = calfile.read(sessions["clean"] / "calibration.yaml").accelerometer
+    f = c.apply(clean.mean_counts, temp_c=clean.temp_c, t_s=clean.t_s)
+    err["clean"] = float(np.sqrt(np.mean((f - clean.f_nominal_g) ** 2)))
+    assert err["augmented"] ** 2 - err["clean"] ** 2 < 0.5 * (err["plain"] ** 2 - err["clean"] ** 2), err
     # the text report states the gap
     code, text, _ = _rig("discover", s)
     assert code == 0 and "scale_tempco" in text and "gap:" in text

@@ -94,12 +94,16 @@ def _truth(session: Path) -> dict:
     return yaml.safe_load((session / "sim_truth.yaml").read_text())
 
 
-def test_the_rate_test_recovers_all_12_gyro_parameters_within_their_sigmas(runs):
+def test_the_rate_test_recovers_all_12_gyro_parameters_within_their_sigmas_and_uncertainty(runs):
+    """Biases and scales within 4 sigma; the nonorthogonalities within their expanded uncertainty U (k = 2): they
+    are the sensor's axes against the table's, so the sensor's mounting in its fixture and the brackets'
+    non-orthogonality (the simulated table's own errors, on by default) are in them, beyond the Type A sigma."""
     s = runs["gyro"]
     cal = calfile.read(s / "calibration.yaml")
     g = GyroCalibration.from_dict(cal.gyroscope)
     truth = _truth(s)["gyroscope"]
     lsb = g.lsb_per_dps
+    beyond_sigma = []
     m_true = np.asarray(truth["matrix"]) * lsb
     b_true = np.asarray(truth["bias_dps"]) * lsb
     for j, a in enumerate("xyz"):
@@ -107,8 +111,11 @@ def test_the_rate_test_recovers_all_12_gyro_parameters_within_their_sigmas(runs)
         assert abs(g.matrix_counts_per_dps[j][j] - m_true[j, j]) < 4 * g.sigma[f"k_{a}"], a
         for k, c in enumerate("xyz"):
             if j != k:
-                est = g.nonorthogonality[f"m_{a}{c}"]
-                assert abs(est - m_true[j, k] / g.matrix_counts_per_dps[j][j]) < 4 * g.sigma[f"m_{a}{c}"], (a, c)
+                est, name = g.nonorthogonality[f"m_{a}{c}"], f"m_{a}{c}"
+                error = abs(est - m_true[j, k] / g.matrix_counts_per_dps[j][j])
+                assert error < g.uncertainty[name], (a, c, error, g.uncertainty[name])
+                beyond_sigma.append(error > 4 * g.sigma[name])
+    assert any(beyond_sigma)  # the table's errors: the Type A sigma alone would not hold them
     # the zero-rate bias of every +/- pair agrees with the least-squares bias
     for pair in g.bias_pairs:
         assert np.all(np.abs(np.asarray(pair.bias_counts) - g.bias_counts) < 4 * np.hypot(pair.sigma_counts, 0.5))
@@ -199,7 +206,14 @@ def test_rate_and_magnetometer_sessions_replay_to_identical_sections(runs, tmp_p
         assert proc.returncode == 0, proc.stderr
         r = next((tmp_path / key).iterdir())
         a, b = calfile.read(s / "calibration.yaml"), calfile.read(r / "calibration.yaml")
-        assert a.gyroscope == b.gyroscope and a.magnetometer == b.magnetometer
+        for first, again in ((a.gyroscope, b.gyroscope), (a.magnetometer, b.magnetometer)):
+            if first is None:
+                assert again is None
+                continue
+            x, y = first.to_dict(), again.to_dict()  # the same numbers; the replay's budget names its rig a replay's
+            if "uncertainty" in x:
+                assert "a replay of a recorded session" in y["uncertainty"].pop("rig") and x["uncertainty"].pop("rig")
+            assert type(first).from_dict(x) == type(again).from_dict(y)
         assert np.array_equal(a.accelerometer.bias_counts, b.accelerometer.bias_counts)
 
 

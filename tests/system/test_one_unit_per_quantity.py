@@ -120,7 +120,9 @@ def test_discover_states_the_bias_tempco_in_counts_per_c_as_run_does_and_its_jso
     found = {a: (float(v), float(s)) for a, v, s in re.findall(r"([xyz]) ([+-]?[\d.]+) \+- ([\d.]+)", line)}
     for a in "xyz":  # two fits of one session (run's thermal model, discover's search): the same tempco, same unit
         assert found[a][0] == pytest.approx(by_run[a][0], abs=by_run[a][1])
-        assert found[a][1] == pytest.approx(by_run[a][1], rel=0.1)
+        # the sigmas differ by how each judges the simulated table's own errors (run: the solve's misfit scaling;
+        # discover: the rig's covariance): a factor of a few, nothing like the 8192 of a unit mixed up
+        assert 0.2 < found[a][1] / by_run[a][1] < 5
     for name, unit in (("bias_tempco", "counts/C"), ("bias_tempco_quadratic", "counts/C^2")):  # detectable sizes
         (mdm,) = [x for x in details.splitlines() if x.startswith(f"  {name} ") and "variance inflation" in x]
         assert f"[{unit}]" in mdm

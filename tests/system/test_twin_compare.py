@@ -23,13 +23,16 @@ import numpy as np
 import pytest
 import yaml
 
+from calib.accel.rig_propagation import stage_angles_deg
 from drivers.sensors.sim.error_model import AccelErrorModel
 from rig.analysis.discover import step_context
 from rig.analysis.twin import twin_of_session
 from rig.cli.main import main
 from rig.config.rigfile import load_rig_file
 from rig.session import load_session
+from rig.session.adapter import arrival_directions
 from rig.simulation.settings import SimSettings
+from rig.simulation.simrig import SimulatedRig
 
 from conftest import PROCEDURES, RIGS
 
@@ -118,10 +121,12 @@ def test_the_baseline_twin_disagrees_where_the_scale_tempco_acts(loop):
     doc = _compare(loop["measured"]["scale_tempco"], loop["runs"][("scale_tempco", "baseline")])
     assert doc["agree"] is False and doc["cells_disagreeing"] >= 6 and doc["chi2_beyond"]
     t0 = np.mean([s["temp_c"][0] for s in doc["steps"]])
-    for s in doc["steps"]:
-        for j, bad in enumerate(s["disagree"]):
-            if bad:  # only on an axis carrying gravity, away from the reference temperature
-                assert abs(s["f_nominal_g"][j]) >= 0.5 and abs(s["temp_c"][0] - t0) > 2, s
+    cells = [(abs(s["f_nominal_g"][j]) >= 0.5, s) for s in doc["steps"] for j, bad in enumerate(s["disagree"]) if bad]
+    for _loaded, s in cells:  # away from the reference temperature
+        assert abs(s["temp_c"][0] - t0) > 2, s
+    # on the axes carrying gravity, and a few on the others: the sensor sits turned in its fixture by its mounting
+    # error (the simulated table's, on by default), so a scale that changes with temperature moves those couplings
+    assert sum(loaded for loaded, _ in cells) >= 0.75 * len(cells), [s["name"] for loaded, s in cells if not loaded]
     assert doc["by_load"]["loaded"] > 3 * doc["by_load"]["unloaded"]
     by_temp = doc["structure"]["by_temperature"]
     assert min(by_temp["28"], by_temp["52"]) > 2 * max(by_temp["37"], by_temp["42"])
@@ -156,9 +161,21 @@ def test_the_twin_validates_and_reproduces_the_measured_step_means(loop):
     idx = session.static_step_indices()
     m = session.step_means(idx)
     heating = step_context(session, idx).heating
-    pred = model.output_g(m.f_nominal_g, m.temp_c, m.t_s, heating) * m.lsb_per_g
+    pred = model.output_g(_felt_g(session, idx, settings), m.temp_c, m.t_s, heating) * m.lsb_per_g
     z = (m.mean_counts - pred) / m.sem_counts
     assert np.sqrt(np.mean(z ** 2)) < 1.3 and np.max(np.abs(z)) < 4.5
+
+
+def _felt_g(session, idx, settings) -> np.ndarray:
+    """The specific force (K, 3), g, the sensor felt at steps ``idx`` on the twin's table (the session's simulated
+    table: its poses land off their nominal directions by the table's own errors; a table without them: nominal)."""
+    m = session.step_means(idx)
+    table = SimulatedRig(settings, seed=0).geometry
+    if table is None:
+        return m.f_nominal_g
+    directions = arrival_directions(session, idx)
+    r = table.sensor_to_world(np.eye(3), stage_angles_deg(m.f_nominal_g), directions)
+    return np.einsum("kji,j->ki", r, [0.0, 0.0, table.gravity_g0()])
 
 
 def test_compare_calibrated_and_the_text_report(loop):

@@ -233,7 +233,9 @@ class TargetPolicy:
         rig_time = self.ctx.session_time()
         self.ctx.event("target", met=p.met, predicted_attitude_error_deg=p.attitude_error_deg,
                        sigmas=p.sigmas, ratio=p.ratio, rig_time_s=rig_time, summary=summary)
-        self.ctx.operator.info(f"{summary} (rig time {rig_time:.1f} s of max_seconds {self.spec.max_seconds:g})")
+        self.ctx.operator.info(f"{summary} (rig time {rig_time:.1f} s of max_seconds {self.spec.max_seconds:g}; "
+                               "predicted from the noise and wander: the turntable's own errors are in the "
+                               "calibration's expanded uncertainty U)")
 
     # -- helpers --------------------------------------------------------------------------------
     def _last_free(self, step) -> bool:

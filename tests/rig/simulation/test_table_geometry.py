@@ -92,10 +92,11 @@ def test_lost_motion_follows_the_direction_the_motor_last_turned_and_the_wire_do
     assert P.decode_answer(b"gpos", ctrl.receive(b"gpos")) == gpos_below  # the controller reports the same
 
 
-def test_geometry_is_off_by_default_and_when_on_leaves_every_other_draw_of_the_seed_alone():
-    off = SimulatedRig(SimSettings.from_mapping({"time_scale": 0}), seed=5)
-    on = SimulatedRig(SimSettings.from_mapping({"time_scale": 0, "geometry": {"enabled": True}}), seed=5)
+def test_geometry_is_on_by_default_and_off_leaves_every_other_draw_of_the_seed_alone():
+    on = SimulatedRig(SimSettings.from_mapping({"time_scale": 0}), seed=5)
+    off = SimulatedRig(SimSettings.from_mapping({"time_scale": 0, "geometry": {"enabled": False}}), seed=5)
     assert off.geometry is None and "geometry" not in off.truth()
+    assert on.geometry is not None and "geometry" in on.truth()
     assert off.world(np.array([0.0])).specific_force_g.tolist() == [[0.0, 0.0, 1.0]]
     assert on.accel_errors.to_dict() == off.accel_errors.to_dict()
     assert not np.allclose(on.world(np.array([0.0])).specific_force_g, [[0, 0, 1.0]], atol=1e-6)
