@@ -23,6 +23,7 @@ with ``S_i = W_i(theta) B_i Rot_axis_i(theta_true) B_i^T``. The simulated rig's 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -138,6 +139,11 @@ class TableGeometry:
     # -- the constant matrices -------------------------------------------------------------------
     def brackets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """B1, B2, B3: each stage's nominal axis turned onto its true axis (in its parent frame)."""
+        return self._brackets
+
+    @cached_property
+    def _brackets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        # the simulated world asks at every block of samples: made once per geometry (a frozen dataclass)
         d12, d23, d13 = np.radians(self.non_orthogonality_deg)
         b2 = rot_y(-d12)[0]  # e_x -> (cos, 0, sin): towards +z
         b3 = rot_z(-d23)[0] @ rot_x(d13)[0]  # e_y -> towards +x and +z
@@ -149,6 +155,10 @@ class TableGeometry:
 
     def mounting(self) -> np.ndarray:
         """M: sensor frame -> a3's platform frame."""
+        return self._mounting
+
+    @cached_property
+    def _mounting(self) -> np.ndarray:
         mx, my, mz = np.radians(self.mounting_deg)
         return rot_x(mx)[0] @ rot_y(my)[0] @ rot_z(mz)[0]
 
@@ -173,13 +183,23 @@ class TableGeometry:
 
     def sensor_to_world(self, tilt: np.ndarray, angles_deg: np.ndarray, directions: np.ndarray) -> np.ndarray:
         """R (N, 3, 3): sensor frame -> world, with the base ``tilt`` (3, 3)."""
+        return self.attitude(tilt, angles_deg, directions, None)[0]
+
+    def attitude(self, tilt: np.ndarray, angles_deg: np.ndarray, directions: np.ndarray,
+                 rates: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """:meth:`sensor_to_world` and :meth:`body_rate` (None without ``rates``) from one evaluation of the stages'
+        rotations (the simulated world asks for both at every block of samples)."""
         s1, s2, s3 = self.stage_rotations(angles_deg, directions)
-        return tilt @ s1 @ s2 @ s3 @ self.mounting()
+        r = tilt @ s1 @ s2 @ s3 @ self.mounting()
+        return r, (None if rates is None else self._body_rate(s2, s3, rates))
 
     def body_rate(self, angles_deg: np.ndarray, directions: np.ndarray, rates: np.ndarray) -> np.ndarray:
         """Angular rate (N, 3) in the sensor frame for stage rates ``rates`` (N, 3), in their unit (about the
         true axes; the wobble's and the angular errors' own rates neglected: below 1e-3 of the rate)."""
         _, s2, s3 = self.stage_rotations(angles_deg, directions)
+        return self._body_rate(s2, s3, rates)
+
+    def _body_rate(self, s2: np.ndarray, s3: np.ndarray, rates: np.ndarray) -> np.ndarray:
         u1, u2, u3 = self.axes_in_parent()
         s3t, s2t = np.transpose(s3, (0, 2, 1)), np.transpose(s2, (0, 2, 1))
         w = (s3t @ s2t @ u1) * rates[:, 0:1] + (s3t @ u2) * rates[:, 1:2] + u3[None, :] * rates[:, 2:3]

@@ -237,11 +237,11 @@ class WorldModel:
         """Sensor -> world rotations (N, 3, 3), specific force (N, 3) in g0 and body rate (N, 3) rad/s."""
         if self.geometry is not None:
             angles, directions = self.angles_deg_at(t), self.directions_at(t)
-            r = self.geometry.sensor_to_world(self.tilt_matrix(), angles, directions)
+            r, w = self.geometry.attitude(self.tilt_matrix(), angles, directions, rates)
             if self.pose_error_deg:
                 r = self.placement(angles) @ r
             f = self.geometry.gravity_g0() * (np.transpose(r, (0, 2, 1)) @ np.array([0.0, 0.0, 1.0]))
-            return r, f, self.geometry.body_rate(angles, directions, rates)
+            return r, f, w
         deg = self.angles_deg_at(t)
         ang = np.radians(deg)
         rz, rx, ry = rot_z(ang[:, 0]), rot_x(ang[:, 1]), rot_y(ang[:, 2])
