@@ -9,14 +9,14 @@ from __future__ import annotations
 from typing import Any, ClassVar, Optional
 
 import numpy as np
-from pydantic import ConfigDict, Field, field_validator, model_serializer, model_validator
+from pydantic import ConfigDict, Field, field_validator, model_validator
 from typing_extensions import NotRequired, TypedDict
 
 from calib.discovery.effects import LIBRARY, TIME_EFFECTS, effect_counts, validate_effect
 from calib.errors import CalibError
 from calib.numerics.design import MISFIT_LEVEL, misfit
 from calib.file.fields import Matrix3, Vector3, array, field_problem, integer, number, unit
-from calib.file.section import CalibrationSection, choice, valid_uncertainty, without_absent_uncertainty
+from calib.file.section import CalibrationSection, choice, WithUncertainty
 
 MODELS = ("triangular", "full", "diagonal")
 MISALIGNMENT_NAMES = ("alpha_yz", "alpha_zy", "alpha_zx")
@@ -91,7 +91,7 @@ class FitSummary(CalibrationSection):
     method: str = Field("", description="solver method (pinv, flip, combinations, magnitude)")
 
 
-class AccelCalibration(CalibrationSection):
+class AccelCalibration(WithUncertainty):
     """A solved accelerometer calibration (raw counts <-> specific force in g, sensor frame).
 
     Attributes
@@ -130,10 +130,6 @@ class AccelCalibration(CalibrationSection):
                                        "the budget of Type A and B contributions (docs/uncertainty.md); absent: "
                                        "none was made", default=None)
 
-    @model_serializer(mode="wrap")
-    def _without_absent_uncertainty(self, handler):
-        return without_absent_uncertainty(handler(self))
-
     @field_validator("effects", mode="before")
     @classmethod
     def _valid_effects(cls, effects: Any) -> Any:
@@ -144,11 +140,6 @@ class AccelCalibration(CalibrationSection):
             if problem:
                 raise field_problem(f"[{i}]", problem)
         return [dict(e) for e in effects]
-
-    @field_validator("uncertainty", mode="before")
-    @classmethod
-    def _valid_uncertainty(cls, u: Any) -> Any:
-        return valid_uncertainty(u)
 
     @model_validator(mode="after")
     def _consistent(self) -> "AccelCalibration":

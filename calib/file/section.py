@@ -23,7 +23,8 @@ from __future__ import annotations
 import math
 from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, ValidationError, ValidationInfo, model_validator
+from pydantic import (BaseModel, ConfigDict, ValidationError, ValidationInfo, field_validator, model_serializer,
+                      model_validator)
 
 from calib.errors import CalibrationFileError
 from calib.file.fields import FROM_FILE, check_mapping, describe, fail, field_problem
@@ -37,30 +38,6 @@ SECTIONS: dict[str, type["CalibrationSection"]] = {}
 def choice(*options: str) -> Any:
     """A string field, one of ``options`` (the file's JSON Schema says ``"type": "string"``)."""
     return _choice(options, json_type="string")
-
-
-# ------------------------------------------------------------------------------ the uncertainty sub-section
-
-def valid_uncertainty(u: Any) -> Any:
-    """A section's ``uncertainty`` (docs/uncertainty.md) as a file states it: None, or a mapping with the coverage
-    factor ``k`` (a number > 0) and its ``budget`` (a list of contributions, each of type A or B)."""
-    if u is None:
-        return u
-    k = u.get("k") if isinstance(u, dict) else None
-    if not isinstance(k, (int, float)) or isinstance(k, bool) or not k > 0:
-        raise field_problem("k", f"expected the coverage factor, a number > 0, got {k!r}")
-    budget = u.get("budget")
-    if not isinstance(budget, list) or not all(isinstance(c, dict) and c.get("type") in ("A", "B") for c in budget):
-        raise field_problem("budget", "expected a list of contributions, each with type A or B")
-    return dict(u)
-
-
-def without_absent_uncertainty(d: Any) -> Any:
-    """A section's dump with ``uncertainty`` only when a budget was made, so files and outputs without one are as
-    they were."""
-    if isinstance(d, dict) and d.get("uncertainty") is None:
-        d.pop("uncertainty", None)
-    return d
 
 
 # ---------------------------------------------------------------------------------------------- base class
@@ -169,3 +146,30 @@ class CalibrationSection(BaseModel):
 def section_class(cal_type: str) -> type[CalibrationSection]:
     """The section class of a type tag (``"accelerometer"``, ``"gyroscope"``, ``"magnetometer"``)."""
     return SECTIONS[cal_type]
+
+
+class WithUncertainty(CalibrationSection):
+    """A section that may carry its uncertainty budget (docs/uncertainty.md): the subclass declares ``uncertainty``
+    where its file order puts it; it is validated and dumped here, once for every sensor. In a file: None, or a
+    mapping with the coverage factor ``k`` (a number > 0) and its ``budget`` (contributions, each of type A or B);
+    dumped only when a budget was made, so files and outputs without one are as they were."""
+
+    @model_serializer(mode="wrap")
+    def _without_absent_uncertainty(self, handler):
+        d = handler(self)
+        if isinstance(d, dict) and d.get("uncertainty") is None:
+            d.pop("uncertainty", None)
+        return d
+
+    @field_validator("uncertainty", mode="before", check_fields=False)
+    @classmethod
+    def _valid_uncertainty(cls, u: Any) -> Any:
+        if u is None:
+            return u
+        k = u.get("k") if isinstance(u, dict) else None
+        if not isinstance(k, (int, float)) or isinstance(k, bool) or not k > 0:
+            raise field_problem("k", f"expected the coverage factor, a number > 0, got {k!r}")
+        budget = u.get("budget")
+        if not isinstance(budget, list) or not all(isinstance(c, dict) and c.get("type") in ("A", "B") for c in budget):
+            raise field_problem("budget", "expected a list of contributions, each with type A or B")
+        return dict(u)

@@ -13,11 +13,11 @@ from __future__ import annotations
 from typing import Any, ClassVar, Optional
 
 import numpy as np
-from pydantic import ConfigDict, field_validator, model_serializer, model_validator, with_config
+from pydantic import ConfigDict, field_validator, model_validator, with_config
 from typing_extensions import TypedDict
 
 from calib.file.fields import Matrix3, Vector3, array, field_problem, integer, number, unit
-from calib.file.section import CalibrationSection, valid_uncertainty, without_absent_uncertainty
+from calib.file.section import CalibrationSection, WithUncertainty
 from calib.frames import SENSOR_AXES
 
 OFF_DIAGONAL = tuple((i, j) for i in range(3) for j in range(3) if i != j)
@@ -63,7 +63,7 @@ class BiasPair(CalibrationSection):
     sigma_counts: array(3, nonneg=True) = unit("counts", "1-sigma of bias_counts")
 
 
-class GyroCalibration(CalibrationSection):
+class GyroCalibration(WithUncertainty):
     """Result of :func:`calib.gyro.solve_gyro`; model ``counts = M @ w + b`` (sensor frame).
 
     Attributes
@@ -102,15 +102,6 @@ class GyroCalibration(CalibrationSection):
     uncertainty: Optional[dict] = unit("-", "expanded uncertainty U = k u_c in sigma's keys, k, combined_standard and "
                                        "the budget of Type A and B contributions (docs/uncertainty.md, \"The "
                                        "gyroscope\"); absent: none was made", default=None)
-
-    @model_serializer(mode="wrap")
-    def _without_absent_uncertainty(self, handler):
-        return without_absent_uncertainty(handler(self))
-
-    @field_validator("uncertainty", mode="before")
-    @classmethod
-    def _valid_uncertainty(cls, u: Any) -> Any:
-        return valid_uncertainty(u)
 
     @field_validator("g_sensitivity")
     @classmethod

@@ -8,14 +8,14 @@ In the simulator's convention (``drivers.sensors.sim.error_model.MagErrorModel``
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, Optional
+from typing import ClassVar, Optional
 
 import numpy as np
-from pydantic import ConfigDict, field_validator, model_serializer, model_validator, with_config
+from pydantic import ConfigDict, model_validator, with_config
 from typing_extensions import TypedDict
 
 from calib.file.fields import Matrix3, Vector3, field_problem, integer, number, unit
-from calib.file.section import CalibrationSection, choice, valid_uncertainty, without_absent_uncertainty
+from calib.file.section import choice, WithUncertainty
 from calib.frames import SENSOR_AXES
 
 METHODS = ("positions", "ellipsoid")
@@ -31,7 +31,7 @@ MagSigma = with_config(ConfigDict(extra="forbid"))(
     TypedDict("MagSigma", {n: number(nonneg=True) for n in sigma_names()}))
 
 
-class MagCalibration(CalibrationSection):
+class MagCalibration(WithUncertainty):
     """Result of :func:`calib.mag.solve_mag_positions` or :func:`calib.mag.solve_mag_ellipsoid`; ``m = A h + B``.
 
     Attributes
@@ -70,15 +70,6 @@ class MagCalibration(CalibrationSection):
                                        "combined_standard and the budget of Type A and B contributions "
                                        "(docs/uncertainty.md, \"The magnetometer\"); absent: none was made",
                                        default=None)
-
-    @model_serializer(mode="wrap")
-    def _without_absent_uncertainty(self, handler):
-        return without_absent_uncertainty(handler(self))
-
-    @field_validator("uncertainty", mode="before")
-    @classmethod
-    def _valid_uncertainty(cls, u: Any) -> Any:
-        return valid_uncertainty(u)
 
     @model_validator(mode="after")
     def _invertible(self) -> "MagCalibration":
