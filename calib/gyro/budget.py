@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 
 from calib.gyro.result import GyroCalibration
-from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, combined, expanded, rectangular
+from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, budget_section, rectangular
 
 #: the budget's entries, in the file's order
 FRAME = "rig frame (mounting, stage zeros)"
@@ -44,8 +44,5 @@ def contributions(gyro: GyroCalibration, rig: RigErrors) -> list[Contribution]:
 def uncertainty_section(gyro: GyroCalibration, rig: RigErrors, k: float = DEFAULT_K) -> dict:
     """``gyroscope.uncertainty``: ``U = k u_c`` in ``sigma``'s keys (``b_x`` counts, ``k_x`` counts/(deg/s),
     ``m_xy`` -), ``k``, where the rig's figures come from, the combined standard uncertainty and the ``budget``."""
-    parts = contributions(gyro, rig)
-    return {"k": float(k), "rig": f"{rig.source} (the table's classes: the rate steps are not re-placed)",
-            **expanded(parts, k), "combined_standard": combined(parts),
-            "budget": [{"name": c.name, "type": c.type, "source": c.source, "distribution": c.distribution,
-                        **{n: c.u.get(n, 0.0) for n in gyro.sigma}} for c in parts]}
+    return budget_section(contributions(gyro, rig), gyro.sigma, k,
+                          f"{rig.source} (the table's classes: the rate steps are not re-placed)")

@@ -25,7 +25,7 @@ from calib.frames import SENSOR_AXES
 from calib.mag.inputs import MagStepMeans
 from calib.mag.result import MagCalibration, sigma_names
 from calib.numerics.affine import affine_design, step_covariance
-from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, combined, expanded
+from calib.numerics.budget import DEFAULT_K, Contribution, RigErrors, budget_section
 
 FRAME = "rig frame (mounting, stage zeros)"
 POSES = "rig poses (stage errors, wobble, non-orthogonality, lost motion)"
@@ -77,8 +77,5 @@ def contributions(cal: MagCalibration, steps: MagStepMeans, rig: RigErrors) -> l
 def uncertainty_section(cal: MagCalibration, steps: MagStepMeans, rig: RigErrors, k: float = DEFAULT_K) -> dict:
     """``magnetometer.uncertainty`` of a positions solve: ``U = k u_c`` in ``sigma``'s keys, ``k``, where the rig's
     figures come from, the combined standard uncertainty and the ``budget``."""
-    parts = contributions(cal, steps, rig)
-    return {"k": float(k), "rig": f"{rig.source} (the table's classes: the positions are not re-placed)",
-            **expanded(parts, k), "combined_standard": combined(parts),
-            "budget": [{"name": c.name, "type": c.type, "source": c.source, "distribution": c.distribution,
-                        **{n: c.u.get(n, 0.0) for n in sigma_names()}} for c in parts]}
+    return budget_section(contributions(cal, steps, rig), sigma_names(), k,
+                          f"{rig.source} (the table's classes: the positions are not re-placed)")

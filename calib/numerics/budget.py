@@ -66,6 +66,15 @@ def expanded(contributions: list[Contribution], k: float = DEFAULT_K) -> dict[st
     return {n: k * u for n, u in combined(contributions).items()}
 
 
+def budget_section(parts: list[Contribution], keys, k: float, rig: str) -> dict:
+    """A sensor's ``uncertainty`` section in flat keys ``keys`` (its ``sigma``'s names): ``k``, where the rig's
+    figures come from (``rig``), ``U = k u_c`` per key, ``combined_standard`` and the ``budget``: each contribution's
+    standard uncertainty per key (0 where it names none)."""
+    return {"k": float(k), "rig": rig, **expanded(parts, k), "combined_standard": combined(parts),
+            "budget": [{"name": c.name, "type": c.type, "source": c.source, "distribution": c.distribution,
+                        **{n: c.u.get(n, 0.0) for n in keys}} for c in parts]}
+
+
 def coverage_interval(contributions: list[Contribution], p: float = 0.95, n: int = 20000,
                       seed: int = 0) -> dict[str, float]:
     """Half-width of the shortest symmetric interval holding probability ``p`` of every quantity's error, by
