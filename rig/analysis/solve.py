@@ -16,6 +16,7 @@ from calib.gyro import solve_gyro
 from calib.gyro.static_bias import StaticGyroBias, static_gyro_bias
 from calib.mag import solve_mag_ellipsoid, solve_mag_positions
 from calib.mag.continuous import solve_mag_ellipsoid_samples
+from calib.numerics.budget import RigErrors
 from rig import __version__
 from rig.analysis.coverage import session_coverage
 from rig.analysis.target import calibration_record
@@ -40,8 +41,8 @@ def calibrate_session(session_dir, *, model: str | None = None, method: str | No
                            "solves the sensors it has)")
     spec = session.solve_spec or {}
     accel, steps, model, method = solve_accelerometer(session, model=model, method=method, thermal=thermal)
-    gyro, mag = solve_gyro_and_mag(session, spec, accel)
-    rig = session_rig_errors(session) if method in POSE_METHODS or gyro is not None else None
+    rig = session_rig_errors(session)  # read once: the budgets of every sensor on this table
+    gyro, mag = solve_gyro_and_mag(session, spec, accel, rig)
     if gyro is not None:  # the rate steps turn about the table's axes (docs/uncertainty.md, "The gyroscope")
         gyro = with_gyro_budget(gyro, rig)
     if method in POSE_METHODS:  # the uncertainty budget (docs/uncertainty.md); sigma as the solve gave it
@@ -175,9 +176,11 @@ def sensor_section(session: Session) -> dict:
     return {"model": sensor.model, "address": sensor.address, "serial": sensor.serial}
 
 
-def solve_gyro_and_mag(session: Session, spec: dict, accel=None) -> tuple[dict | None, dict | None]:
-    """The gyroscope (rate steps) and magnetometer sections, when the session has their data."""
-    return solve_gyro_section(session, accel), solve_mag_section(session, spec)
+def solve_gyro_and_mag(session: Session, spec: dict, accel=None, rig: RigErrors | None = None
+                       ) -> tuple[dict | None, dict | None]:
+    """The gyroscope (rate steps) and magnetometer sections, when the session has their data (``rig``: the
+    session's :func:`~rig.analysis.uncertainty.session_rig_errors`, read here when not given)."""
+    return solve_gyro_section(session, accel), solve_mag_section(session, spec, rig)
 
 
 def solve_gyro_section(session: Session, accel=None) -> dict | None:
@@ -192,8 +195,9 @@ def solve_gyro_section(session: Session, accel=None) -> dict | None:
 MIN_MAG_RESTS = 10
 
 
-def solve_mag_section(session: Session, spec: dict) -> dict | None:
-    """The magnetometer section (None without magnetometer readings)."""
+def solve_mag_section(session: Session, spec: dict, rig: RigErrors | None = None) -> dict | None:
+    """The magnetometer section (None without magnetometer readings); a positions solve with its budget on the
+    session's table (``rig``, read here when not given)."""
     mag_steps = mag_step_means(session)
     turning = mag_turning_samples(session)
     site = session.info.rig.site
@@ -209,8 +213,8 @@ def solve_mag_section(session: Session, spec: dict) -> dict | None:
         if mag_steps.field_nominal_ut is None:
             raise ObservabilityError("the magnetometer position method needs the local field: add a site: "
                                      "section to the rig file, or use solve: {magnetometer: ellipsoid}")
-        rig = session_rig_errors(session)  # the poses' own errors (docs/uncertainty.md, "The magnetometer")
-        return with_mag_budget(solve_mag_positions(mag_steps), mag_steps, rig)
+        # the poses' own errors (docs/uncertainty.md, "The magnetometer")
+        return with_mag_budget(solve_mag_positions(mag_steps), mag_steps, rig or session_rig_errors(session))
     return solve_mag_ellipsoid(mag_steps, field_ut).to_dict()
 
 
