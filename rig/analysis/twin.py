@@ -33,7 +33,7 @@ from drivers.sensors.regs.mpu9150 import DLPF_BW_HZ
 from rig.analysis.discover import step_context
 from rig.analysis.twin_sensors import other_sensors
 from rig.analysis.uncertainty import session_rig_file
-from rig.config.rigfile import SIM_GEOMETRY_ENABLED, AxisConfig, parse_rig_file
+from rig.config.rigfile import AxisConfig, parse_rig_file, simulated_table
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
 from rig.session import Session, load_session, step_means
@@ -336,11 +336,11 @@ def twin_table(original) -> tuple[dict, str]:
     if original is None or not original.is_simulated:
         return {"enabled": False}, ("the twin's turntable lands where commanded: the session's table errors are not "
                                     "known (not a simulated rig file available unchanged), so a comparison sees them")
-    section = dict((original.sim or {}).get("geometry") or {})
-    if not section.get("enabled", SIM_GEOMETRY_ENABLED):
+    section = simulated_table(original.sim)
+    if section is None:
         return {"enabled": False}, "the twin's turntable is the session's: it lands where commanded (sim.geometry off)"
-    section["enabled"] = True
-    return section, "the twin's turntable is the session's simulated table (its sim.geometry: the same hidden errors)"
+    return ({**section, "enabled": True},
+            "the twin's turntable is the session's simulated table (its sim.geometry: the same hidden errors)")
 
 
 # -- the twin ------------------------------------------------------------------------------------------------

@@ -33,7 +33,7 @@ from calib.mag.budget import uncertainty_section as mag_uncertainty
 from calib.numerics.budget import DEFAULT_K, RigErrors, TableClass
 from calib.numerics.gravity import G0_M_S2, Gravity, standard_gravity
 from rig.analysis.characterisation_record import CharacterisationRecord, find_record, table_digest
-from rig.config.rigfile import SIM_GEOMETRY_ENABLED, GravityConfig, RigFile, load_rig_file
+from rig.config.rigfile import GravityConfig, RigFile, load_rig_file, simulated_table
 from rig.errors import RigInputError
 from rig.planning.kinematics import STAGE_AXES
 
@@ -145,7 +145,7 @@ def rig_errors(rig_file: RigFile | RigFacts | None) -> RigErrors:
     geometry = (rig_file.sim or {}).get("geometry") or {}
     table = TableClass(**{k: float(v) for k, v in geometry.items() if k in _CLASS_KEYS})
     source = f"rig file {Path(rig_file.path).name}: " + ("sim.geometry classes" if geometry else "datasheet classes")
-    if rig_file.is_simulated and not geometry.get("enabled", SIM_GEOMETRY_ENABLED):
+    if rig_file.is_simulated and simulated_table(rig_file.sim) is None:
         table = PERFECT_TABLE  # a simulated table without its errors (sim.geometry off) lands where commanded
         source = f"rig file {Path(rig_file.path).name}: simulated turntable without geometry errors (sim.geometry off)"
     approaching = [rig_file.axes[n].approach != "none" for n in STAGE_AXES]

@@ -37,6 +37,14 @@ STAGE_MAX_SPEED_DEG_S = MR191.max_speed_deg_s  # 8MR191: NomSpeed 4800 full step
 STAGE_MAX_ACCEL_DEG_S2 = 65535 * MR191.deg_per_step  # the controller's largest Accel (steps/s^2)
 LIMIT_DEG = 1e6  # far beyond any real table (the replay rig uses it as "no limit")
 SIM_GEOMETRY_ENABLED = True  # a simulated table has its own errors unless its sim.geometry says enabled: false
+
+
+def simulated_table(sim: dict | None) -> dict | None:
+    """A simulated rig file's ``sim.geometry`` section (its classes and ``table_seed``; ``{}``: every default) when
+    its table has its own errors, on unless ``enabled: false`` (:data:`SIM_GEOMETRY_ENABLED`); None when it lands
+    where commanded. The one reading of that switch outside the simulator (the budget, the digital twin)."""
+    section = (sim or {}).get("geometry") or {}
+    return section if section.get("enabled", SIM_GEOMETRY_ENABLED) else None
 _DATACLASS_CONFIG = ConfigDict(extra="forbid")
 
 
