@@ -15,7 +15,7 @@ controller side (decode requests, encode answers) used by the emulator.
 from __future__ import annotations
 
 import struct
-from dataclasses import astuple, dataclass, fields
+from dataclasses import dataclass, fields
 
 # -- CRC ---------------------------------------------------------------------------------
 
@@ -245,11 +245,8 @@ def _frame(cmd: bytes, data: bytes | None) -> bytes:
 
 
 def _pack(st: struct.Struct, obj) -> bytes:
-    values = []
-    for f, v in zip(fields(obj), astuple(obj)):
-        if isinstance(v, str):
-            v = v.encode("ascii")
-        values.append(v)
+    # the fields' values as they are (flat: numbers and strings), not dataclasses.astuple's deep copy of each
+    values = [v.encode("ascii") if isinstance(v, str) else v for v in (getattr(obj, f.name) for f in fields(obj))]
     try:
         return st.pack(*values)
     except struct.error as exc:

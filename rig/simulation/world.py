@@ -179,6 +179,9 @@ class AxisLink:
     sign: float = 1.0
     home_offset_deg: float = 0.0
     direction_at: Callable[[np.ndarray], np.ndarray] | None = None  # the motor's last direction, +1 or -1
+    #: (angle deg, last direction) the stage stands still at from a clock time on, None while it moves then; the
+    #: world's shortcut for a block at rest (None: the world evaluates the stage at the block's samples)
+    rest_pose: Callable[[float], tuple[float, float] | None] | None = None
 
 
 @dataclass
@@ -194,6 +197,7 @@ class WorldModel:
     pose_error_deg: float = 0.0  # each pose placed off its nominal one by up to this (the pose_error effect)
     _last_moving_t: float = -np.inf
     _tilt: tuple | None = None  # (table_tilt_deg, its matrix)
+    _memo: dict = dataclasses.field(default_factory=dict, repr=False)  # pose key -> its attitude at rest
 
     def angles_deg_at(self, t_s: np.ndarray) -> np.ndarray:
         """Kinematic angles (a1, a2, a3) at clock times ``t_s``: (N, 3), deg."""
@@ -277,29 +281,62 @@ class WorldModel:
             self._last_moving_t = float(last[-1])
         return last
 
-    def _static(self, t: np.ndarray, rates: np.ndarray) -> bool:
-        """Whether the sensor's attitude is the same at every time of ``t`` (no stage turning at any of them,
-        the same angles and, with a geometry, the same last directions at the first and every other time)."""
-        if len(t) < 2 or rates.any():
-            return False
-        deg = self.angles_deg_at(t)
-        if not (deg == deg[0]).all():
-            return False
-        if self.geometry is None:
-            return True
-        d = self.directions_at(t)
-        return bool((d == d[0]).all())
+    def _rest_key(self, t: np.ndarray, rates: np.ndarray) -> bytes | None:
+        """The table's pose through the block ``t`` when it is at rest there (no stage turning at any of its
+        times, the same angles and last directions at its first and last), as a key of the attitude's memo;
+        None while it moves. The stages' trapezoidal profiles cannot leave and come back between two samples
+        of zero speed, so the block's two ends stand for all of it."""
+        if rates.any():
+            return None
+        ends = t[[0, -1]]
+        deg = self.angles_deg_at(ends)
+        if not (deg[0] == deg[1]).all():
+            return None
+        d = self.directions_at(ends) if self.geometry is not None else np.ones((2, 3))
+        if not (d[0] == d[1]).all():
+            return None
+        return (b"angles" + deg[0].tobytes() + d[0].tobytes() + np.asarray(self.table_tilt_deg, float).tobytes()
+                + np.float64(self.pose_error_deg).tobytes() + self.magnetic_field.world_vector_ut().tobytes())
+
+    def _static_attitude(self, key: bytes, t0: np.ndarray, rate0: np.ndarray) -> tuple:
+        """(r, f, w, m) of one sample at rest, remembered by the pose's key: a dwell of many reads evaluates its
+        attitude once (the memo is bounded: a long session visits many poses)."""
+        memo = self._memo
+        if key not in memo or memo[key][0] is not self.geometry:
+            if len(memo) >= 512:
+                memo.clear()
+            r, f, w = self._attitude(t0, rate0)
+            m = np.transpose(r, (0, 2, 1)) @ self.magnetic_field.world_vector_ut()
+            memo[key] = (self.geometry, (f, w, m))
+        return memo[key][1]
+
+    def _resting_key(self, t0: float) -> bytes | None:
+        """:meth:`_rest_key` from the stages' own word that they stand still from ``t0`` on (each link's
+        ``rest_pose``), without evaluating their motion at the block's samples; None when a link cannot say or
+        a stage moves."""
+        poses = []
+        for ax in self.axes:
+            pose = None if ax.rest_pose is None else ax.rest_pose(t0)
+            if pose is None:
+                return None
+            poses.append(pose)
+        return (b"stages" + np.asarray(poses, float).tobytes() + np.asarray(self.table_tilt_deg, float).tobytes()
+                + np.float64(self.pose_error_deg).tobytes() + self.magnetic_field.world_vector_ut().tobytes())
 
     def __call__(self, t_s: np.ndarray) -> PhysicsBatch:
         t = np.atleast_1d(np.asarray(t_s, float))
-        rates = np.radians(self.rates_deg_s_at(t))
-        if self._static(t, rates):  # the table at rest: one attitude for the whole block
-            r, f, w = (np.repeat(x, len(t), axis=0) for x in self._attitude(t[:1], rates[:1]))
+        key = self._resting_key(float(t[0]))
+        if key is not None:
+            rates = np.zeros((len(t), 3))
+        else:
+            rates = np.radians(self.rates_deg_s_at(t))
+            key = self._rest_key(t, rates)
+        if key is not None:  # the table at rest: one attitude for the whole block
+            f, w, m = (np.repeat(x, len(t), axis=0) for x in self._static_attitude(key, t[:1], rates[:1]))
         else:
             r, f, w = self._attitude(t, rates)
-        rt = np.transpose(r, (0, 2, 1))
+            m = np.transpose(r, (0, 2, 1)) @ self.magnetic_field.world_vector_ut()
         f = f + self._ringing(t, np.any(np.abs(rates) > 1e-9, axis=1))
-        m = rt @ self.magnetic_field.world_vector_ut()
         return PhysicsBatch(specific_force_g=f, angular_rate_dps=np.degrees(w),
                             magnetic_field_ut=m, temp_c=self.chamber.temp_at(t))
 

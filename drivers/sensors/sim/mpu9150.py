@@ -94,10 +94,13 @@ class Mpu9150Model(I2CDevice):
         self._catch_up()
         out = bytearray()
         reg = register
-        for _ in range(length):
-            if reg == FIFO_R_W:
-                out.append(self.fifo.pop(0) if self.fifo else 0)
-                continue  # FIFO_R_W does not auto-increment
+        for i in range(length):
+            if reg == FIFO_R_W:  # FIFO_R_W does not auto-increment: the rest of the read is the FIFO's, zeros once empty
+                n = length - i
+                out += self.fifo[:n]
+                del self.fifo[:n]
+                out += bytes(length - len(out))
+                break
             if reg == INT_STATUS:
                 out.append(self.regs[INT_STATUS])
                 self.regs[INT_STATUS] = 0  # cleared on read

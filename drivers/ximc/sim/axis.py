@@ -72,6 +72,7 @@ class AxisMotion:
         self.error_at: float | None = None  # clock time at which the running command ends in error
         self.gpio = 0
         self.direction_before = 1.0  # the direction the motor last turned before the current profile (+1 or -1)
+        self._rest_memo: tuple | None = None  # (profile, (offset, direction before), rest pose): rest_pose
 
     # -- reading ---------------------------------------------------------------------------
     def now(self) -> MotionNow:
@@ -97,6 +98,20 @@ class AxisMotion:
         started = t >= self.profile.phases[0].t
         d = np.where(np.abs(travel) > 1e-9, np.sign(travel), self.direction_before)
         return np.where(started & (np.abs(v) > 0), np.sign(v), np.where(started, d, self.direction_before))
+
+    def rest_pose(self, t_s: float) -> tuple[float, float] | None:
+        """(physical angle deg, last direction +1 or -1) at which the stage stands still from clock time ``t_s``
+        on, or None when the current profile still moves at or after ``t_s``. Computed once per profile and
+        counter offset: the simulated world asks at every block of samples, and a stage at rest answers without
+        evaluating its profile at each sample."""
+        if t_s < self.profile.end_time:
+            return None
+        memo = self._rest_memo
+        if memo is None or memo[0] is not self.profile or memo[1] != (self.offset_usteps, self.direction_before):
+            end = self.profile.phases[-1].t
+            pose = (float(self.position_deg_at(end)), float(self.direction_at(end)))
+            memo = self._rest_memo = (self.profile, (self.offset_usteps, self.direction_before), pose)
+        return memo[2]
 
     def counter_of_deg(self, angle_deg: float) -> float:
         """Counter microsteps at which the stage stands at physical ``angle_deg``."""

@@ -139,6 +139,12 @@ class Controller:
         with self._lock:
             return self.motion.direction_at(t_s)
 
+    def rest_pose(self, t_s: float) -> tuple[float, float] | None:
+        """(physical angle deg, last direction) the stage stands still at from clock time ``t_s`` on; None while
+        it moves then (:meth:`AxisMotion.rest_pose`)."""
+        with self._lock:
+            return self.motion.rest_pose(t_s)
+
     # -- helpers -----------------------------------------------------------------------------------
     def _limits(self) -> tuple[float, float, float]:
         """Top speed (usteps/s), acceleration and deceleration (usteps/s^2) of a move."""

@@ -113,6 +113,11 @@ class ControllerEmulator:
         motion follows it; ``rig.simulation.geometry``)."""
         return self.controller.direction_at(t_s)
 
+    def rest_pose(self, t_s: float) -> tuple[float, float] | None:
+        """(physical angle deg, last direction) the stage stands still at from clock time ``t_s`` on; None while
+        it moves then (the world model's shortcut for a block of samples at rest)."""
+        return self.controller.rest_pose(t_s)
+
     # -- lifecycle ---------------------------------------------------------------------------
     def start(self) -> str:
         """Open the pseudo-terminal and serve; returns the device path."""

@@ -69,3 +69,39 @@ def test_a_source_without_a_temperature_of_its_own_gives_its_batch_temperature()
     t = np.array([0.0, 1.0, 2.0])
     assert list(temperature_at(Plain(), t)) == [31.5] * 3 == list(advance(Plain(), t))
     assert list(temperature_at(StaticPhysics(temp_c=31.5), t)) == [31.5] * 3
+
+
+def _controllers_world(rest_shortcut: bool):
+    """Three emulated controllers (their real motion profiles) under a table with its own errors; the links
+    give the stages' word of rest (``rest_pose``) or not."""
+    from drivers.ximc.sim.controller import Controller
+    clock = VirtualClock()
+    ctrls = [Controller(0x3A5C + i, clock=clock) for i in range(3)]
+    links = [AxisLink(c.position_deg_at, c.speed_deg_s_at, sign, home, c.direction_at,
+                      c.rest_pose if rest_shortcut else None)
+             for c, sign, home in zip(ctrls, (1.0, -1.0, 1.0), (0.0, 2.5, -1.0))]
+    geometry = TableGeometry(stages=(StageErrors(lost_motion_deg=0.03), StageErrors(zero_offset_deg=0.05),
+                                     StageErrors(wobble_deg=0.01)), non_orthogonality_deg=(0.01, 0.02, 0.0))
+    return clock, ctrls, WorldModel(links, SimChamber(clock), table_tilt_deg=(0.02, -0.01), geometry=geometry)
+
+
+def test_stages_that_say_they_rest_give_every_sample_what_evaluating_their_motion_gives():
+    from drivers.ximc import protocol as P
+    worlds = [_controllers_world(shortcut) for shortcut in (True, False)]
+    out = {True: [], False: []}
+    rest_blocks = 0
+    for (clock, ctrls, world), shortcut in zip(worlds, (True, False)):
+        t0 = 0.0
+        for target_deg in (10.0, 25.0, 10.0, 10.0, -5.0, 10.0):  # a pose from above, then below: lost motion differs
+            for i, c in enumerate(ctrls):
+                c.receive(P.encode_request(b"move", P.Move(int(round((target_deg + 3 * i) / 0.01)), 0)))
+            for _ in range(60):  # reads every 0.25 s through the move and the rest after it
+                clock.sleep(0.25)
+                t = np.arange(t0, clock.now(), 0.01)
+                t0 = t[-1] + 0.01
+                out[shortcut].append(world(t))
+                rest_blocks += shortcut and world._resting_key(float(t[0])) is not None
+    assert rest_blocks > 100  # most blocks took the shortcut
+    for a, b in zip(out[True], out[False]):
+        for key in ("specific_force_g", "angular_rate_dps", "magnetic_field_ut", "temp_c"):
+            np.testing.assert_array_equal(getattr(a, key), getattr(b, key), err_msg=key)
