@@ -62,15 +62,21 @@ _ROT = (rot_z, rot_x, rot_y)
 def small_rotation(rv: np.ndarray) -> np.ndarray:
     """Rotation matrices (N, 3, 3) of rotation vectors ``rv`` (N, 3), rad (Rodrigues)."""
     rv = np.atleast_2d(np.asarray(rv, float))
-    th = np.linalg.norm(rv, axis=1)
-    k = np.zeros_like(rv)
-    nz = th > 0
-    k[nz] = rv[nz] / th[nz, None]
-    kx = np.zeros((len(rv), 3, 3))
-    kx[:, 0, 1], kx[:, 0, 2], kx[:, 1, 2] = -k[:, 2], k[:, 1], -k[:, 0]
-    kx[:, 1, 0], kx[:, 2, 0], kx[:, 2, 1] = k[:, 2], -k[:, 1], k[:, 0]
-    s, c = np.sin(th)[:, None, None], np.cos(th)[:, None, None]
-    return np.eye(3)[None] + s * kx + (1 - c) * (kx @ kx)
+    th = np.sqrt(np.einsum("ij,ij->i", rv, rv))
+    k = np.divide(rv, th[:, None], out=np.zeros_like(rv), where=th[:, None] > 0)
+    s, c = np.sin(th), np.cos(th)
+    # R = c I + s [k]x + (1 - c) k k^T (Rodrigues; [k]x [k]x = k k^T - I)
+    out = (1 - c)[:, None, None] * k[:, :, None] * k[:, None, :]
+    sk = s[:, None] * k
+    out[:, 0, 1] -= sk[:, 2]
+    out[:, 0, 2] += sk[:, 1]
+    out[:, 1, 2] -= sk[:, 0]
+    out[:, 1, 0] += sk[:, 2]
+    out[:, 2, 0] -= sk[:, 1]
+    out[:, 2, 1] += sk[:, 0]
+    for i in range(3):
+        out[:, i, i] += c
+    return out
 
 
 @dataclass(frozen=True)
@@ -177,8 +183,9 @@ class TableGeometry:
         true = np.radians(self.true_angles_deg(angles_deg, directions))
         out = []
         for i, (b, rot) in enumerate(zip(self.brackets(), _ROT)):
-            turn = b @ rot(true[:, i]) @ b.T
-            out.append(self.stages[i].wobble(i, angles_deg[:, i]) @ turn)
+            turn = rot(true[:, i]) if i == 0 else b @ rot(true[:, i]) @ b.T  # B1 is the identity (brackets)
+            stage = self.stages[i]
+            out.append(stage.wobble(i, angles_deg[:, i]) @ turn if stage.wobble_deg else turn)
         return out
 
     def sensor_to_world(self, tilt: np.ndarray, angles_deg: np.ndarray, directions: np.ndarray) -> np.ndarray:

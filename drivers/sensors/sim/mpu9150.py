@@ -192,6 +192,8 @@ class Mpu9150Model(I2CDevice):
 
     def _catch_up(self) -> None:
         """Produce the samples due by now: data registers, INT_STATUS, FIFO (with overflow)."""
+        if not self.sampler.due():
+            return
         size = max(self._sample_bytes(), 1)
         # with neither the FIFO nor the I2C master running, only the data registers show a sample: the
         # newest; the ones before it are only counted (a thermal wait polls the thermometer for hours of

@@ -158,15 +158,17 @@ BANK_PRODUCT_SAMPLES = (8, 40)
 
 
 def _first_order_bank(x_prev, dt: np.ndarray, taus: np.ndarray, sigma, n: np.ndarray):
-    """:func:`_first_order` for a bank of T processes of time constants ``taus`` (T,) sharing ``sigma``
-    (3,); ``n`` (T, N, 3) standard normals, ``x_prev`` (T, 3) or None. Returns (their sum (N, 3), the
-    last state (T, 3))."""
+    """:func:`_first_order` for a bank of T processes of time constants ``taus`` (T,) and sigmas ``sigma``
+    ((3,) shared, or (T, 3) each its own); ``n`` (T, N, 3) standard normals, ``x_prev`` (T, 3) or None.
+    Returns (their sum (N, 3), the last state (T, 3))."""
+    sigma = np.broadcast_to(np.asarray(sigma, float), (len(taus), n.shape[2]))
     if len(dt) > BANK_LOOP_MAX:
-        xs = [_first_order(None if x_prev is None else x_prev[i], dt, tau, sigma, n[i]) for i, tau in enumerate(taus)]
+        xs = [_first_order(None if x_prev is None else x_prev[i], dt, tau, sigma[i], n[i])
+              for i, tau in enumerate(taus)]
         return np.sum(xs, axis=0), np.array([x[-1] for x in xs])
     phi = np.exp(-dt[None, :] / taus[:, None])  # (T, N)
-    e = np.asarray(sigma) * np.sqrt(1.0 - phi**2)[:, :, None] * n
-    x = np.asarray(sigma) * n[:, 0] if x_prev is None else phi[:, 0, None] * x_prev + e[:, 0]
+    e = sigma[:, None, :] * np.sqrt(1.0 - phi**2)[:, :, None] * n
+    x = sigma * n[:, 0] if x_prev is None else phi[:, 0, None] * x_prev + e[:, 0]
     if not BANK_PRODUCT_SAMPLES[0] <= len(dt) <= BANK_PRODUCT_SAMPLES[1]:
         out = np.empty((len(dt), n.shape[2]))
         out[0] = x.sum(axis=0)
@@ -230,6 +232,16 @@ class NoiseProcess:
         draws = self.rng.standard_normal((len(t), 1 + (len(self.taus) if flicker else 0) + walk, 3))
         if bandwidth_hz is None:
             out = density * draws[:, 0]
+        elif flicker and (self.filtered is None) == (self.flicker is None):
+            # the filtered white noise is one more first-order process: one bank with the flicker's (its own
+            # sigma and time constant first), summed in one pass
+            taus = np.concatenate([[1 / (2 * math.pi * bandwidth_hz)], self.taus])
+            sigmas = np.vstack([density * math.sqrt(math.pi * bandwidth_hz / 2),
+                                np.broadcast_to(self.flicker_sigma, (len(self.taus), 3))])
+            prev = None if self.filtered is None else np.vstack([self.filtered[None, :], self.flicker])
+            out, state = _first_order_bank(prev, dt, taus, sigmas, draws[:, :len(taus)].transpose(1, 0, 2))
+            self.filtered, self.flicker = state[0], state[1:]
+            flicker = False  # drawn
         else:
             sigma = density * math.sqrt(math.pi * bandwidth_hz / 2)
             out, state = _first_order_bank(None if self.filtered is None else self.filtered[None, :], dt,

@@ -8,6 +8,8 @@ reads it and is exact under any clock.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from drivers.clock import ElasticClock
@@ -81,6 +83,14 @@ class LazySampler:
     def _temp_rate(self, t: np.ndarray, h: float = 0.5) -> np.ndarray:
         """True dT/dt (C/s) of the physics' sensor temperature (central difference over +-h s)."""
         return (temperature_at(self.physics, t + h) - temperature_at(self.physics, t - h)) / (2 * h)
+
+    def due(self) -> bool:
+        """Whether :meth:`catch_up` would produce a sample now (a register access between two samples asks
+        first: most of a host's accesses fall between samples, and the chip's own bookkeeping of what to keep is
+        only needed when one is due)."""
+        if not self.running:
+            return False
+        return math.floor((self.clock.now() - self.t_start) * self.rate_hz + 1e-9) >= self.next_k
 
     def catch_up(self, keep_last: int):
         """Samples due since the last call: dict of arrays (t_s, accel_g, temp_c, gyro_dps, skipped).
