@@ -96,7 +96,8 @@ class SimulatedRig:
         self.geometry = (settings.geometry.draw(np.random.default_rng([settings.table_seed, GEOMETRY_STREAM]),
                                                 settings.gravity_m_s2) if settings.geometry is not None else None)
         self.world = WorldModel(
-            axes=[AxisLink(e.position_deg_at, e.speed_deg_s_at, float(s), float(h), e.direction_at, e.rest_pose)
+            axes=[AxisLink(e.position_deg_at, e.speed_deg_s_at, float(s), float(h), e.direction_at, e.rest_pose,
+                           e.state_at)
                   for e, s, h in zip(self.emulators, axis_signs, home_offsets_deg)],
             chamber=self.chamber,
             table_tilt_deg=self._tilt(),

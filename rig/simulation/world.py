@@ -182,6 +182,9 @@ class AxisLink:
     #: (angle deg, last direction) the stage stands still at from a clock time on, None while it moves then; the
     #: world's shortcut for a block at rest (None: the world evaluates the stage at the block's samples)
     rest_pose: Callable[[float], tuple[float, float] | None] | None = None
+    #: (angle deg, rate deg/s, last direction) at clock times from one evaluation of the stage's motion (None: the
+    #: world asks the three callables above)
+    state_at: Callable[[np.ndarray], tuple] | None = None
 
 
 @dataclass
@@ -237,16 +240,34 @@ class WorldModel:
         ey = np.radians(self.pose_error_deg) * np.sin(a @ np.array([0.9, -1.7, 2.3]) + 1.9)
         return rot_x(ex) @ rot_y(ey)
 
-    def _attitude(self, t: np.ndarray, rates: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Sensor -> world rotations (N, 3, 3), specific force (N, 3) in g0 and body rate (N, 3) rad/s."""
+    def _kinematics(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Kinematic angles (N, 3) deg, rates (N, 3) rad/s and last directions (N, 3) at clock times ``t``: each
+        stage's motion evaluated once where its link can (``state_at``), else :meth:`angles_deg_at`,
+        :meth:`rates_deg_s_at` and (with a geometry; None without) :meth:`directions_at`."""
+        if any(ax.state_at is None for ax in self.axes):
+            return (self.angles_deg_at(t), np.radians(self.rates_deg_s_at(t)),
+                    self.directions_at(t) if self.geometry is not None else None)
+        cols = [ax.state_at(t) for ax in self.axes]
+        angles = np.stack([ax.sign * (np.broadcast_to(p, t.shape) - ax.home_offset_deg)
+                           for ax, (p, _, _) in zip(self.axes, cols)], axis=1)
+        rates = np.stack([ax.sign * np.broadcast_to(v, t.shape) for ax, (_, v, _) in zip(self.axes, cols)], axis=1)
+        directions = np.stack([ax.sign * np.broadcast_to(d, t.shape) for ax, (_, _, d) in zip(self.axes, cols)],
+                              axis=1)
+        return angles, np.radians(rates), directions
+
+    def _attitude(self, t: np.ndarray, rates: np.ndarray, angles: np.ndarray | None = None,
+                  directions: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Sensor -> world rotations (N, 3, 3), specific force (N, 3) in g0 and body rate (N, 3) rad/s (the
+        kinematic ``angles`` and ``directions`` at ``t`` when the caller has them)."""
         if self.geometry is not None:
-            angles, directions = self.angles_deg_at(t), self.directions_at(t)
+            if angles is None or directions is None:
+                angles, directions = self.angles_deg_at(t), self.directions_at(t)
             r, w = self.geometry.attitude(self.tilt_matrix(), angles, directions, rates)
             if self.pose_error_deg:
                 r = self.placement(angles) @ r
             f = self.geometry.gravity_g0() * (np.transpose(r, (0, 2, 1)) @ np.array([0.0, 0.0, 1.0]))
             return r, f, w
-        deg = self.angles_deg_at(t)
+        deg = self.angles_deg_at(t) if angles is None else angles
         ang = np.radians(deg)
         rz, rx, ry = rot_z(ang[:, 0]), rot_x(ang[:, 1]), rot_y(ang[:, 2])
         r = self.tilt_matrix() @ rz @ rx @ ry  # (N,3,3) sensor -> world
@@ -299,7 +320,7 @@ class WorldModel:
                 + np.float64(self.pose_error_deg).tobytes() + self.magnetic_field.world_vector_ut().tobytes())
 
     def _static_attitude(self, key: bytes, t0: np.ndarray, rate0: np.ndarray) -> tuple:
-        """(r, f, w, m) of one sample at rest, remembered by the pose's key: a dwell of many reads evaluates its
+        """(f, w, m) of one sample at rest, remembered by the pose's key: a dwell of many reads evaluates its
         attitude once (the memo is bounded: a long session visits many poses)."""
         memo = self._memo
         if key not in memo or memo[key][0] is not self.geometry:
@@ -326,15 +347,16 @@ class WorldModel:
     def __call__(self, t_s: np.ndarray) -> PhysicsBatch:
         t = np.atleast_1d(np.asarray(t_s, float))
         key = self._resting_key(float(t[0]))
+        angles = directions = None
         if key is not None:
             rates = np.zeros((len(t), 3))
         else:
-            rates = np.radians(self.rates_deg_s_at(t))
+            angles, rates, directions = self._kinematics(t)
             key = self._rest_key(t, rates)
         if key is not None:  # the table at rest: one attitude for the whole block
             f, w, m = (np.repeat(x, len(t), axis=0) for x in self._static_attitude(key, t[:1], rates[:1]))
         else:
-            r, f, w = self._attitude(t, rates)
+            r, f, w = self._attitude(t, rates, angles, directions)
             m = np.transpose(r, (0, 2, 1)) @ self.magnetic_field.world_vector_ut()
         f = f + self._ringing(t, np.any(np.abs(rates) > 1e-9, axis=1))
         return PhysicsBatch(specific_force_g=f, angular_rate_dps=np.degrees(w),

@@ -93,11 +93,23 @@ class AxisMotion:
         while it turns, else of the current profile's travel so far, else the direction before the profile
         (+1 before any motion). What a gear train's lost motion follows (``rig.simulation.geometry``)."""
         t = np.asarray(t_s, float)
-        v = self.profile.velocity(t)
-        travel = self.profile.position(t) - self.profile.phases[0].p
+        p, v = self.profile.position_velocity(t)
+        return self._direction(t, p, v)
+
+    def _direction(self, t: np.ndarray, p, v):
+        travel = p - self.profile.phases[0].p
         started = t >= self.profile.phases[0].t
         d = np.where(np.abs(travel) > 1e-9, np.sign(travel), self.direction_before)
         return np.where(started & (np.abs(v) > 0), np.sign(v), np.where(started, d, self.direction_before))
+
+    def state_at(self, t_s):
+        """(:meth:`position_deg_at`, :meth:`speed_deg_s_at`, :meth:`direction_at`) at clock time(s) ``t_s`` from
+        one evaluation of the profile (the same numbers as the three calls; the world model asks for all three at
+        every block of samples through a move)."""
+        t = np.asarray(t_s, float)
+        p, v = self.profile.position_velocity(t)
+        scale = self.stage.deg_per_step
+        return (p + self.offset_usteps) / USTEPS * scale, v / USTEPS * scale, self._direction(t, p, v)
 
     def rest_pose(self, t_s: float) -> tuple[float, float] | None:
         """(physical angle deg, last direction +1 or -1) at which the stage stands still from clock time ``t_s``

@@ -139,6 +139,11 @@ class Controller:
         with self._lock:
             return self.motion.direction_at(t_s)
 
+    def state_at(self, t_s):
+        """(angle deg, rate deg/s, last direction) of the stage at clock time(s) ``t_s`` (:meth:`AxisMotion.state_at`)."""
+        with self._lock:
+            return self.motion.state_at(t_s)
+
     def rest_pose(self, t_s: float) -> tuple[float, float] | None:
         """(physical angle deg, last direction) the stage stands still at from clock time ``t_s`` on; None while
         it moves then (:meth:`AxisMotion.rest_pose`)."""

@@ -113,6 +113,11 @@ class ControllerEmulator:
         motion follows it; ``rig.simulation.geometry``)."""
         return self.controller.direction_at(t_s)
 
+    def state_at(self, t_s):
+        """(angle deg, rate deg/s, last direction) of the stage at clock time(s) ``t_s``: the three above from one
+        evaluation of its motion."""
+        return self.controller.state_at(t_s)
+
     def rest_pose(self, t_s: float) -> tuple[float, float] | None:
         """(physical angle deg, last direction) the stage stands still at from clock time ``t_s`` on; None while
         it moves then (the world model's shortcut for a block of samples at rest)."""

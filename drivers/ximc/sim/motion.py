@@ -57,6 +57,14 @@ class Profile:
         dt = np.maximum(t - ph[..., 0], 0.0)
         return ph[..., 2] + ph[..., 3] * dt
 
+    def position_velocity(self, t):
+        """:meth:`position` and :meth:`velocity` at clock time(s) ``t`` from one look-up of the phases (the same
+        numbers as the two calls)."""
+        t = np.asarray(t, float)
+        ph = self._table[self._idx(t)]
+        dt = np.maximum(t - ph[..., 0], 0.0)
+        return ph[..., 1] + ph[..., 2] * dt + 0.5 * ph[..., 3] * dt * dt, ph[..., 2] + ph[..., 3] * dt
+
     @property
     def end_time(self) -> float:
         """Time motion ends (inf for continuous rotation)."""

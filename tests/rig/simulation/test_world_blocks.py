@@ -73,19 +73,20 @@ def test_a_source_without_a_temperature_of_its_own_gives_its_batch_temperature()
 
 def _controllers_world(rest_shortcut: bool):
     """Three emulated controllers (their real motion profiles) under a table with its own errors; the links
-    give the stages' word of rest (``rest_pose``) or not."""
+    give the stages' word of rest (``rest_pose``) and their state from one evaluation (``state_at``), or
+    neither."""
     from drivers.ximc.sim.controller import Controller
     clock = VirtualClock()
     ctrls = [Controller(0x3A5C + i, clock=clock) for i in range(3)]
     links = [AxisLink(c.position_deg_at, c.speed_deg_s_at, sign, home, c.direction_at,
-                      c.rest_pose if rest_shortcut else None)
+                      c.rest_pose if rest_shortcut else None, c.state_at if rest_shortcut else None)
              for c, sign, home in zip(ctrls, (1.0, -1.0, 1.0), (0.0, 2.5, -1.0))]
     geometry = TableGeometry(stages=(StageErrors(lost_motion_deg=0.03), StageErrors(zero_offset_deg=0.05),
                                      StageErrors(wobble_deg=0.01)), non_orthogonality_deg=(0.01, 0.02, 0.0))
     return clock, ctrls, WorldModel(links, SimChamber(clock), table_tilt_deg=(0.02, -0.01), geometry=geometry)
 
 
-def test_stages_that_say_they_rest_give_every_sample_what_evaluating_their_motion_gives():
+def test_stages_that_say_they_rest_or_give_their_state_at_once_give_every_sample_what_evaluating_their_motion_gives():
     from drivers.ximc import protocol as P
     worlds = [_controllers_world(shortcut) for shortcut in (True, False)]
     out = {True: [], False: []}
