@@ -145,8 +145,7 @@ class Controller:
             return self.motion.state_at(t_s)
 
     def rest_pose(self, t_s: float) -> tuple[float, float] | None:
-        """(physical angle deg, last direction) the stage stands still at from clock time ``t_s`` on; None while
-        it moves then (:meth:`AxisMotion.rest_pose`)."""
+        """(angle deg, last direction) the stage rests at from ``t_s`` on, None while it moves (AxisMotion's)."""
         with self._lock:
             return self.motion.rest_pose(t_s)
 
