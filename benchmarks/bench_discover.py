@@ -139,7 +139,7 @@ from calib.numerics.uncertainty import step_standard_errors  # noqa: E402
 from drivers.sensors.chips import CHIPS  # noqa: E402
 from drivers.sensors.sim.error_model import AccelErrorModel  # noqa: E402
 from drivers.sensors.sim.noise import NoiseProcess  # noqa: E402
-from rig.analysis.discover import discover_session, rig_covariance, step_context  # noqa: E402
+from rig.analysis.discover import discover_session, judged_with_rig, step_context  # noqa: E402
 from rig.session import load_session, step_means  # noqa: E402
 
 BANDWIDTH_HZ = 44.0
@@ -521,16 +521,17 @@ def full_rig(paths) -> tuple[list, int, list, float]:
 
 def true_residual_chi2(path) -> float | None:
     """The generalised chi-square per step-mean component of a recorded simulated session's *true* residual: the
-    step means less the simulator's own noise-free output (its ``sim_truth.yaml``, at the nominal poses and the
-    steps' mean temperatures), whitened by the search's covariance V (noise, wander, and the rig's errors when
-    discover judges with them). 1 on average when V is right (no parameter is fitted); None without a truth."""
+    step means less the simulator's own noise-free output (its ``sim_truth.yaml``, at the nominal poses, on a
+    characterised rig where its characterisation puts them, and the steps' mean temperatures), whitened by the
+    search's covariance V (noise, wander, and the rig's errors when discover judges with them). 1 on average when V
+    is right (no parameter is fitted); None without a truth."""
     truth = Path(path) / "sim_truth.yaml"
     if not truth.exists():
         return None
     s = load_session(path)
     idx = s.static_step_indices()
-    st = step_means(s, idx)
-    ctx = replace(step_context(s, idx), rig_cov_counts2=rig_covariance(s, st, idx))
+    st, rig_cov = judged_with_rig(s, step_means(s, idx), idx)  # a characterised rig's poses corrected
+    ctx = replace(step_context(s, idx), rig_cov_counts2=rig_cov)
     model = AccelErrorModel.from_dict(yaml.safe_load(truth.read_text())["accelerometer"])
     out_g = model.output_g(np.asarray(st.f_nominal_g, float), np.asarray(st.temp_c, float), np.asarray(st.t_s, float),
                            np.zeros(len(st)))
@@ -561,11 +562,12 @@ def held_model(base_pvalues: dict, false_alarm: float = 0.01) -> list:
 
 
 def _steps_and_context(path):
-    """A recorded session's static step means and the context ``rig discover`` gives them (the rig's errors)."""
+    """A recorded session's static step means and the context ``rig discover`` gives them (the rig's errors; on a
+    characterised rig the step means at the corrected poses, :func:`rig.analysis.discover.judged_with_rig`)."""
     s = load_session(path)
     idx = s.static_step_indices()
-    st = step_means(s, idx)
-    return st, replace(step_context(s, idx), rig_cov_counts2=rig_covariance(s, st, idx))
+    st, rig_cov = judged_with_rig(s, step_means(s, idx), idx)
+    return st, replace(step_context(s, idx), rig_cov_counts2=rig_cov)
 
 
 def session_pvalues(paths) -> list[tuple[dict, int]]:

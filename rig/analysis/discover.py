@@ -26,7 +26,7 @@ from calib.errors import CalibError
 from rig.analysis import plots
 from rig.analysis.effect_units import shown_effect_unit
 from rig.analysis.solve import SOFTWARE, accelerometer_absent, sensor_section
-from rig.analysis.uncertainty import rig_errors, session_rig_facts
+from rig.analysis.uncertainty import session_rig_errors, session_rig_facts
 from rig.errors import RigInputError
 from rig.planning.kinematics import sensor_to_world
 from rig.session import Session, load_session, step_means
@@ -130,27 +130,41 @@ def discover_session(session_dir, *, false_alarm: float = 0.01, progress=None, p
     if hasattr(progress, "steps"):
         progress.steps(len(idx))
     say("the step means")
-    steps = step_means(session, idx)
-    ctx = dataclasses.replace(step_context(session, idx), rig_cov_counts2=rig_covariance(session, steps, idx))
+    steps, rig_cov = judged_with_rig(session, step_means(session, idx), idx)
+    ctx = dataclasses.replace(step_context(session, idx), rig_cov_counts2=rig_cov)
     return session, discover(steps, ctx, false_alarm=false_alarm, progress=progress)
 
 
 def rig_covariance(session: Session, steps: StepMeans, idx: list[int]) -> np.ndarray | None:
-    """The step means' covariance (3K, 3K), counts^2, from the turntable's own errors at its rig file's classes
-    (:func:`calib.accel.rig_misfit.rig_step_covariance`, with the recorded arrival directions): what the search
-    judges residuals against besides the noise, so that the table's pose errors are not named as effects of the
-    sensor (docs/discrepancy.md, "The rig's own errors"). None where the session's rig file is not there unchanged
-    (an import, a replay), the table has no errors (a simulated one with ``sim.geometry`` off), a pose is unknown,
-    or the session has more than :data:`~calib.accel.rig_misfit.MAX_STEPS` steps."""
-    facts = session_rig_facts(session)
-    if facts is None or len(steps) > MAX_STEPS or not bool(np.all(steps.pose_known)):
-        return None
-    rig = rig_errors(facts)
+    """The step means' covariance (3K, 3K), counts^2, from the turntable's own errors: :func:`judged_with_rig`'s
+    covariance alone (None where the session is judged against the noise alone)."""
+    return judged_with_rig(session, steps, idx)[1]
+
+
+def judged_with_rig(session: Session, steps: StepMeans, idx: list[int]) -> tuple[StepMeans, np.ndarray | None]:
+    """The step means as the search fits them and their covariance (3K, 3K), counts^2, from the turntable's own
+    errors (:func:`calib.accel.rig_misfit.rig_step_covariance`, with the recorded arrival directions): what the
+    search judges residuals against besides the noise, so that the table's pose errors are not named as effects of
+    the sensor (docs/discrepancy.md, "The rig's own errors").
+
+    The rig's errors are the budget's (:func:`rig.analysis.uncertainty.session_rig_errors`): its rig file's classes,
+    or, when a characterisation of the rig applies to the session (made on its rig file's digest or the same
+    table), the characterised errors' standard uncertainties in place of their classes; the step means then come
+    back with their nominal specific force where the characterised table puts it (``Characterisation.corrected``,
+    as :func:`rig.analysis.uncertainty.with_budget` solves), since the smaller uncertainties hold only about the
+    corrected poses. Unchanged steps and None where the session's rig file is not there unchanged (an import, a
+    replay), the table has no errors (a simulated one with ``sim.geometry`` off), a pose is unknown, or the
+    session has more than :data:`~calib.accel.rig_misfit.MAX_STEPS` steps."""
+    if session_rig_facts(session) is None or len(steps) > MAX_STEPS or not bool(np.all(steps.pose_known)):
+        return steps, None
+    rig = session_rig_errors(session)
     if not has_pose_errors(rig):
-        return None
-    if needs_arrival(rig):
-        steps = with_arrival(session, steps, idx)
-    return rig_step_covariance(steps, rig, steps.lsb_per_g * np.eye(3))
+        return steps, None
+    record = getattr(rig, "record", None)  # a CharacterisedRig's characterisation record
+    if record is not None:
+        steps = record.characterisation.corrected(steps, rig)
+    judged = with_arrival(session, steps, idx) if needs_arrival(rig) else steps
+    return steps, rig_step_covariance(judged, rig, steps.lsb_per_g * np.eye(3))
 
 
 #: how the report names each baseline model (calib.discovery.search.Discovery.baseline)
