@@ -38,7 +38,7 @@ from calib.accel.solve import (TRIANGULAR_NAMES, _model_with_thermal, axis_wande
                                wander_covariance)
 from calib.accel.rig_misfit import RigMisfit, has_pose_errors, rig_misfit
 from calib.accel.rig_propagation import (EPS_DEG, GROUPS, pose_shifts, rig_parameters, stacked_parameters,
-                                         stage_angles_deg, usable_arrival)
+                                         pose_angles_deg, usable_arrival)
 from calib.numerics.gravity import G0_M_S2, Gravity
 
 #: step of the thermometer's finite differences, C
@@ -189,7 +189,7 @@ def rig_contributions(resolve: Resolve, steps: StepMeans, base: dict[str, float]
     one contribution (``lost_motion.a3@1..K``: the root sum of squares over the poses)."""
     if linear is not None:
         return _rig_contributions_linear(linear, steps, rig)
-    angles = stage_angles_deg(steps.f_nominal_g)
+    angles = pose_angles_deg(steps)
     f = np.asarray(steps.f_nominal_g, float)
     out = []
     params = rig_parameters(rig, len(steps), usable_arrival(steps, rig))
@@ -204,7 +204,7 @@ def rig_contributions(resolve: Resolve, steps: StepMeans, base: dict[str, float]
 
 
 def _rig_contributions_linear(linear: "LinearSolve", steps: StepMeans, rig: RigErrors) -> list:
-    angles = stage_angles_deg(steps.f_nominal_g)
+    angles = pose_angles_deg(steps)
     f = np.asarray(steps.f_nominal_g, float)
     k = len(steps)
     out = []

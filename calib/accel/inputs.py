@@ -34,6 +34,9 @@ class StepMeans:
     arrival_direction : (K, 3) the direction (+1, -1) each turntable stage a1, a2, a3 last turned in before the
         step's capture, 0 where that is unknown (the stage has not moved since the session began), or None (not
         recorded: a budget then takes each pose's lost motion as of unknown sign, :mod:`calib.accel.rig_propagation`).
+    angles_deg : (K, 3) the stage angles a1, a2, a3 each step was commanded to, deg (kinematic, ``docs/kinematics.md``),
+        or None (not recorded: a hand-placed or imported session; the table's budget then takes the angles that put
+        ``f_nominal_g`` up with a1 = 0, :func:`calib.accel.rig_propagation.pose_angles_deg`).
     """
 
     names: tuple
@@ -48,6 +51,7 @@ class StepMeans:
     temp_rate_c_per_s: np.ndarray | None = None
     duration_s: np.ndarray | None = None
     arrival_direction: np.ndarray | None = None
+    angles_deg: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         k = len(self.names)
@@ -73,6 +77,10 @@ class StepMeans:
             d = np.asarray(self.duration_s)
             if d.shape != (k,) or not np.all(np.isfinite(d) & (d >= 0)):
                 raise CalibError("StepMeans.duration_s: expected K finite durations >= 0 s, or None")
+        if self.angles_deg is not None:
+            a = np.asarray(self.angles_deg)
+            if a.shape != (k, 3) or not np.all(np.isfinite(a)):
+                raise CalibError("StepMeans.angles_deg: expected (K, 3) finite stage angles in deg, or None")
         if self.arrival_direction is not None:
             d = np.asarray(self.arrival_direction)
             if d.shape != (k, 3) or not np.all(np.isin(d, (-1, 0, 1))):
@@ -99,7 +107,8 @@ class StepMeans:
                          lsb_per_g=self.lsb_per_g, bias_stability=self.bias_stability,
                          temp_rate_c_per_s=None if self.temp_rate_c_per_s is None else self.temp_rate_c_per_s[idx],
                          duration_s=None if self.duration_s is None else self.duration_s[idx],
-                         arrival_direction=None if self.arrival_direction is None else self.arrival_direction[idx])
+                         arrival_direction=None if self.arrival_direction is None else self.arrival_direction[idx],
+                         angles_deg=None if self.angles_deg is None else np.asarray(self.angles_deg)[idx])
 
     def bias_stability_counts(self) -> float:
         """1-sigma (counts) by which the session's bias stands off the sensor's long-run bias

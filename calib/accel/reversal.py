@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib.accel.inputs import StepMeans
-from calib.accel.rig_propagation import EPS_DEG, RigParameter, pose_shifts, rig_parameters, stage_angles_deg
+from calib.accel.rig_propagation import EPS_DEG, RigParameter, pose_angles_deg, pose_shifts, rig_parameters
 from calib.errors import CalibError
 from calib.numerics.budget import RigErrors
 
@@ -74,7 +74,7 @@ class Characterisation:
         """``steps`` with their nominal specific force where the characterised table puts it (f + sum g_j s_ij):
         what a later calibration on this rig solves with, so the table's errors leave its estimates."""
         f = np.asarray(steps.f_nominal_g, float)
-        angles = stage_angles_deg(f)
+        angles = pose_angles_deg(steps)
         params = {p.name: p for p in rig_parameters(rig, len(f))}
         names = list(self.estimate_deg)
         shift = sum(self.estimate_deg[n] * s for n, s in zip(names, pose_shifts([params[n] for n in names], angles)))
@@ -153,7 +153,7 @@ def characterise(mountings: list[Mounting], rig: RigErrors) -> Characterisation:
     """The table's errors (:data:`CHARACTERISED`) from recordings of one sensor in two or more mountings."""
     f = _check(mountings)
     params: list[RigParameter] = [p for p in rig_parameters(rig, len(f)) if p.name in CHARACTERISED]
-    angles = stage_angles_deg(f)
+    angles = pose_angles_deg(mountings[0].steps)  # every mounting at the same table poses (_check)
     shifts = np.array(pose_shifts(params, angles))  # (J, K, 3) per deg
     names = [p.name for p in params]
     m0 = np.eye(3) * float(np.median(np.abs(mountings[0].steps.mean_counts)))

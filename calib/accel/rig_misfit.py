@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from calib.accel.inputs import StepMeans
-from calib.accel.rig_propagation import pose_shifts, stacked_parameters, stage_angles_deg
+from calib.accel.rig_propagation import pose_angles_deg, pose_shifts, stacked_parameters
 from calib.accel.solve import axis_wander_counts2, wander_covariance, weighs_wander
 from calib.numerics.budget import RigErrors
 from calib.numerics.design import MISFIT_LEVEL, SENSOR_AXES, misfit
@@ -85,7 +85,7 @@ def rig_step_covariance(steps: StepMeans, rig: RigErrors, matrix_counts_per_g) -
     rig's errors at their standard uncertainties: ``sum_p u_p^2 j_p j_p^T``, ``j_p`` the step means' response to
     parameter ``p`` per deg (the sensitivity ``matrix_counts_per_g`` times the pose's shift)."""
     k = len(steps)
-    angles = stage_angles_deg(steps.f_nominal_g)
+    angles = pose_angles_deg(steps)
     m = np.asarray(matrix_counts_per_g, float)
     params, per_pose = stacked_parameters(steps, rig)  # lost motion of unknown sign: a column per pose and stage
     cols = []

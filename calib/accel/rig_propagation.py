@@ -152,6 +152,17 @@ def stage_angles_deg(f_nominal: np.ndarray) -> np.ndarray:
     return np.stack([np.zeros(len(f)), a2, a3], axis=1)
 
 
+def pose_angles_deg(steps) -> np.ndarray:
+    """The stage angles (K, 3), deg, at which the table held each step of ``steps`` (a
+    :class:`~calib.accel.inputs.StepMeans`): the recorded ones when the session has them, else
+    :func:`stage_angles_deg` of the nominal specific force. The specific force does not say a3 where a2 = +-90 deg
+    (a3 then turns about the vertical, as a1 always does): a pose moved off nominal by hundredths of a degree (a
+    characterised table's corrected poses, ``Characterisation.corrected``) gets an arbitrary a3 from its f, and the
+    table's errors at that a3 are not the ones that moved it."""
+    recorded = getattr(steps, "angles_deg", None)
+    return np.asarray(recorded, float) if recorded is not None else stage_angles_deg(steps.f_nominal_g)
+
+
 def pose_shift(parameter: RigParameter, angles_deg: np.ndarray) -> np.ndarray:
     """How far (K, 3) the parameter at ``EPS_DEG`` moves each pose's specific force, g0 per deg (to first order:
     :func:`first_order_shift`; the table's errors are hundredths of a degree)."""

@@ -140,7 +140,15 @@ def step_means(session: Session, include=None) -> StepMeans:
                      t_s=np.array([w[0] for w in windows]), lsb_per_g=session.lsb_per_g,
                      bias_stability=bias_stability(session),
                      temp_rate_c_per_s=step_temperature_rates(session, idx, rows.rows_of),
-                     duration_s=np.array([w[1] for w in windows]))
+                     duration_s=np.array([w[1] for w in windows]),
+                     angles_deg=_commanded_angles(steps))
+
+
+def _commanded_angles(steps) -> np.ndarray | None:
+    """(K, 3) the stage angles each step was commanded to, deg, or None where a step records none (hand-placed,
+    imported)."""
+    angles = [getattr(st, "angles_deg", None) for st in steps]
+    return np.array(angles, float) if all(a is not None for a in angles) else None
 
 
 def with_arrival(session: Session, steps: StepMeans, idx: list[int]) -> StepMeans:
