@@ -98,9 +98,10 @@ the prior 1.6 in ln; the same units and sessions, one process at a time, nice'd,
 
 Measured 2026-11-26 later (load 6-13 from other sessions, nice'd):
 
-- with the table's own errors (``--dwell 600 --ways recording,truth --units 4 --sessions 40 --geometry 0``, sampling
-  sd about 11 %): recording 0.74-1.24, 34 of 36 within; the same sessions on a perfect table 0.72-1.19, 33 of 36; truth
-  0.74-1.14, 33 of 36, the same to the digit with and without the table; beyond sampling: recording 0.01, truth 0.05;
+- with the table's own errors (``--dwell 600 --ways recording,truth --units 4 --sessions 40 --geometry 0``, and
+  ``--only 4,5,6,7``; sampling sd about 11 %), units 0-7: recording 0.60-1.29, 65 of 72 within; the same sessions on a
+  perfect table 0.67-1.23, 66 of 72; truth 0.73-1.14, 65 of 72, the same to the digit with and without the table;
+  beyond sampling: 0.09, 0.07, 0.06;
 - after characterisation, units 11 and 14 (``--seed 8 --only 11,14 --sessions 200 --ways family,profile,truth``): z
   bias profile 0.76 and 0.72, truth 0.86 and 0.87, family 0.77 and 0.65: the profile's z floor is 1.44x and 1.69x the
   truth (a floor the walk hides, docs/noise.md), not the model's.
