@@ -10,11 +10,18 @@ the session's ``samples.csv``, so that two checkouts can be compared for speed a
 
 ``--repo`` runs another checkout's code (e.g. a ``git worktree`` of an older commit) with this script.
 
-Measured (2 cores, Python 3.11, seed 5, median of the runs after the first; the samples' digests equal):
+Measured (2 cores, Python 3.11, seed 5, wall s, median of the runs after the first of 3; the samples' digests
+equal between the two commits for every procedure):
 
 | date | commit | tumble26 | gyro_rates | thermal_ramp | six_position | machine |
 |---|---|---|---|---|---|---|
-| see the table below, filled by the runs of 2026-11-26 | | | | | | |
+| 2026-11-26 14:45 | cb884d3 (the table's errors on by default, before the simulator's cuts) | 5.03 | 10.28 | 4.22 | 0.50 | quiet, load 1-2 |
+| 2026-11-26 14:46 | 1e678d4 (a table at rest once per pose, one evaluation of the stages per block, ...) | 2.91 | 8.71 | 2.37 | 0.29 | the same minutes |
+
+What is left of gyro_rates' 8.7 s is the sample path through a move (each block's stage rotations, the dlpf
+noise of accelerometer and gyroscope, the error models) and the register traffic of a FIFO read (a hundred thousand
+accesses); computing a resting stage's rotation once per block of a rate step was tried and changed nothing
+measurable (8.79 s), so it was not kept.
 """
 
 from __future__ import annotations
