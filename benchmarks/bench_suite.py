@@ -15,7 +15,7 @@ Measured (fresh clone, ``bash .ci/run``, 2 cores, quiet machine, Python 3.11):
 | 2026-11-26 14:39 | 1e678d4 (uv with bytecode; the simulator's cuts: a table at rest once per pose, one evaluation of the stages per block) | **4 min 59 s** | 4 min 38 s | 2291 passed, 20 skipped |
 | 2026-11-26 14:33 | 253b17b (uv without bytecode: two third-party warnings) | 5 min 21 s | 5 min 12 s | 2291 passed, 20 skipped |
 | 2026-11-26 13:37 | da5fd51 (a table at rest once per pose) | 6 min 14 s | 5 min 34 s | 2288 passed, 20 skipped |
-| 2026-11-26 13:00-13:10 (a session earlier) | cb884d3 (the table's own errors on by default, issue 29) | 7 min 05 s, 7 min 17 s | - | 2287 passed, 20 skipped |
+| 2026-11-26 13:00-13:10 (a session earlier) | cb884d3 (the table's own errors on by default, issue 29) | 7 min 05 s, 7 min 17 s | - | 2307 passed (the 20 dataset tests ran: the datasets were beside that clone) |
 | 2026-11-26 09:15, 09:20 | 86a5864.. (BLAS on one thread per test process, the fixture resume tests on 4 slots) | 5 min 14 s, 5 min 10 s | 4 min 42 s, 4 min 38 s | 2273 passed, 20 skipped |
 | 2026-11-26 07:00-07:25 (a session earlier) | 28d5248 | 5 min 54 s, 6 min 33 s, 6 min 04 s, 5 min 21 s | 4:49-5:54 | 2238 passed, 20 skipped |
 | 2026-11-26 03:58 | f6a5455.. (after the scheduling and simulator changes) | 5 min 06 s | 4 min 33 s | 1969 passed, 20 skipped |
