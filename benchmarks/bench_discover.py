@@ -5,7 +5,7 @@ Usage::
     .venv/bin/python benchmarks/bench_discover.py [--seeds 20] [--clean 100] [--full 0] [--sessions 'GLOB']
         [--pvalues] [--no-mdm] [--no-run-time] [--designs a,b] [--effects a,b] [--templates T26 THERMAL]
     .venv/bin/python benchmarks/bench_discover.py --rig-only [--full N --first-seed 100 --full-designs a,b
-        --geometry on|off] [--sessions 'DIR/<procedure>-*'] [--pvalues] [--family-draws 200000]
+        --geometry on|off --characterised SEED] [--sessions 'DIR/<procedure>-*'] [--pvalues] [--family-draws 200000]
 
 **Sample-level simulation** (the default, fast): a template session fixes the design (poses, step
 times and durations, temperatures, legs, rates, outer-axis angles, samples per step). Each trial
@@ -456,8 +456,20 @@ def record(tmp: Path, procedure: str, seed: int, noise: str = "dlpf", geometry: 
     rig.write_text(yaml.safe_dump(doc))
     out = tmp / f"{Path(procedure).stem}-{seed}"
     subprocess.run([sys.executable, "-m", "rig.cli", "run", str(REPO / "procedures" / procedure), "--rig", str(rig),
-                    "--out", str(out), "--seed", str(seed), "--quiet"], cwd=REPO, check=True, capture_output=True)
+                    "--out", str(out), "--seed", str(seed), "--quiet", "--yes"], cwd=REPO, check=True, capture_output=True)
     return next(p for p in out.iterdir() if p.is_dir())
+
+
+def characterise_rig(tmp: Path, seed: int, geometry: bool | None = None) -> Path:
+    """Characterise the rig file :func:`record` writes (``geometry`` as there) by reversal: run
+    ``procedures/characterize_reversal.yaml`` on it with ``seed``, then ``rig characterize-rig``, which stores the
+    record next to the rig file; every session :func:`record` makes on it afterwards is judged characterised (its
+    rig file unchanged, docs/uncertainty.md). Returns the record's path."""
+    session = record(tmp, "characterize_reversal.yaml", seed, geometry=geometry)
+    subprocess.run([sys.executable, "-m", "rig.cli", "characterize-rig", str(session)], cwd=REPO, check=True,
+                   capture_output=True)
+    rig = tmp / ("rig.yaml" if geometry is None else f"rig-geometry-{'on' if geometry else 'off'}.yaml")
+    return rig.with_name(f"{rig.stem}.characterisation.yaml")
 
 
 def spurious(d) -> bool:
@@ -705,6 +717,9 @@ def main() -> None:
     ap.add_argument("--geometry", choices=("on", "off"), default=None,
                     help="with --full: the simulated table's own errors (sim.geometry.enabled; discover then judges "
                          "against the rig's covariance); default: the rig file's")
+    ap.add_argument("--characterised", type=int, default=None, metavar="SEED",
+                    help="with --full: characterise the rig by reversal first (characterize_reversal.yaml with SEED, "
+                         "then rig characterize-rig): the sessions are then judged with the characterisation")
     ap.add_argument("--family-draws", type=int, default=0,
                     help="with --full/--sessions: each design's own family rate by N draws of whitened noise")
     ap.add_argument("--rig-only", action="store_true",
@@ -785,6 +800,8 @@ def print_full_rig(tmp: Path, args, pv_rows: list | None = None) -> None:
             if inner:  # DIR/<procedure>-<seed>/<session>: grouped by the procedure
                 paths.setdefault(Path(p).name.rsplit("-", 1)[0], []).append(inner[0])
     geometry = None if args.geometry is None else args.geometry == "on"
+    if args.characterised is not None and args.full:
+        print(f"rig characterised by reversal (seed {args.characterised}): {characterise_rig(tmp, args.characterised, geometry)}")
     for seed in range(args.first_seed, args.first_seed + args.full):
         for proc in args.full_designs.split(","):
             paths.setdefault(proc, []).append(record(tmp, f"{proc}.yaml", seed, geometry=geometry))
