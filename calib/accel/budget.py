@@ -97,13 +97,33 @@ def birge_ratio(cal: AccelCalibration) -> float:
     return float(np.sqrt(chi2)) if scaled and chi2 is not None and np.isfinite(chi2) and chi2 > 1 else 1.0
 
 
+def unscaled_sigma(linear: "LinearSolve") -> dict[str, float] | None:
+    """Each quantity's sigma as the solve had it before any misfit scaling: the step means' own covariance (noise
+    and wander, as the solve weighed them) through the solve's linear map, axis by axis (``(D^T C^-1 D)^-1``); None
+    for a solve without one (combinations)."""
+    blocks = [linear.residual_terms.get(a) for a in SENSOR_AXES]
+    if any(b is None for b in blocks):
+        return None
+    n = sum(b[0].shape[0] for b in blocks)
+    cov, at = np.zeros((n, n)), 0
+    for n_inv, _ in blocks:
+        p = n_inv.shape[0]
+        cov[at:at + p, at:at + p] = n_inv
+        at += p
+    var = np.einsum("qi,ij,qj->q", linear.jacobian, cov, linear.jacobian)
+    return dict(zip(linear.names, map(float, np.sqrt(np.maximum(var, 0.0)))))
+
+
 def type_a_contribution(cal: AccelCalibration, birge: float, rig_terms: list[Contribution],
-                        judged: "RigMisfit | None" = None) -> Contribution:
+                        judged: "RigMisfit | None" = None, linear: "LinearSolve | None" = None) -> Contribution:
     """The Type A entry: the solve's sigma. When the solve scaled it for a misfit (``birge`` > 1), the part of that
     scaling the rig's geometry explains is left out, so nothing is counted twice. With the misfit judged against the
     noise and the rig's errors (``judged``, :func:`calib.accel.rig_misfit.rig_misfit`): the sigma unscaled when the
-    rig's errors explain it, else scaled by the Birge ratio they leave (``sqrt(chi2/dof)`` of that judgement), for
-    every quantity alike, as the solve scaled them. Without it, per quantity from the rig's own terms
+    rig's errors explain it, else scaled by the Birge ratio they leave (``sqrt(chi2/dof)`` of that judgement), never
+    beyond the solve's own sigma. The solve scales axis by axis (an axis whose own fit is no misfit keeps its
+    sigma, :func:`calib.numerics.design.session_rule`), so with the solve's linear map (``linear``) the unscaled
+    sigma is each quantity's own (:func:`unscaled_sigma`); without it the sigma over the session's pooled ``birge``
+    for every quantity alike. Without ``judged``, per quantity from the rig's own terms
     (``rig_terms``): ``u_A^2 = max(sigma^2 / birge^2, sigma^2 - u_rig^2)``, which keeps the whole scaling of the
     quantities the rig's terms barely move (the scales). A session that misfits on a rig without geometry errors
     keeps its whole sigma either way."""
@@ -112,7 +132,9 @@ def type_a_contribution(cal: AccelCalibration, birge: float, rig_terms: list[Con
         return Contribution("noise and wander", "A", "the solve's sigma (step scatter, bias wander)", sigma)
     if judged is not None and judged.dof > 0:
         left = min(float(np.sqrt(judged.chi2_per_dof)), birge) if judged.significant else 1.0
-        u_a = {n: v * left / birge if np.isfinite(v) else v for n, v in sigma.items()}
+        own = unscaled_sigma(linear) if linear is not None else None
+        u_a = {n: (min(own[n] * left, v) if own is not None and n in own else v * left / birge)
+               if np.isfinite(v) else v for n, v in sigma.items()}
         why = ("which the rig's errors explain (against the noise and the rig: chi2/dof "
                f"{judged.chi2_per_dof:.2f}, p = {judged.p:.2g})" if not judged.significant else
                f"less what the rig's errors explain: scaled by the Birge ratio they leave, {left:.2f}")
@@ -281,9 +303,12 @@ def contributions(cal: AccelCalibration, steps: StepMeans, resolve: Resolve, rig
     birge = birge_ratio(cal)
     rig_terms = (rig_contributions(resolve, steps, base, rig, linear)
                  if cal.fit.method != "magnitude" and bool(np.all(steps.pose_known)) else [])
-    if birge > 1 and judged is None and rig_terms:
-        judged = judge_with_rig(cal, steps, rig, linear)
-    out = [type_a_contribution(cal, birge, rig_terms, judged)] + rig_terms
+    own = None  # the solve's linear map for the Type A's unscaled sigma (judged: the rig explains the misfit or not)
+    if birge > 1 and rig_terms:
+        own = linear if linear is not None else (linear_solve(cal, steps) if _linear_method(cal) else None)
+        if judged is None:
+            judged = judge_with_rig(cal, steps, rig, own)
+    out = [type_a_contribution(cal, birge, rig_terms, judged, own)] + rig_terms
     g_rel = rig.gravity.relative_u
     u_g = {n: (abs(v) * g_rel if n.startswith(("scale", "matrix")) else 0.0) for n, v in base.items()}
     out.append(Contribution("gravity", "B", f"{rig.gravity.source}: u(g)/g = {g_rel:.3g}", u_g,
@@ -386,6 +411,10 @@ class LinearSolve:
 #: budget's Type B sensitivities are averages over subsets whose spread is small, and a tenth of a standard
 #: uncertainty is far below what the classes themselves are known to)
 BUDGET_MAX_SUBSETS = 2048
+
+
+def _linear_method(cal: AccelCalibration) -> bool:
+    return cal.fit.method.split(" ")[0].split("(")[0] in LINEAR_METHODS
 
 
 def linear_solve(cal: AccelCalibration, steps: StepMeans) -> LinearSolve:

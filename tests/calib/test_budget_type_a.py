@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import calib
-from calib.accel.budget import contributions, flat_sigma, judge_with_rig
+from calib.accel.budget import contributions, flat_sigma, judge_with_rig, linear_solve, unscaled_sigma
 from calib.accel.inputs import StepMeans
 from calib.numerics.budget import RigErrors, TableClass
 from calib.numerics.turntable import TableGeometry
@@ -61,10 +61,11 @@ def test_a_misfit_the_rigs_errors_explain_leaves_every_quantity_its_unscaled_sig
     assert cal.misfit()[0] and cal.fit.chi2_per_dof > 4  # the table's errors: the solve scaled its sigmas
     judged = judge_with_rig(cal, steps, RIG)
     assert not judged.significant  # against the noise and the rig's errors: no misfit
-    birge = np.sqrt(cal.fit.chi2_per_dof)
+    own = unscaled_sigma(linear_solve(cal, steps))  # each axis's sigma before the solve scaled it
     sigma = flat_sigma(cal)
     for name in ("scale_counts_per_g[0]", "scale_counts_per_g[2]", "bias_counts[1]", "misalignment.alpha_zx"):
-        assert part.u[name] == pytest.approx(sigma[name] / birge, rel=1e-12), name
+        assert part.u[name] == pytest.approx(own[name], rel=1e-12), name
+        assert part.u[name] < sigma[name], name
     assert "which the rig's errors explain" in part.source
 
 
@@ -75,6 +76,24 @@ def test_a_misfit_they_do_not_explain_keeps_the_scaling_they_leave():
     assert judged.significant
     birge, left = np.sqrt(cal.fit.chi2_per_dof), np.sqrt(judged.chi2_per_dof)
     assert 1 < left < birge
-    sigma = flat_sigma(cal)
+    sigma, own = flat_sigma(cal), unscaled_sigma(linear_solve(cal, steps))
     for name in ("scale_counts_per_g[1]", "bias_counts[0]"):
-        assert part.u[name] == pytest.approx(sigma[name] * left / birge, rel=1e-12), name
+        assert part.u[name] == pytest.approx(min(own[name] * left, sigma[name]), rel=1e-12), name
+
+
+def test_an_axis_the_solve_did_not_scale_keeps_its_whole_sigma():
+    """The solve scales axis by axis (``session_rule``): on the default simulated table a six-position session's y
+    misfits and its z does not. The Type A of z's quantities is then z's own sigma, not that sigma over the
+    session's pooled Birge ratio (2.4x too small before 2026-11-26)."""
+    steps = _steps()
+    counts = np.array(steps.mean_counts, float)
+    counts[:, 2] = (steps.f_nominal_g @ MATRIX.T)[:, 2] + 60.0 + np.random.default_rng(9).normal(0, SEM_COUNTS, 6)
+    steps = StepMeans(**{**{k: getattr(steps, k) for k in steps.__dataclass_fields__}, "mean_counts": counts})
+    cal, part = _type_a(steps)  # z: on the nominal poses, no misfit of its own; x and y: the table's
+    own, sigma = unscaled_sigma(linear_solve(cal, steps)), flat_sigma(cal)
+    assert sigma["bias_counts[2]"] == pytest.approx(own["bias_counts[2]"], rel=1e-8)  # the solve left z unscaled
+    assert sigma["bias_counts[1]"] > 1.5 * own["bias_counts[1]"]  # and scaled y
+    birge = np.sqrt(cal.fit.chi2_per_dof)
+    assert birge > 1.5
+    for name in ("bias_counts[2]", "scale_counts_per_g[2]"):
+        assert part.u[name] == pytest.approx(sigma[name], rel=1e-8), name  # not sigma / birge
