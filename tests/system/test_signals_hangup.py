@@ -42,8 +42,15 @@ SIX = str(PROCEDURES / "six_position.yaml")
 def _spawn(out: Path, *extra: str, ignore: tuple[int, ...] = (), **kw) -> subprocess.Popen:
     env = dict(os.environ, PYTHONPATH=str(REPO))
     env.pop("RIG_DEBUG", None)
-    if ignore:  # as nohup (SIGHUP) starts a program
-        kw["preexec_fn"] = lambda: [signal.signal(s, signal.SIG_IGN) for s in ignore]
+    given = kw.pop("preexec_fn", None)
+
+    def preexec():  # the signals as a shell starts a program, whatever this test run inherited (pytest started under
+        # nohup ignores SIGHUP, and an ignored signal is inherited), ignored where asked (as nohup starts one)
+        for s in (signal.SIGHUP, signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, signal.SIG_IGN if s in ignore else signal.SIG_DFL)
+        if given is not None:
+            given()
+    kw["preexec_fn"] = preexec
     kw.setdefault("stdout", subprocess.PIPE)
     kw.setdefault("stderr", subprocess.PIPE)
     return subprocess.Popen([sys.executable, "-X", "faulthandler", "-m", "rig.cli", "run", SIX, "--out", str(out),
