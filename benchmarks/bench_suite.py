@@ -12,6 +12,7 @@ Measured (fresh clone, ``bash .ci/run``, 2 cores, quiet machine, Python 3.11):
 
 | date | HEAD | wall | pytest | tests |
 |---|---|---|---|---|
+| 2026-11-26 15:23 | 102ed35 (setup.sh: pip also when uv cannot reach the index) | 5 min 03 s | 4 min 47 s | 2292 passed, 20 skipped |
 | 2026-11-26 15:12 | e8caed3 (the session's last: the budget's Type A per axis, the recorded stage angles, the hang-up tests' signals) | **4 min 57 s** | 4 min 40 s | 2292 passed, 20 skipped |
 | 2026-11-26 15:06 | df51b80, the same run started under nohup: 4 hang-up tests failed (SIGHUP ignored, inherited; fixed in e8caed3) | 5 min 36 s | 5 min 15 s | 4 failed, 2288 passed, 20 skipped |
 | 2026-11-26 14:39 | 1e678d4 (uv with bytecode; the simulator's cuts: a table at rest once per pose, one evaluation of the stages per block) | **4 min 59 s** | 4 min 38 s | 2291 passed, 20 skipped |
