@@ -285,7 +285,7 @@ def judge_with_rig(cal: AccelCalibration, steps: StepMeans, rig: RigErrors,
         dof = cal.degrees_of_freedom()
         return RigMisfit(float(cal.fit.chi2_per_dof or 0.0) * dof, dof, p, significant)
     if linear is None:
-        if cal.fit.method.split("(")[0] not in LINEAR_METHODS:
+        if not has_linear_map(cal):
             return None
         linear = linear_solve(cal, steps)
     return rig_misfit(linear, steps, rig, cal.matrix_counts_per_g)
@@ -305,7 +305,7 @@ def contributions(cal: AccelCalibration, steps: StepMeans, resolve: Resolve, rig
                  if cal.fit.method != "magnitude" and bool(np.all(steps.pose_known)) else [])
     own = None  # the solve's linear map for the Type A's unscaled sigma (judged: the rig explains the misfit or not)
     if birge > 1 and rig_terms:
-        own = linear if linear is not None else (linear_solve(cal, steps) if _linear_method(cal) else None)
+        own = linear if linear is not None else (linear_solve(cal, steps) if has_linear_map(cal) else None)
         if judged is None:
             judged = judge_with_rig(cal, steps, rig, own)
     out = [type_a_contribution(cal, birge, rig_terms, judged, own)] + rig_terms
@@ -413,13 +413,19 @@ class LinearSolve:
 BUDGET_MAX_SUBSETS = 2048
 
 
-def _linear_method(cal: AccelCalibration) -> bool:
-    return cal.fit.method.split(" ")[0].split("(")[0] in LINEAR_METHODS
+def solve_method(cal: AccelCalibration) -> str:
+    """``cal``'s solve method without its details (``combinations(924 subsets of 6)``: ``combinations``)."""
+    return cal.fit.method.split(" ")[0].split("(")[0]
+
+
+def has_linear_map(cal: AccelCalibration) -> bool:
+    """Whether ``cal``'s solve is linear in the step means (:data:`LINEAR_METHODS`): :func:`linear_solve` takes it."""
+    return solve_method(cal) in LINEAR_METHODS
 
 
 def linear_solve(cal: AccelCalibration, steps: StepMeans) -> LinearSolve:
     """The linear map of ``cal``'s solve (method pinv or combinations, its model, thermal order and t0 fixed)."""
-    method = cal.fit.method.split(" ")[0].split("(")[0]
+    method = solve_method(cal)
     if method not in LINEAR_METHODS:
         raise CalibError(f"the linear sensitivity needs a pinv or combinations solve, not {cal.fit.method!r}")
     order = cal.temperature.order if cal.temperature is not None else 0

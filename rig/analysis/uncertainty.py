@@ -23,7 +23,7 @@ from types import SimpleNamespace
 
 import calib
 from calib.file import yamlsafe
-from calib.accel.budget import LINEAR_METHODS, at_local_gravity, linear_solve, uncertainty_section
+from calib.accel.budget import at_local_gravity, has_linear_map, linear_solve, uncertainty_section
 from calib.accel.inputs import StepMeans
 from calib.accel.result import AccelCalibration
 from calib.gyro import GyroCalibration
@@ -222,6 +222,6 @@ def with_budget(accel: AccelCalibration, steps: StepMeans, model: str, method: s
         steps = at_local_gravity(steps, rig.gravity)
     if record is not None or rig.gravity.g_m_s2 != G0_M_S2:
         accel = resolve(steps)
-    linear = linear_solve(accel, steps) if accel.fit.method.split("(")[0] in LINEAR_METHODS else None
+    linear = linear_solve(accel, steps) if has_linear_map(accel) else None
     section = uncertainty_section(accel, steps, resolve, rig, k, linear=linear)
     return accel.model_copy(update={"uncertainty": section})
