@@ -316,20 +316,20 @@ class WorldModel:
         d = self.directions_at(ends) if self.geometry is not None else np.ones((2, 3))
         if not (d[0] == d[1]).all():
             return None
-        return (b"angles" + deg[0].tobytes() + d[0].tobytes() + np.asarray(self.table_tilt_deg, float).tobytes()
-                + np.float64(self.pose_error_deg).tobytes() + self.magnetic_field.world_vector_ut().tobytes())
+        return self._memo_key(b"angles", np.concatenate([deg[0], d[0]]))
 
     def _static_attitude(self, key: bytes, t0: np.ndarray, rate0: np.ndarray) -> tuple:
         """(f, w, m) of one sample at rest, remembered by the pose's key: a dwell of many reads evaluates its
         attitude once (the memo is bounded: a long session visits many poses)."""
         memo = self._memo
-        if key not in memo or memo[key][0] is not self.geometry:
+        entry = memo.get(key)
+        if entry is None or entry[0] is not self.geometry or entry[1] is not self.magnetic_field:
             if len(memo) >= 512:
                 memo.clear()
             r, f, w = self._attitude(t0, rate0)
             m = np.transpose(r, (0, 2, 1)) @ self.magnetic_field.world_vector_ut()
-            memo[key] = (self.geometry, (f, w, m))
-        return memo[key][1]
+            entry = memo[key] = (self.geometry, self.magnetic_field, (f, w, m))
+        return entry[2]
 
     def _resting_key(self, t0: float) -> bytes | None:
         """:meth:`_rest_key` from the stages' own word that they stand still from ``t0`` on (each link's
@@ -341,8 +341,13 @@ class WorldModel:
             if pose is None:
                 return None
             poses.append(pose)
-        return (b"stages" + np.asarray(poses, float).tobytes() + np.asarray(self.table_tilt_deg, float).tobytes()
-                + np.float64(self.pose_error_deg).tobytes() + self.magnetic_field.world_vector_ut().tobytes())
+        return self._memo_key(b"stages", np.asarray(poses, float))
+
+    def _memo_key(self, kind: bytes, pose: np.ndarray) -> bytes:
+        """The attitude memo's key: how the pose was read (``kind``), the pose, the base's tilt and the pose_error
+        effect; the geometry and the magnetic field (frozen) are checked by identity (:meth:`_static_attitude`)."""
+        return (kind + pose.tobytes() + np.asarray(self.table_tilt_deg, float).tobytes()
+                + np.float64(self.pose_error_deg).tobytes())
 
     def __call__(self, t_s: np.ndarray) -> PhysicsBatch:
         t = np.atleast_1d(np.asarray(t_s, float))
