@@ -79,14 +79,17 @@ class AxisMotion:
         t = self.clock.now()
         return MotionNow(t, float(self.profile.position(t)), float(self.profile.velocity(t)))
 
+    def _deg(self, usteps):
+        """Microsteps (of position or speed) in the table's degrees."""
+        return usteps / USTEPS * self.stage.deg_per_step
+
     def position_deg_at(self, t_s):
         """True physical angle at clock time(s) ``t_s``, deg."""
-        u = self.profile.position(np.asarray(t_s, float)) + self.offset_usteps
-        return u / USTEPS * self.stage.deg_per_step
+        return self._deg(self.profile.position(np.asarray(t_s, float)) + self.offset_usteps)
 
     def speed_deg_s_at(self, t_s):
         """True angular rate at clock time(s) ``t_s``, deg/s."""
-        return self.profile.velocity(np.asarray(t_s, float)) / USTEPS * self.stage.deg_per_step
+        return self._deg(self.profile.velocity(np.asarray(t_s, float)))
 
     def direction_at(self, t_s):
         """The direction (+1 or -1) the motor last turned at clock time(s) ``t_s``: the sign of its speed
@@ -108,8 +111,7 @@ class AxisMotion:
         every block of samples through a move)."""
         t = np.asarray(t_s, float)
         p, v = self.profile.position_velocity(t)
-        scale = self.stage.deg_per_step
-        return (p + self.offset_usteps) / USTEPS * scale, v / USTEPS * scale, self._direction(t, p, v)
+        return self._deg(p + self.offset_usteps), self._deg(v), self._direction(t, p, v)
 
     def rest_pose(self, t_s: float) -> tuple[float, float] | None:
         """(physical angle deg, last direction +1 or -1) at which the stage stands still from clock time ``t_s``
