@@ -444,6 +444,11 @@ def print_matrix(seeds: int, rows: str | None = None) -> None:
               + (f" after: {c['after_wrong'][:3]}" if c["after_wrong"] else ""), flush=True)
 
 
+def rig_path(tmp: Path, geometry: bool | None) -> Path:
+    """The rig file :func:`record` writes for ``geometry`` (None: the rig file's default)."""
+    return tmp / ("rig.yaml" if geometry is None else f"rig-geometry-{'on' if geometry else 'off'}.yaml")
+
+
 def record(tmp: Path, procedure: str, seed: int, noise: str = "dlpf", geometry: bool | None = None) -> Path:
     """Run ``procedure`` on the simulated rig (rigs/sim.yaml in virtual time, ``noise``) with ``seed``; ``geometry``
     True or False sets ``sim.geometry.enabled`` (the table's own errors), None leaves the rig file's default."""
@@ -452,7 +457,7 @@ def record(tmp: Path, procedure: str, seed: int, noise: str = "dlpf", geometry: 
     doc["sim"]["noise"] = noise
     if geometry is not None:
         doc["sim"]["geometry"] = {**doc["sim"].get("geometry", {}), "enabled": bool(geometry)}
-    rig = tmp / ("rig.yaml" if geometry is None else f"rig-geometry-{'on' if geometry else 'off'}.yaml")
+    rig = rig_path(tmp, geometry)
     rig.write_text(yaml.safe_dump(doc))
     out = tmp / f"{Path(procedure).stem}-{seed}"
     subprocess.run([sys.executable, "-m", "rig.cli", "run", str(REPO / "procedures" / procedure), "--rig", str(rig),
@@ -468,7 +473,7 @@ def characterise_rig(tmp: Path, seed: int, geometry: bool | None = None) -> Path
     session = record(tmp, "characterize_reversal.yaml", seed, geometry=geometry)
     subprocess.run([sys.executable, "-m", "rig.cli", "characterize-rig", str(session)], cwd=REPO, check=True,
                    capture_output=True)
-    rig = tmp / ("rig.yaml" if geometry is None else f"rig-geometry-{'on' if geometry else 'off'}.yaml")
+    rig = rig_path(tmp, geometry)
     return rig.with_name(f"{rig.stem}.characterisation.yaml")
 
 
