@@ -16,8 +16,9 @@ The rules, each tested (tests/rig/lab/test_recording_noise.py):
   affine model of the nominal gravity, the table's pose errors stated from the rig file's classes, :func:`pose_u_rad`),
   which show the wander between steps minutes apart that sets a long session's bias sigma;
 - otherwise each axis's floor (as B in the registry's convention, ``/`` :data:`calib.noise.terms.REGISTRY_B_FLOOR`)
-  and walk K are used, with the family's flicker corner, and the calibration file's ``noise:`` says ``source:
-  recording``, the figures, and the static steps and seconds they rest on.
+  and walk K are used (:func:`calib.noise.steps.posterior_figures`: the posterior means of their squares), with
+  the family's flicker corner, and the calibration file's ``noise:`` says ``source: recording``, the figures, and
+  the static steps and seconds they rest on.
 
 Cost: the length rule reads 64 clusters of 0.64 s of the longest static step only (0.11 ms CPU on a
 six-position session); the fit runs only on steps that pass it (50-75 ms a sensor, Greenhall's degrees of freedom
@@ -32,7 +33,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from calib.noise.steps import (STEPS_TAU_FRACTION, StepMeansOfAxis, fit_with_prior, moved_off, pooled_allan,
+from calib.noise.steps import (STEPS_TAU_FRACTION, StepMeansOfAxis, moved_off, pooled_allan, posterior_figures,
                                step_means_of_axis, steps_show_wander)
 from calib.noise.terms import REGISTRY_B_FLOOR, NoiseFigures
 from calib.numerics.stability import AxisStability, BiasStability
@@ -123,7 +124,7 @@ def estimate(records: list[list[np.ndarray]], rate_hz: float, family: BiasStabil
     if not any(steps_show_wander(axis, rate_hz, prior) for axis in records):
         return None
     between = between or [None] * len(records)
-    fits = [fit_with_prior(pooled_allan(axis, rate_hz, max_fraction=STEPS_TAU_FRACTION), prior, between=b)
+    fits = [posterior_figures(pooled_allan(axis, rate_hz, max_fraction=STEPS_TAU_FRACTION), prior, between=b)
             for axis, b in zip(records, between)]
     if not any(moved_off(f, prior) for f in fits):
         return None
