@@ -83,6 +83,11 @@ class NoiseFit:
     curve: AllanCurve
     n_fitted: int
 
+    def unresolved(self) -> list[str]:
+        """The terms whose 95 % interval reaches 0, fitted above it or at it: the record does not tell them from
+        nothing (a floor hidden behind white noise and walk at every averaging time it holds, docs/noise.md)."""
+        return [t for t, f in self.terms.items() if f.lo <= 0 < f.hi]
+
     def to_dict(self) -> dict:
         return {"terms": {t: f.to_dict() for t, f in self.terms.items()}, "chi2_dof": self.chi2_dof,
                 "max_rel_dev": self.max_rel_dev, "tau_floor_s": self.tau_floor_s, "points": self.n_fitted}

@@ -8,7 +8,7 @@ import numpy as np
 
 from calib.errors import CalibError
 from calib.noise.characterize import UNITS, Characterisation, characterize
-from calib.noise.terms import DEFAULT_TERMS, REGISTRY_B_FLOOR, NoiseFigures
+from calib.noise.terms import DEFAULT_TERMS, REGISTRY_B_FLOOR, TERMS, NoiseFigures
 from drivers.sensors.chips import CHIPS
 from rig.analysis import plots
 from rig.session.reader import Session
@@ -85,7 +85,27 @@ def characterize_session(session: Session, step: int | None = None, terms=DEFAUL
     where = f"{session.path} step {index}"
     result = characterize(t, series, session.info.rig.sensor.sample_rate_hz, terms,
                           family_figures(session.info.rig.sensor.model), where=where)
-    return result, index, notes
+    return result, index, notes + unresolved_notes(result)
+
+
+#: each term's unit after the sensor's (g, deg/s, uT)
+UNIT_SUFFIX = {"N": "/rtHz", "B": "", "K": "/rts", "R": "/s"}
+
+
+def unresolved_notes(result: Characterisation) -> list[str]:
+    """One note per axis and term whose 95 % interval reaches 0 (:meth:`calib.noise.fit.NoiseFit.unresolved`):
+    what a calibration weighed with the profile then rests on (the point value, or 0 for a term fitted at 0)."""
+    out = []
+    for sensor, fits in result.fits.items():
+        for axis, fit in fits.items():
+            for term in fit.unresolved():
+                f, unit = fit.terms[term], UNITS[sensor] + UNIT_SUFFIX[term]
+                takes = (f"its point value {f.value:.3g} {unit}, so its sigmas may be off by as much" if f.value > 0 else
+                         "0 for it, so its sigmas may be too small by as much")
+                out.append(f"{sensor} {axis}: {TERMS[term][0]} not resolved by this record (95 % interval from 0 to "
+                           f"{f.hi:.3g} {unit}): a calibration weighed with this profile takes {takes}; a longer record "
+                           "narrows the interval")
+    return out
 
 
 def adev_figure(result: Characterisation, title: str):

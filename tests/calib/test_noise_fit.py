@@ -119,3 +119,32 @@ def test_unknown_terms_are_refused():
     assert parse_terms("k, n") == ("N", "K")
     with pytest.raises(CalibError, match="expected a comma-separated list of N, B, K, R, got 'N,Q'"):
         parse_terms("N,Q")
+
+
+def _record(factors: tuple[float, float, float], seed: int) -> tuple[NoiseFigures, np.ndarray]:
+    """2 h at 100 Hz of a unit whose N, floor B and K are ``factors`` times the family's."""
+    truth = NoiseFigures(N=FAMILY.N * factors[0], B=FAMILY.B * factors[1], K=FAMILY.K * factors[2])
+    drawn = NoiseFigures(N=truth.N, B=truth.B * math.sqrt(2), K=truth.K)
+    return truth, noise(drawn, TWO_HOURS, RATE_HZ, np.random.default_rng(seed))
+
+
+def test_a_floor_hidden_behind_white_noise_and_walk_is_said_to_be_unresolved():
+    # a floor of 0.3x the family's under 1.5x its white noise and 2x its walk lies below the Allan deviation's
+    # minimum at every averaging time: whatever floor the fit finds (it may take up the bend between white noise and
+    # walk), its interval reaches 0, and the fit says so; a floor 2x the family's under quieter noise is resolved
+    for seed in (1, 2):
+        _, hidden = _record((1.5, 0.3, 2.0), seed)
+        fit = fit_terms(allan_curve(hidden, RATE_HZ))
+        assert "B" in fit.unresolved(), (seed, fit.terms["B"])
+        _, shown = _record((0.5, 2.0, 1.0), seed)
+        fit = fit_terms(allan_curve(shown, RATE_HZ))
+        assert "B" not in fit.unresolved() and fit.terms["B"].lo > 0, (seed, fit.terms["B"])
+
+
+def test_a_term_fitted_at_zero_is_unresolved_too():
+    # a walk the record does not show (half the family's under a floor twice its) is fitted at 0 with an upper bound
+    # only: a calibration weighed with it would take 0, which the record does not establish either
+    _, y = _record((0.5, 2.0, 0.5), 1)
+    fit = fit_terms(allan_curve(y, RATE_HZ))
+    assert fit.figures.K == 0 and fit.terms["K"].hi > 0
+    assert "K" in fit.unresolved() and "N" not in fit.unresolved()

@@ -17,7 +17,7 @@ from rig.session.reader import load_session
 #: the resolution the plot is drawn at
 PLOT_DPI = 100
 #: term -> (printed heading, unit suffix after the sensor's unit)
-HEADINGS = {"N": ("N", "/rtHz"), "B": ("B", ""), "K": ("K", "/rts"), "R": ("R", "/s")}
+HEADINGS = {t: (t, suffix) for t, suffix in chz.UNIT_SUFFIX.items()}
 
 
 def add_parser(sub) -> None:
