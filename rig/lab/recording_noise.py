@@ -22,7 +22,8 @@ The rules, each tested (tests/rig/lab/test_recording_noise.py):
 
 Cost: the length rule reads 64 clusters of 0.64 s of the longest static step only (0.11 ms CPU on a
 six-position session); the fit runs only on steps that pass it (50-75 ms a sensor, Greenhall's degrees of freedom
-through allantools, whose import takes 0.6-1.2 s once per process on the shared machine).
+through allantools, whose import takes 0.6-1.2 s once per process on the shared machine; the posterior mean's grid
+about 6 ms an axis more).
 """
 
 from __future__ import annotations
