@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from calib.errors import CalibError
@@ -156,13 +157,18 @@ class StepMeansOfAxis:
         """The residuals' degrees of freedom (steps less the design's rank)."""
         return len(self.residual) - int(np.linalg.matrix_rank(self.design))
 
+    @cached_property
+    def parts(self) -> np.ndarray:
+        """(3, K, K): the means' covariance per unit squared figure (N^2, floor^2, K^2), built once: the fit's
+        minimiser evaluates :meth:`reml` many times."""
+        return np.stack((np.diag(1.0 / self.duration_s), self.flicker, self.walk))
+
     def restricted(self, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The restricted (REML) negative log-likelihood of the residuals for the squared figures ``c`` (..., 3) =
         (N^2, floor^2, K^2), up to a constant, stacked over ``c``'s leading axes: ``0.5 (ln|V| + ln|X'V^-1 X| +
         r'P r)`` with ``V = diag(N^2 / d + pose_var) + floor^2 flicker + K^2 walk``; and ``P`` (..., K, K) and
         ``P r`` (..., K), which :meth:`reml`'s gradient needs."""
-        parts = np.stack((np.diag(1.0 / self.duration_s), self.flicker, self.walk))
-        v = np.diag(self.pose_var) + np.einsum("...i,ijk->...jk", np.asarray(c, float), parts)
+        v = np.diag(self.pose_var) + np.einsum("...i,ijk->...jk", np.asarray(c, float), self.parts)
         vi = np.linalg.inv(v)
         x = self.design
         xtvx = x.T @ vi @ x
@@ -174,8 +180,7 @@ class StepMeansOfAxis:
     def reml(self, c: np.ndarray) -> tuple[float, np.ndarray]:
         """:meth:`restricted` at one ``c`` (3,) and its gradient in ``c``."""
         value, p, pr = self.restricted(c)
-        parts = (np.diag(1.0 / self.duration_s), self.flicker, self.walk)
-        grad = np.array([0.5 * (float(np.sum(p * q)) - float(pr @ q @ pr)) for q in parts])
+        grad = np.array([0.5 * (float(np.sum(p * q)) - float(pr @ q @ pr)) for q in self.parts])
         return float(value), grad
 
 
