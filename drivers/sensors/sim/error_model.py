@@ -91,36 +91,67 @@ class AccelErrorModel:
             raise ValueError("matrix and cross_axis_nonlinearity must be 3x3")
         return out
 
+    def _term(self, name: str) -> tuple[np.ndarray, bool]:
+        """A field's values as an array and whether any is non-zero, made once per value the field holds (the
+        sampler asks at every block of samples; a field given a new value is read anew)."""
+        cache = self.__dict__.setdefault("_terms", {})
+        value = getattr(self, name)
+        hit = cache.get(name)
+        if hit is None or hit[0] is not value:
+            arr = np.asarray(value, float)
+            hit = cache[name] = (value, arr, bool(np.any(arr)))
+        return hit[1], hit[2]
+
     def output_g(self, f_g: np.ndarray, temp_c: np.ndarray, t_s: np.ndarray, heating: np.ndarray,
                  temp_rate: np.ndarray | None = None) -> np.ndarray:
         """Noise-free output (N, 3), g. ``heating`` (N,) is +1 after heating, -1 after cooling, 0 unknown;
-        ``temp_rate`` (N,) the true dT/dt, C/s (needed only with ``thermal_gradient_g_per_c_per_s``)."""
+        ``temp_rate`` (N,) the true dT/dt, C/s (needed only with ``thermal_gradient_g_per_c_per_s``).
+
+        A term whose coefficients are all 0 is left out (adding its 0 leaves every finite output as it was, bit
+        for bit)."""
         f = np.asarray(f_g, float)
         dt = (np.asarray(temp_c, float) - self.t_ref_c)[:, None]
-        lin = f @ np.asarray(self.matrix).T
-        out = lin * (1 + np.asarray(self.scale_tempco_per_c) * dt)
-        out = out + np.asarray(self.bias_g) + np.asarray(self.bias_tempco_g_per_c) * dt \
-            + np.asarray(self.bias_tempco2_g_per_c2) * dt**2 + np.asarray(self.bias_drift_g_per_s) * np.asarray(t_s)[:, None]
-        out = out + np.asarray(self.scale_nonlinearity) * f**2
-        prods = np.stack([f[:, 0] * f[:, 1], f[:, 1] * f[:, 2], f[:, 2] * f[:, 0]], axis=1)
-        out = out + prods @ np.asarray(self.cross_axis_nonlinearity).T
-        out = out + 0.5 * np.asarray(self.thermal_hysteresis_g) * np.asarray(heating, float)[:, None]
+        out = f @ self._term("matrix")[0].T
+        scale_tc, on = self._term("scale_tempco_per_c")
+        if on:
+            out = out * (1 + scale_tc * dt)
+        out = out + self._term("bias_g")[0]
+        for name, x in (("bias_tempco_g_per_c", dt), ("bias_tempco2_g_per_c2", dt**2)):
+            coeff, on = self._term(name)
+            if on:
+                out = out + coeff * x
+        drift, on = self._term("bias_drift_g_per_s")
+        if on:
+            out = out + drift * np.asarray(t_s)[:, None]
+        nonlin, on = self._term("scale_nonlinearity")
+        if on:
+            out = out + nonlin * f**2
+        cross, on = self._term("cross_axis_nonlinearity")
+        if on:
+            prods = np.stack([f[:, 0] * f[:, 1], f[:, 1] * f[:, 2], f[:, 2] * f[:, 0]], axis=1)
+            out = out + prods @ cross.T
+        hyst, on = self._term("thermal_hysteresis_g")
+        if on:
+            out = out + 0.5 * hyst * np.asarray(heating, float)[:, None]
         return self._extra_g(out, dt, t_s, temp_rate)
 
     def _extra_g(self, out, dt, t_s, temp_rate):
         """The cubic tempco, thermal-gradient and bias-jump terms (only those switched on)."""
-        if np.any(self.bias_tempco3_g_per_c3):
-            out = out + np.asarray(self.bias_tempco3_g_per_c3) * dt**3
-        if np.any(self.thermal_gradient_g_per_c_per_s):
+        cubic, on = self._term("bias_tempco3_g_per_c3")
+        if on:
+            out = out + cubic * dt**3
+        gradient, on = self._term("thermal_gradient_g_per_c_per_s")
+        if on:
             if temp_rate is None:
                 raise ValueError("thermal_gradient_g_per_c_per_s needs the temperature rate")
-            out = out + np.asarray(self.thermal_gradient_g_per_c_per_s) * np.asarray(temp_rate, float)[:, None]
-        if np.any(self.bias_jump_g):
-            out = out + np.asarray(self.bias_jump_g) * (np.asarray(t_s, float) >= self.bias_jump_t_s)[:, None]
+            out = out + gradient * np.asarray(temp_rate, float)[:, None]
+        jump, on = self._term("bias_jump_g")
+        if on:
+            out = out + jump * (np.asarray(t_s, float) >= self.bias_jump_t_s)[:, None]
         return out
 
     def needs_rate(self) -> bool:
-        return bool(np.any(self.thermal_gradient_g_per_c_per_s))
+        return self._term("thermal_gradient_g_per_c_per_s")[1]
 
 
 class HysteresisState:

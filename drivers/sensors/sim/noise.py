@@ -213,10 +213,28 @@ class NoiseProcess:
         coeff = np.asarray(bias_instability, float) / FLICKER_FLOOR  # flicker coefficient B: S(f) = B^2 / (2 pi f)
         self.flicker_sigma = coeff * math.sqrt(spacing / (2 * math.pi))
         self.random_walk = np.asarray(random_walk, float)
+        # fixed for the process's life: asked once, not at every block (a read of 18 samples is the common case)
+        self._has_flicker = bool(np.any(self.flicker_sigma > 0))
+        self._has_walk = bool(np.any(self.random_walk > 0))
+        self._banks: dict = {}  # (density, bandwidth) -> the joint bank's time constants and sigmas
         self.t_last: float | None = None
         self.filtered: np.ndarray | None = None
         self.flicker: np.ndarray | None = None  # (n, 3) state of the flicker bank
         self.walk = np.zeros(3)
+
+    def _joint_bank(self, density: np.ndarray, bandwidth_hz: float) -> tuple[np.ndarray, np.ndarray]:
+        """The time constants (T,) and sigmas (T, 3) of the filtered white noise (first) and the flicker's bank
+        together, made once per density and bandwidth (a chip's configuration changes them, rarely)."""
+        key = (density.tobytes(), float(bandwidth_hz))
+        bank = self._banks.get(key)
+        if bank is None:
+            if len(self._banks) >= 16:
+                self._banks.clear()
+            taus = np.concatenate([[1 / (2 * math.pi * bandwidth_hz)], self.taus])
+            sigmas = np.vstack([density * math.sqrt(math.pi * bandwidth_hz / 2),
+                                np.broadcast_to(self.flicker_sigma, (len(self.taus), 3))])
+            bank = self._banks[key] = (taus, sigmas)
+        return bank
 
     def sample(self, t_s, density, bandwidth_hz: float | None) -> np.ndarray:
         """Noise (N, 3) at times ``t_s``: white ``density`` (units/sqrt(Hz)) through a first-order
@@ -226,7 +244,7 @@ class NoiseProcess:
         dt = np.diff(np.concatenate([[t[0] - 1e9 if fresh else self.t_last], t]))
         self.t_last = float(t[-1])
         density = np.asarray(density, float)
-        flicker, walk = bool(np.any(self.flicker_sigma > 0)), bool(np.any(self.random_walk > 0))
+        flicker, walk = self._has_flicker, self._has_walk
         # every draw of one sample together, sample after sample: the noise of a sample does not depend
         # on how the samples were split between calls (how often, and when, the host read the FIFO)
         draws = self.rng.standard_normal((len(t), 1 + (len(self.taus) if flicker else 0) + walk, 3))
@@ -235,9 +253,7 @@ class NoiseProcess:
         elif flicker and (self.filtered is None) == (self.flicker is None):
             # the filtered white noise is one more first-order process: one bank with the flicker's (its own
             # sigma and time constant first), summed in one pass
-            taus = np.concatenate([[1 / (2 * math.pi * bandwidth_hz)], self.taus])
-            sigmas = np.vstack([density * math.sqrt(math.pi * bandwidth_hz / 2),
-                                np.broadcast_to(self.flicker_sigma, (len(self.taus), 3))])
+            taus, sigmas = self._joint_bank(density, bandwidth_hz)
             prev = None if self.filtered is None else np.vstack([self.filtered[None, :], self.flicker])
             out, state = _first_order_bank(prev, dt, taus, sigmas, draws[:, :len(taus)].transpose(1, 0, 2))
             self.filtered, self.flicker = state[0], state[1:]
